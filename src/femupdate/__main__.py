@@ -1,0 +1,3 @@
+from femupdate.cli import main
+
+main()

@@ -1,0 +1,30 @@
+"""Exceptions raised by femupdate.
+
+Every error says what was wrong, where (file, field, element) and what is allowed.
+"""
+
+from __future__ import annotations
+
+
+class FemupdateError(Exception):
+    """Base class of all femupdate errors."""
+
+
+class ConfigError(FemupdateError, ValueError):
+    """Invalid configuration: a case file, an option, a bound."""
+
+
+class DataError(FemupdateError, ValueError):
+    """Invalid or unreadable measured data."""
+
+
+class ModelError(FemupdateError, ValueError):
+    """An invalid structural model (element, node, DOF, matrix)."""
+
+
+class SimulationError(FemupdateError, RuntimeError):
+    """A simulation that cannot be carried out (for example an unstable time step)."""
+
+
+class MissingDependencyError(FemupdateError, ImportError):
+    """An optional dependency is not installed."""
