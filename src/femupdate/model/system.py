@@ -65,6 +65,10 @@ class System:
         Elasto-slip elements, or None for a linear system.
     dof_labels : tuple of str
         A label per free DOF (``"P1.uy"``), for messages and outputs.
+    seismic : ndarray, shape (n,), optional
+        The vector ``p`` of the base-excitation load ``-p a_g``. Default ``M r``; it differs
+        when consistent beam mass couples fixed (moving) supports to free DOFs:
+        ``p = M_ff r_f + M_fc r_c``.
     """
 
     M: np.ndarray
@@ -73,6 +77,12 @@ class System:
     r: np.ndarray
     friction: FrictionElements | None = None
     dof_labels: tuple[str, ...] = field(default=())
+    seismic: np.ndarray | None = None
+
+    @property
+    def seismic_load(self) -> np.ndarray:
+        """``p`` in ``-p a_g(t)``: ``seismic`` if given, else ``M r``."""
+        return self.M @ self.r if self.seismic is None else self.seismic
 
     @property
     def n_dof(self) -> int:

@@ -1,0 +1,87 @@
+"""Overhead of the optimizers themselves, with a trivial φ (the sphere), for n = 8.
+
+Prints µs per ask+tell step for ib and ab (the optimizer alone, and per evaluation through
+``minimize``, which adds the loop, the history and the bounds map) and µs per evaluation for
+cmaes, de and ga (their steps evaluate a population). Runs restart with a new seed whenever
+an optimizer's own criterion stops them, until the requested number of evaluations is done.
+
+    python benchmarks/optimizer_overhead.py [--evals 20000] [--n 8]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from femupdate.optimize import METHODS, minimize
+
+
+def sphere(x: np.ndarray) -> float:
+    d = x - 0.3
+    return float(d @ d)
+
+
+def optimizer_alone(method: str, n: int, evals: int) -> tuple[float, float]:
+    """(µs per step, µs per evaluation) of ask + tell alone, φ excluded from the timing."""
+    seeds = np.random.SeedSequence(0).spawn(10_000)
+    steps = done = 0
+    spent = 0.0
+    run = 0
+    while done < evals:
+        opt = METHODS[method](n, np.random.default_rng(seeds[run]))
+        run += 1
+        try:
+            while done < evals:
+                t0 = time.perf_counter()
+                xs = opt.ask()
+                spent += time.perf_counter() - t0
+                fs = np.array([sphere(x) for x in xs])
+                t0 = time.perf_counter()
+                opt.tell(xs, fs)
+                stop = opt.stop()
+                spent += time.perf_counter() - t0
+                steps += 1
+                done += len(xs)
+                if stop:
+                    break
+        finally:
+            opt.close()
+    return 1e6 * spent / steps, 1e6 * spent / done
+
+
+def through_minimize(method: str, n: int, evals: int) -> float:
+    """µs per evaluation of minimize (loop + optimizer + trivial φ)."""
+    seeds = np.random.SeedSequence(1).spawn(10_000)
+    done = run = 0
+    t0 = time.perf_counter()
+    while done < evals:
+        res = minimize(sphere, [(0.0, 1.0)] * n, method, seed=seeds[run],
+                       max_evals=evals - done)
+        run += 1
+        done += res.nfev
+    return 1e6 * (time.perf_counter() - t0) / done
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--evals", type=int, default=20_000)
+    parser.add_argument("--n", type=int, default=8)
+    args = parser.parse_args()
+    for method in METHODS:  # one warm-up run each: numba's cache, imports
+        through_minimize(method, args.n, 200)
+    t0 = time.perf_counter()
+    for _ in range(10_000):
+        sphere(np.zeros(args.n))
+    phi_us = 1e2 * (time.perf_counter() - t0)
+    print(f"n = {args.n}, {args.evals} evaluations per method; trivial φ costs {phi_us:.2f} µs")
+    print(f"{'method':8s} {'alone µs/step':>14s} {'alone µs/eval':>14s} {'minimize µs/eval':>17s}")
+    for method in METHODS:
+        per_step, per_eval = optimizer_alone(method, args.n, args.evals)
+        total = through_minimize(method, args.n, args.evals)
+        print(f"{method:8s} {per_step:14.1f} {per_eval:14.1f} {total:17.1f}")
+
+
+if __name__ == "__main__":
+    main()

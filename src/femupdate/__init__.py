@@ -1,0 +1,73 @@
+"""femupdate: finite element model updating in structural dynamics, in the time domain.
+
+The public API, re-exported here (heavier parts are imported on first use):
+
+- :func:`minimize`: bounded minimisation by IB/AB (the paper's adaptive Beta sampling), CMA-ES,
+  DE or GA, returning a :class:`scipy.optimize.OptimizeResult`.
+- :class:`Structure`, :func:`shear_building`, :class:`System`: the structural model.
+- :func:`simulate`: linear (exact, central differences, Newmark) and friction time stepping.
+- :func:`natural_frequencies`, :func:`damped_modes`.
+- :func:`load_case`, :class:`Case`: validated case files.
+- :func:`nmse`, :class:`Objective`: the error function of the paper (Eq. 1).
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+from femupdate.errors import (
+    ConfigError,
+    DataError,
+    FemupdateError,
+    MissingDependencyError,
+    ModelError,
+    SimulationError,
+)
+from femupdate.optimize import minimize
+
+__version__ = "0.1.0"
+
+_LAZY = {
+    "Structure": "femupdate.model.structure",
+    "shear_building": "femupdate.model.structure",
+    "System": "femupdate.model.system",
+    "FrictionElements": "femupdate.model.system",
+    "natural_frequencies": "femupdate.model.modes",
+    "damped_modes": "femupdate.model.modes",
+    "simulate": "femupdate.simulate",
+    "Response": "femupdate.simulate.response",
+    "load_case": "femupdate.case",
+    "Case": "femupdate.case",
+    "nmse": "femupdate.objective",
+    "Objective": "femupdate.objective",
+}
+
+__all__ = [
+    "Case",
+    "ConfigError",
+    "DataError",
+    "FemupdateError",
+    "FrictionElements",
+    "MissingDependencyError",
+    "ModelError",
+    "Objective",
+    "Response",
+    "SimulationError",
+    "Structure",
+    "System",
+    "__version__",
+    "damped_modes",
+    "load_case",
+    "minimize",
+    "natural_frequencies",
+    "nmse",
+    "shear_building",
+    "simulate",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'femupdate' has no attribute {name!r}")

@@ -1,0 +1,147 @@
+"""CMA-ES as the paper ran it (METHOD.md §6): pycma through ask/tell on the unit cube.
+
+The initial mean is uniform at random in the box, σ0 = 0.5 (half the box), λ = 5 by default,
+pycma's default strategy otherwise (without mirrored sampling). Bounds by resampling: each
+candidate outside [0, 1]^n is redrawn from the same distribution until it lies inside (a
+truncated Gaussian). pycma's ``BoundPenalty`` is not used (broken in cma 4.5: pitfalls.md §4),
+nor ``BoundTransform``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from femupdate.optimize.base import check_batch, check_option_names, int_option, real_option
+
+#: Redraws of one candidate before it is clipped into the box instead (never seen in practice:
+#: the mean stays inside the box, so each draw lands inside with probability ≳ 2^−n).
+MAX_RESAMPLES = 100_000
+
+
+class GeneratorRandn:
+    """pycma's ``randn`` option drawing from our Generator (picklable, no global state)."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+
+    def __call__(self, *shape: int) -> np.ndarray:
+        return self.rng.standard_normal(shape)
+
+
+class CMAES:
+    """pycma's ``CMAEvolutionStrategy`` on the unit cube, truncated by resampling. Picklable.
+
+    Parameters
+    ----------
+    n : int
+        Number of parameters.
+    rng : numpy.random.Generator
+        The only source of randomness (pycma's ``randn`` draws from it; numpy's global state is
+        neither seeded nor used).
+    popsize : int
+        λ, candidates per step (default 5, as the paper).
+    sigma0 : float
+        Initial step size in the unit cube (default 0.5, half the box).
+
+    Notes
+    -----
+    ``stop()`` reports pycma's own termination criteria (``tolfun``, ``tolx``, ``tolstagnation``
+    and so on, with their values); its budgets ``maxfevals`` and ``maxiter`` are off: ``minimize``
+    owns the budget.
+    Failed evaluations (inf) are passed to pycma as a value worse than every finite value of
+    the step, so the ranking (all CMA-ES uses) stays well defined.
+    """
+
+    def __init__(self, n: int, rng: np.random.Generator, *, popsize: int = 5,
+                 sigma0: float = 0.5) -> None:
+        import cma  # imported here: about a second to import
+
+        self.n = n
+        self.rng = rng
+        x0 = rng.random(n)
+        self.es = cma.CMAEvolutionStrategy(
+            x0,
+            sigma0,
+            {
+                "popsize": popsize,
+                "randn": GeneratorRandn(rng),
+                "seed": math.nan,  # "do nothing" to numpy's global state
+                "verbose": -9,
+                "verb_log": 0,
+                "verb_disp": 0,
+                "maxfevals": math.inf,  # minimize owns the budget,
+                "maxiter": math.inf,  # in evaluations or in steps
+                "bounds": [None, None],
+                # No mirrored sampling: a mirror redrawn for lying outside the box breaks the
+                # pair pycma's selective mirroring relies on ("orphanated injected solution");
+                # the paper's CMA-ES (2010) had none either.
+                "CMA_mirrors": 0,
+            },
+        )
+        self.best_x = x0
+        self.best_f = math.inf
+        self.resamples = 0
+        self._trace_sigma: list[float] = []
+        self._trace_f: list[float] = []
+
+    def ask(self) -> np.ndarray:
+        """λ candidates inside [0, 1]^n, each redrawn until inside."""
+        xs = np.array(self.es.ask(), dtype=float)
+        for i in range(xs.shape[0]):
+            tries = 0
+            while not _inside(xs[i]):
+                if tries == MAX_RESAMPLES:
+                    np.clip(xs[i], 0.0, 1.0, out=xs[i])
+                    break
+                xs[i] = self.es.ask(1)[0]
+                tries += 1
+            self.resamples += tries
+        return xs
+
+    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+        """Pass the values to pycma (failures ranked last)."""
+        xs, fs = check_batch(xs, fs, self.n)
+        i = int(np.argmin(fs))
+        if fs[i] < self.best_f:
+            self.best_f = float(fs[i])
+            self.best_x = xs[i].copy()
+        finite = np.isfinite(fs)
+        if not finite.all():
+            worst = float(fs[finite].max()) if finite.any() else 0.0
+            fs = np.where(finite, fs, worst + 1.0 + abs(worst))
+        self.es.tell(list(xs), fs.tolist())
+        self._trace_sigma.append(float(self.es.sigma))
+        self._trace_f.append(self.best_f)
+
+    def stop(self) -> dict[str, object]:
+        """pycma's termination criteria that fired."""
+        return dict(self.es.stop())
+
+    @property
+    def result(self) -> tuple[np.ndarray, float]:
+        return self.best_x.copy(), self.best_f
+
+    def trace(self) -> dict[str, np.ndarray]:
+        """Per step: pycma's global ``sigma`` and ``f_best``."""
+        return {"sigma": np.array(self._trace_sigma), "f_best": np.array(self._trace_f)}
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+def _inside(x: np.ndarray) -> bool:
+    return bool(np.all(x >= 0.0) and np.all(x <= 1.0))
+
+
+_CMAES_OPTIONS = ("popsize", "sigma0")
+
+
+def make_cmaes(n: int, rng: np.random.Generator, **options: Any) -> CMAES:
+    """CMA-ES. Options: ``popsize`` (int ≥ 2, default 5), ``sigma0`` (in (0, 1], default 0.5)."""
+    check_option_names("cmaes", options, _CMAES_OPTIONS)
+    popsize = int_option("cmaes", "popsize", options.get("popsize", 5), 2)
+    sigma0 = real_option("cmaes", "sigma0", options.get("sigma0", 0.5), 0.0, 1.0, low_open=True)
+    return CMAES(n, rng, popsize=popsize, sigma0=sigma0)  # type: ignore[arg-type]

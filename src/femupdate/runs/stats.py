@@ -1,0 +1,55 @@
+"""Statistics over repeated runs (the paper's Tables 2, 5, 6 and 9)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+
+def evaluation_stats(nfev: Sequence[int], success: Sequence[bool]) -> dict[str, Any]:
+    """Success ratio and evaluations over the successful runs.
+
+    Parameters
+    ----------
+    nfev : sequence of int
+        Evaluations of each run; for a successful run, up to the first that reached f_target.
+    success : sequence of bool
+        Whether each run reached f_target.
+
+    Returns
+    -------
+    dict
+        ``runs, successes, success_ratio, evals_min, evals_mean, evals_median, evals_max``
+        (the evaluation figures are None when no run succeeded).
+    """
+    nfev_arr = np.asarray(nfev, dtype=float)
+    ok = np.asarray(success, dtype=bool)
+    good = nfev_arr[ok]
+    have = good.size > 0
+    return {
+        "runs": int(ok.size),
+        "successes": int(ok.sum()),
+        "success_ratio": float(ok.mean()) if ok.size else 0.0,
+        "evals_min": int(good.min()) if have else None,
+        "evals_mean": float(good.mean()) if have else None,
+        "evals_median": float(np.median(good)) if have else None,
+        "evals_max": int(good.max()) if have else None,
+    }
+
+
+def spread(values: np.ndarray, names: Sequence[str]) -> dict[str, dict[str, float]]:
+    """Mean, standard deviation, min and max of each column of ``values`` (runs × names)."""
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    if values.shape[0] == 0:
+        return {}
+    return {
+        name: {
+            "mean": float(col.mean()),
+            "std": float(col.std(ddof=1)) if col.size > 1 else 0.0,
+            "min": float(col.min()),
+            "max": float(col.max()),
+        }
+        for name, col in zip(names, values.T, strict=True)
+    }
