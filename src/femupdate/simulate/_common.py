@@ -1,0 +1,229 @@
+"""Checks of systems, time steps and inputs, and response assembly shared by the integrators.
+
+Everything a user passes is checked here, once, before any compiled loop runs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg as sla
+
+from femupdate.errors import ConfigError, DataError, ModelError, SimulationError
+from femupdate.model.friction import check_friction_parameters
+from femupdate.model.system import System
+from femupdate.simulate.response import Response
+
+# A state this large is no physical response in any units: call it divergence (and keep its
+# square finite for the error function downstream).
+DIVERGENCE_LIMIT = 1e150
+
+
+def check_system(system: System) -> None:
+    """Raise ModelError unless M, C, K, r and the friction elements are consistent and finite."""
+    n = system.n_dof
+    if n < 1:
+        raise ModelError("the system has no degrees of freedom; M must be at least 1 × 1")
+    for name in ("M", "C", "K"):
+        mat = getattr(system, name)
+        if mat.shape != (n, n):
+            raise ModelError(f"system.{name} has shape {mat.shape}; expected ({n}, {n})")
+        if not np.all(np.isfinite(mat)):
+            raise ModelError(f"system.{name} contains NaN or inf; all entries must be finite")
+    if system.r.shape != (n,):
+        raise ModelError(f"system.r has shape {system.r.shape}; expected ({n},)")
+    if not np.all(np.isfinite(system.r)):
+        raise ModelError("system.r contains NaN or inf; all entries must be finite")
+    try:
+        sla.cholesky(system.M, lower=True, check_finite=False)
+    except sla.LinAlgError:
+        raise ModelError(
+            "system.M is not positive definite; every free DOF needs mass (or rotary inertia)"
+        ) from None
+    fr = system.friction
+    if fr is not None and fr.count:
+        nf = fr.count
+        for name in ("dof_i", "dof_j", "k_r", "f_u"):
+            if np.shape(getattr(fr, name)) != (nf,):
+                raise ModelError(
+                    f"friction.{name} has shape {np.shape(getattr(fr, name))}; expected ({nf},)"
+                )
+        if np.any((fr.dof_i < 0) | (fr.dof_i >= n)):
+            raise ModelError(f"friction.dof_i must lie in [0, {n - 1}]; got {fr.dof_i.tolist()}")
+        if np.any((fr.dof_j < -1) | (fr.dof_j >= n)):
+            raise ModelError(
+                f"friction.dof_j must lie in [-1, {n - 1}] (-1 = ground); got {fr.dof_j.tolist()}"
+            )
+        check_friction_parameters(fr.k_r, fr.f_u)
+
+
+def check_step(dt: float, substeps: int) -> tuple[float, int]:
+    """Return ``(dt, substeps)`` as float and int after checking them."""
+    try:
+        dt = float(dt)
+    except (TypeError, ValueError):
+        raise ConfigError(f"dt = {dt!r} is not a number; give the sample interval in s") from None
+    if not (np.isfinite(dt) and dt > 0.0):
+        raise ConfigError(f"dt = {dt!r} is not allowed; the sample interval must be finite and > 0")
+    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer):
+        raise ConfigError(f"substeps = {substeps!r} must be an integer >= 1")
+    if substeps < 1:
+        raise ConfigError(f"substeps = {substeps} is not allowed; it must be >= 1")
+    return dt, int(substeps)
+
+
+def check_outputs(outputs: Sequence[int] | np.ndarray | None, n_dof: int) -> np.ndarray:
+    """DOF indices to output as an int64 array (all DOFs when ``outputs`` is None)."""
+    if outputs is None:
+        return np.arange(n_dof, dtype=np.int64)
+    idx = np.atleast_1d(np.asarray(outputs))
+    if idx.ndim != 1 or idx.size == 0 or not np.issubdtype(idx.dtype, np.integer):
+        raise ConfigError(
+            f"outputs = {outputs!r} must be a non-empty sequence of DOF indices (integers)"
+        )
+    bad = idx[(idx < 0) | (idx >= n_dof)]
+    if bad.size:
+        raise ConfigError(
+            f"outputs contains DOF index {int(bad[0])}; allowed indices are 0 to {n_dof - 1}"
+        )
+    return idx.astype(np.int64)
+
+
+def _as_float_array(name: str, value: object) -> np.ndarray:
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        raise DataError(f"{name} must be an array of real numbers; got a ragged sequence") from None
+    if arr.dtype.kind not in "biuf":  # complex would lose its imaginary part silently
+        raise DataError(f"{name} must be an array of real numbers; got dtype {arr.dtype}")
+    return arr.astype(np.float64, copy=False)
+
+
+def _check_finite(name: str, arr: np.ndarray) -> None:
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = np.argwhere(bad)[0]
+        where = f"sample {int(first[0])}" if arr.ndim else "value"
+        if arr.ndim == 2:
+            where += f", DOF {int(first[1])}"
+        raise DataError(f"{name} contains NaN or inf at {where}; all values must be finite")
+
+
+def check_excitation(
+    ag: object, force: object, n_dof: int
+) -> tuple[np.ndarray | None, np.ndarray | None, int]:
+    """Check the base acceleration and nodal forces; return them as float arrays.
+
+    Returns
+    -------
+    ag : ndarray (n_samples,) or None
+    force : ndarray (n_samples, n_dof) or None
+    n_samples : int
+    """
+    if ag is None and force is None:
+        raise DataError("no input: give ag (base acceleration), force (nodal forces) or both")
+    n_samples = None
+    if ag is not None:
+        ag = _as_float_array("ag", ag)
+        if ag.ndim != 1 or ag.shape[0] < 1:
+            raise DataError(f"ag has shape {ag.shape}; expected (n_samples,) with n_samples >= 1")
+        _check_finite("ag", ag)
+        ag = np.ascontiguousarray(ag)
+        n_samples = ag.shape[0]
+    if force is not None:
+        force = _as_float_array("force", force)
+        if force.ndim != 2 or force.shape[1] != n_dof or force.shape[0] < 1:
+            raise DataError(
+                f"force has shape {force.shape}; expected (n_samples, {n_dof}): "
+                "one column per free DOF"
+            )
+        if n_samples is not None and force.shape[0] != n_samples:
+            raise DataError(
+                f"force has {force.shape[0]} samples but ag has {n_samples}; they must match"
+            )
+        _check_finite("force", force)
+        force = np.ascontiguousarray(force)
+        n_samples = force.shape[0]
+    return ag, force, int(n_samples)
+
+
+def check_state(x0: object, v0: object, n_dof: int) -> tuple[np.ndarray, np.ndarray]:
+    """Initial displacement and velocity as float arrays (zeros when None)."""
+    out = []
+    for name, value in (("x0", x0), ("v0", v0)):
+        if value is None:
+            out.append(np.zeros(n_dof))
+            continue
+        arr = _as_float_array(name, value)
+        if arr.shape != (n_dof,):
+            raise DataError(f"{name} has shape {arr.shape}; expected ({n_dof},)")
+        if not np.all(np.isfinite(arr)):
+            raise DataError(f"{name} contains NaN or inf; the initial state must be finite")
+        out.append(np.ascontiguousarray(arr))
+    return out[0], out[1]
+
+
+def omega_max(M: np.ndarray, K: np.ndarray) -> float:
+    """Largest natural circular frequency (rad/s) of the generalised eigenproblem (K, M)."""
+    n = M.shape[0]
+    w2 = sla.eigh(K, M, eigvals_only=True, subset_by_index=[n - 1, n - 1], check_finite=False)
+    return float(np.sqrt(max(w2[-1], 0.0)))
+
+
+def check_critical_step(
+    dt: float, substeps: int, w_max: float, omega_crit: float, method: str
+) -> None:
+    """Refuse a conditionally stable step ``h = dt/substeps`` with ``h·ω_max >= omega_crit``.
+
+    The message gives the largest stable step and the smallest number of substeps that works.
+    """
+    h = dt / substeps
+    if w_max <= 0.0 or h * w_max < omega_crit:
+        return
+    h_crit = omega_crit / w_max
+    needed = int(np.floor(dt / h_crit)) + 1
+    raise SimulationError(
+        f"{method}: the time step h = dt/substeps = {h:.6g} s is not stable; the largest stable "
+        f"step is {h_crit:.6g} s ({omega_crit:g}/ω_max, ω_max = {w_max:.6g} rad/s = "
+        f"{w_max / (2 * np.pi):.6g} Hz); use substeps >= {needed} at dt = {dt:.6g} s"
+    )
+
+
+def sample_loads(
+    ag: np.ndarray | None, force: np.ndarray | None, g: np.ndarray, G: np.ndarray | None
+) -> np.ndarray:
+    """``q_k = g·a_g,k + G f_k`` for every sample: (n_samples, len(g)), C-contiguous."""
+    if force is None:
+        return np.ascontiguousarray(np.outer(ag, g))
+    q = force @ G.T
+    if ag is not None:
+        q += np.outer(ag, g)
+    return np.ascontiguousarray(q)
+
+
+def make_response(
+    dt: float,
+    n_samples: int,
+    disp: np.ndarray,
+    vel: np.ndarray,
+    acc: np.ndarray,
+    diverged: bool,
+    friction_force: np.ndarray | None = None,
+    slip: np.ndarray | None = None,
+) -> Response:
+    """Wrap output arrays; a diverged simulation gets NaN everywhere (never partial numbers)."""
+    if diverged or not (np.all(np.isfinite(disp)) and np.all(np.isfinite(vel))):
+        diverged = True
+        for arr in (disp, vel, acc, friction_force, slip):
+            if arr is not None:
+                arr.fill(np.nan)
+    return Response(
+        t=np.arange(n_samples) * dt,
+        displacement=disp,
+        velocity=vel,
+        acceleration=acc,
+        diverged=diverged,
+        friction_force=friction_force,
+        slip=slip,
+    )

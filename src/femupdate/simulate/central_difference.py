@@ -1,0 +1,268 @@
+"""Central differences, the paper's integrator, with sub-steps and optional friction elements.
+
+With ``h = dt / substeps`` and the input linear between samples,
+
+    (M/h² + C/(2h)) u_{n+1} = p_n - K u_n - B_fᵀ f_D(B_f u_n)
+                              + (2M/h²) u_n - (M/h² - C/(2h)) u_{n-1}
+
+is fused once into ``u_{n+1} = G1 u_n - G2 u_{n-1} + q_n - H f_D`` with ``A_eff = M/h² + C/(2h)``,
+``G1 = A_eff⁻¹(2M/h² - K)``, ``G2 = A_eff⁻¹(M/h² - C/(2h))``, ``q = A_eff⁻¹ p`` and
+``H = A_eff⁻¹ B_fᵀ``. Friction forces follow from the current displacement (explicit), so the
+elasto-slip elements touch only their own DOFs. Velocity and acceleration at a sample are the
+scheme's own central differences, ``(u_{n+1} - u_{n-1})/(2h)`` and
+``(u_{n+1} - 2u_n + u_{n-1})/h²``, which satisfy the equation of motion at the sample exactly.
+
+The scheme is stable for ``h < 2/ω_max``; a larger step is refused with the largest stable step
+and the number of substeps that works.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg as sla
+from numba import njit
+
+from femupdate.errors import SimulationError
+from femupdate.model.friction import elasto_slip
+from femupdate.model.system import System
+from femupdate.simulate._common import (
+    DIVERGENCE_LIMIT,
+    check_critical_step,
+    check_excitation,
+    check_outputs,
+    check_state,
+    check_step,
+    check_system,
+    make_response,
+    omega_max,
+    sample_loads,
+)
+from femupdate.simulate.response import Response
+
+
+@njit(cache=True)
+def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
+    """Central-difference time stepping with elasto-slip elements (none when ``kr`` is empty).
+
+    ``G1T, G2T, HT`` are the transposes of ``G1, G2, H`` (columns contiguous for the updates);
+    ``q`` (ns, n) the loads ``A_eff⁻¹ p`` at the samples, interpolated linearly in between.
+    Returns displacement, velocity and relative acceleration at the output DOFs, friction force
+    and slip offset per element at the samples, and whether the solution diverged.
+    """
+    ns = q.shape[0]
+    n = u0.shape[0]
+    nf = kr.shape[0]
+    no = out.shape[0]
+    disp = np.empty((ns, no))
+    vel = np.empty((ns, no))
+    acc = np.empty((ns, no))
+    ff = np.empty((ns, nf))
+    slip = np.empty((ns, nf))
+    u_prev = um1.copy()
+    u = u0.copy()
+    u_next = np.empty(n)
+    yr = np.zeros(nf)
+    fe = np.empty(nf)
+    inv2h = 0.5 / h
+    invh2 = 1.0 / (h * h)
+    for k in range(ns):
+        last = k == ns - 1
+        for j in range(1 if last else substeps):
+            alpha = j / substeps
+            if last:
+                for i in range(n):
+                    u_next[i] = q[k, i]
+            else:
+                for i in range(n):
+                    u_next[i] = q[k, i] + alpha * (q[k + 1, i] - q[k, i])
+            for c in range(n):
+                a = u[c]
+                b = u_prev[c]
+                for i in range(n):
+                    u_next[i] += G1T[c, i] * a - G2T[c, i] * b
+            for e in range(nf):
+                y = u[fi[e]]
+                if fj[e] >= 0:
+                    y -= u[fj[e]]
+                f, y_r = elasto_slip(y, yr[e], kr[e], fu[e])
+                yr[e] = y_r
+                fe[e] = f
+                for i in range(n):
+                    u_next[i] -= HT[e, i] * f
+            if j == 0:
+                s = 0.0
+                for i in range(n):
+                    s += abs(u_next[i])
+                if not s < DIVERGENCE_LIMIT:  # NaN fails too
+                    return disp, vel, acc, ff, slip, True
+                for o in range(no):
+                    d = out[o]
+                    disp[k, o] = u[d]
+                    vel[k, o] = (u_next[d] - u_prev[d]) * inv2h
+                    acc[k, o] = (u_next[d] - 2.0 * u[d] + u_prev[d]) * invh2
+                for e in range(nf):
+                    ff[k, e] = fe[e]
+                    slip[k, e] = yr[e]
+            u_prev, u, u_next = u, u_next, u_prev
+    return disp, vel, acc, ff, slip, False
+
+
+class CentralDifferenceSimulator:
+    """Central differences prepared for one system, sample interval and number of substeps.
+
+    Friction elements, if the system has them, are integrated with the elasto-slip law (that is
+    the nonlinear integrator, :func:`femupdate.simulate.nonlinear.prepare_nonlinear`);
+    :func:`prepare_central_difference` accepts linear systems only.
+    """
+
+    def __init__(
+        self,
+        system: System,
+        dt: float,
+        outputs: Sequence[int] | np.ndarray | None = None,
+        substeps: int = 1,
+        *,
+        method: str = "central_difference",
+    ) -> None:
+        check_system(system)
+        self.dt, self.substeps = check_step(dt, substeps)
+        n = system.n_dof
+        self.n_dof = n
+        self.outputs = check_outputs(outputs, n)
+        self._r_out = system.r[self.outputs]
+        h = self.dt / self.substeps
+        self.h = h
+        fr = system.friction
+        nf = 0 if fr is None else fr.count
+        if nf:
+            bf = fr.connectivity(n)
+            active = fr.f_u > 0  # a slider with f_u = 0 never carries force
+            k_stuck = bf[active].T @ (fr.k_r[active, None] * bf[active])
+        else:
+            bf = np.zeros((0, n))
+            k_stuck = 0.0
+        self.omega_max = omega_max(system.M, system.K + k_stuck)
+        check_critical_step(self.dt, self.substeps, self.omega_max, 2.0, method)
+        M, C, K = system.M, system.C, system.K
+        a_eff = M / h**2 + C / (2.0 * h)
+        try:
+            lu = sla.lu_factor(a_eff, check_finite=False)
+        except (sla.LinAlgError, ValueError):
+            raise SimulationError(
+                f"{method}: M/h² + C/(2h) is singular at h = {h:.6g} s; check M and C"
+            ) from None
+        solve = lambda b: sla.lu_solve(lu, b, check_finite=False)  # noqa: E731
+        self._G1T = np.ascontiguousarray(solve(2.0 * M / h**2 - K).T)
+        self._G2T = np.ascontiguousarray(solve(M / h**2 - C / (2.0 * h)).T)
+        self._g = solve(-system.seismic_load)
+        self._G3 = solve(np.eye(n))
+        self._HT = np.ascontiguousarray(solve(bf.T).T) if nf else np.zeros((0, n))
+        self._bf = bf
+        self._minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
+        self._M, self._C, self._K, self._mr = M, C, K, system.seismic_load
+        if nf:
+            self._fi = np.ascontiguousarray(fr.dof_i, dtype=np.int64)
+            self._fj = np.ascontiguousarray(fr.dof_j, dtype=np.int64)
+            self._kr = np.ascontiguousarray(fr.k_r, dtype=np.float64)
+            self._fu = np.ascontiguousarray(fr.f_u, dtype=np.float64)
+        else:
+            self._fi = np.zeros(0, dtype=np.int64)
+            self._fj = np.zeros(0, dtype=np.int64)
+            self._kr = np.zeros(0)
+            self._fu = np.zeros(0)
+        self.n_friction = nf
+
+    def _initial_force(self, x0: np.ndarray) -> np.ndarray:
+        """Friction forces on the DOFs at the initial state (slip offsets start at zero)."""
+        if not self.n_friction:
+            return np.zeros(self.n_dof)
+        y = self._bf @ x0
+        f = np.array(
+            [elasto_slip(y[e], 0.0, self._kr[e], self._fu[e])[0] for e in range(self.n_friction)]
+        )
+        return self._bf.T @ f
+
+    def run(
+        self,
+        ag: np.ndarray | None = None,
+        force: np.ndarray | None = None,
+        *,
+        x0: np.ndarray | None = None,
+        v0: np.ndarray | None = None,
+    ) -> Response:
+        """Simulate from ``(x0, v0)`` (rest by default) for the given input samples.
+
+        Parameters
+        ----------
+        ag : ndarray (n_samples,), optional
+            Base acceleration, linear between samples (load ``-M r a_g``).
+        force : ndarray (n_samples, n_dof), optional
+            Nodal forces on the free DOFs, linear between samples.
+        x0, v0 : ndarray (n_dof,), optional
+            Initial displacement and velocity relative to the base; friction elements start
+            with zero slip.
+        """
+        n = self.n_dof
+        ag, force, ns = check_excitation(ag, force, n)
+        x0, v0 = check_state(x0, v0, n)
+        h = self.h
+        q = sample_loads(ag, force, self._g, self._G3)
+        # u_{-1} from a Taylor step backwards with the acceleration the equations give at t = 0
+        p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._mr)
+        a0 = self._minv @ (p0 - self._C @ v0 - self._K @ x0 - self._initial_force(x0))
+        um1 = x0 - h * v0 + 0.5 * h * h * a0
+        with np.errstate(over="ignore", invalid="ignore"):
+            disp, vel, acc, ff, slip, diverged = _cd_kernel(
+                self._G1T,
+                self._G2T,
+                q,
+                self.substeps,
+                h,
+                x0,
+                um1,
+                self._fi,
+                self._fj,
+                self._kr,
+                self._fu,
+                self._HT,
+                self.outputs,
+            )
+            if ag is not None:
+                acc += np.outer(ag, self._r_out)  # absolute acceleration
+        if self.n_friction:
+            return make_response(self.dt, ns, disp, vel, acc, diverged, ff, slip)
+        return make_response(self.dt, ns, disp, vel, acc, diverged)
+
+
+def prepare_central_difference(
+    system: System,
+    dt: float,
+    outputs: Sequence[int] | np.ndarray | None = None,
+    substeps: int = 1,
+) -> CentralDifferenceSimulator:
+    """Prepare central differences for a linear ``system`` at ``h = dt / substeps``.
+
+    Parameters
+    ----------
+    system : System
+        Linear system (for friction elements use ``method="nonlinear"``).
+    dt : float
+        Sample interval of the inputs and outputs (s).
+    outputs : sequence of int, optional
+        DOF indices to output (default: all).
+    substeps : int
+        Integration steps per sample interval; the input is interpolated linearly.
+
+    Raises
+    ------
+    SimulationError
+        If the system has friction elements, or ``h >= 2/ω_max`` (unstable).
+    """
+    if not system.is_linear:
+        raise SimulationError(
+            "method 'central_difference' is for linear systems; this system has "
+            f"{system.friction.count} friction elements: use method='nonlinear'"
+        )
+    return CentralDifferenceSimulator(system, dt, outputs, substeps)

@@ -1,0 +1,76 @@
+"""The command line: help for every command, the dynamic benchmark's JSON and figures."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from femupdate.cli import app
+
+runner = CliRunner()
+
+
+def _commands(typer_app) -> list[list[str]]:
+    import typer.main
+
+    group = typer.main.get_command(typer_app)
+    out: list[list[str]] = []
+
+    def walk(cmd, prefix: list[str]) -> None:
+        out.append(prefix)
+        for name, sub in getattr(cmd, "commands", {}).items():
+            walk(sub, [*prefix, name])
+
+    walk(group, [])
+    return out
+
+
+@pytest.mark.parametrize("words", _commands(app), ids=lambda w: " ".join(w) or "femupdate")
+def test_every_command_has_help(words: list[str]) -> None:
+    result = runner.invoke(app, [*words, "--help"])
+    assert result.exit_code == 0, result.output
+    assert "Usage" in result.output
+
+
+def test_bench_dynamic_json_and_plots(tmp_path: Path) -> None:
+    out = tmp_path / "dyn.json"
+    plots = tmp_path / "figs"
+    result = runner.invoke(app, ["bench", "dynamic", "--method", "ab", "--runs", "3",
+                                 "--seed", "1", "--workers", "1", "--json", str(out),
+                                 "--plots", str(plots)])
+    assert result.exit_code == 0, result.output
+    data = json.loads(out.read_text())
+    for key in ("method", "runs", "successes", "success_ratio", "evals_min", "evals_mean",
+                "evals_median", "evals_max", "wall_s"):
+        assert key in data
+    assert data["method"] == "ab" and data["runs"] == 3
+    assert len(data["per_run"]) == 3
+    successes = [r for r in data["per_run"] if r["success"]]
+    assert data["successes"] == len(successes)
+    if successes:
+        assert data["evals_min"] == min(r["nfev"] for r in successes)
+    pngs = sorted(p.name for p in plots.glob("*.png"))
+    assert pngs == ["fig2_phi_ab.png", "fig3_beta_ab.png", "fig4_parameters_ab.png",
+                    "fig5_response_ab.png"]
+    for p in plots.glob("*.png"):
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_python_dash_m_entry_point() -> None:
+    proc = subprocess.run([sys.executable, "-m", "femupdate", "--help"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0
+    assert "bench" in proc.stdout and "demo" in proc.stdout
+
+
+def test_unknown_method_is_a_clear_error(tmp_path: Path) -> None:
+    proc = subprocess.run([sys.executable, "-m", "femupdate", "bench", "dynamic", "--method",
+                           "nelder", "--runs", "1", "--workers", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "nelder" in proc.stdout and "ab" in proc.stdout
