@@ -875,6 +875,7 @@ class Objective(_Section):
 
     quantity: Literal["displacement", "acceleration"] = "displacement"
     experimental_parameters: bool = True
+    integrate_prediction: bool = True
 
 
 class Simulation(_Section):

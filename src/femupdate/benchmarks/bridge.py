@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from femupdate.errors import ConfigError
+
 SPAN = 2.8
 SECTION_B, SECTION_T = 0.08, 0.005
 ADDED_MASS = 48.0
@@ -26,10 +28,14 @@ MEASURED_NODES = ("P1", "P2", "P3")
 PAPER_FREQUENCIES_HZ = (11.60, 13.60, 25.75, 35.00)
 SAMPLE_RATE = 1035.0
 N_SAMPLES = 4768
+DURATION = (N_SAMPLES - 1) / SAMPLE_RATE
 SUBSTEPS = 10
 
+Band = tuple[float, float]
+ParameterRow = tuple[str, str, float, Band, Band]
+
 #: (name, unit, truth, narrow band, broad band) of the viscous model (Tables 3–6).
-VISCOUS_PARAMETERS: tuple[tuple[str, str, float, tuple[float, float], tuple[float, float]], ...] = (
+VISCOUS_PARAMETERS: tuple[ParameterRow, ...] = (
     ("E", "Pa", 2.1e11, (1e11, 3e11), (0.0, 3e11)),
     ("kp1", "N/m", 1e8, (1e7, 5e8), (0.0, 5e8)),
     ("kp2", "N/m", 3.2e5, (1e5, 1e6), (0.0, 1e6)),
@@ -39,6 +45,25 @@ VISCOUS_PARAMETERS: tuple[tuple[str, str, float, tuple[float, float], tuple[floa
     ("c2", "N·s/m", 400.0, (0.0, 1000.0), (0.0, 1000.0)),
     ("c3", "N·s/m", 3000.0, (1000.0, 10000.0), (0.0, 10000.0)),
     ("c4", "N·s/m", 6.0, (0.0, 10.0), (0.0, 1000.0)),
+)
+
+
+#: The same for the frictional model (Table 9; the paper's bands are not legible: these are
+#: a decade wide around a frictional truth whose stuck frequencies are the paper's).
+FRICTION_PARAMETERS: tuple[ParameterRow, ...] = (
+    ("E", "Pa", 2.1e11, (1e11, 3e11), (0.0, 3e11)),
+    ("kp1", "N/m", 1e8, (1e7, 5e8), (0.0, 5e8)),
+    ("kp2", "N/m", 2.1e5, (1e5, 1e6), (0.0, 1e6)),
+    ("kp3", "N/m", 1.08e6, (1e6, 1e7), (0.0, 1e7)),
+    ("kp4", "N/m", 3.4e5, (1e5, 1e6), (0.0, 1e6)),
+    ("kr1", "N·m/rad", 2e4, (5e3, 1e5), (0.0, 1e6)),
+    ("kr2", "N/m", 1e5, (2e4, 5e5), (0.0, 5e6)),
+    ("kr3", "N/m", 8e5, (2e5, 4e6), (0.0, 4e7)),
+    ("kr4", "N/m", 1e5, (2e4, 5e5), (0.0, 5e6)),
+    ("fu1", "N·m", 5.0, (0.0, 20.0), (0.0, 200.0)),
+    ("fu2", "N", 20.0, (0.0, 100.0), (0.0, 1000.0)),
+    ("fu3", "N", 100.0, (0.0, 400.0), (0.0, 4000.0)),
+    ("fu4", "N", 20.0, (0.0, 100.0), (0.0, 1000.0)),
 )
 
 
@@ -87,3 +112,70 @@ def friction_model() -> dict[str, Any]:
         {"node": "P3", "dof": "uy", "k_r": "kr4", "f_u": "fu4", "name": "damper_P3"},
     ]
     return _deck([], frictions)
+
+
+def parameters_table(model: str) -> tuple[ParameterRow, ...]:
+    """The parameter table of ``model`` ("viscous" or "friction")."""
+    if model not in ("viscous", "friction"):
+        raise ConfigError(f"model = {model!r}; allowed: 'viscous', 'friction'")
+    return VISCOUS_PARAMETERS if model == "viscous" else FRICTION_PARAMETERS
+
+
+def truth(model: str) -> dict[str, float]:
+    """The truth values of the virtual experiment of ``model``."""
+    return {name: value for name, _, value, _, _ in parameters_table(model)}
+
+
+def bridge_case(model: str = "viscous", band: str = "narrow", *,
+                directory: str = "data-viscous") -> dict[str, Any]:
+    """The case (as the dict of a case file) of updating the bridge from its virtual experiment.
+
+    Parameters
+    ----------
+    model : {"viscous", "friction"}
+        Nine parameters with viscous dampers, or thirteen with elasto-slip dampers.
+    band : {"narrow", "broad"}
+        The paper's bounds (Tables 3–6; all lower bounds 0 in the broad band).
+    directory : str
+        Where the records are (relative to the case file, or absolute).
+    """
+    if band not in ("narrow", "broad"):
+        raise ConfigError(f"band = {band!r}; allowed: 'narrow', 'broad'")
+    table = parameters_table(model)
+    params = [
+        {"name": name, "lower": (nb if band == "narrow" else bb)[0],
+         "upper": (nb if band == "narrow" else bb)[1], "unit": unit, "nominal": value}
+        for name, unit, value, nb, bb in table
+    ]
+    viscous = model == "viscous"
+    return {
+        "case": {
+            "name": f"bridge-{model}-{band}",
+            "description": (
+                f"1:50 four-span bridge (Zapico-Valle et al. 2010, §5), {model} model, "
+                f"{band} band, virtual experiment"
+            ),
+        },
+        "model": viscous_model() if viscous else friction_model(),
+        "parameters": params,
+        "data": {
+            "format": "csv",
+            "directory": directory,
+            "time_column": "t",
+            "unit": "m/s2",
+            "input": {"file": "accelerations.csv", "column": "table"},
+            "outputs": [
+                {"file": "accelerations.csv", "column": node, "node": node, "dof": "uy"}
+                for node in MEASURED_NODES
+            ],
+        },
+        "preprocess": {"highpass_hz": 5.0, "highpass_order": 4, "zero_phase": False,
+                       "substeps": SUBSTEPS},
+        "objective": {"quantity": "displacement", "experimental_parameters": True},
+        "simulation": {"method": "exact" if viscous else "nonlinear"},
+        "search": (
+            {"method": "ab", "runs": 25, "seed": 0, "max_evals": 20_000, "f_target": 1e-6}
+            if viscous
+            else {"method": "ab", "runs": 25, "seed": 0, "max_evals": 5_000}
+        ),
+    }

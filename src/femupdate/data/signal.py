@@ -1,0 +1,249 @@
+"""Signal processing of measured records (METHOD.md §8), as pure functions on arrays.
+
+Samples are on axis 0 throughout: a signal is (n,) or (n, n_channels).
+
+The paper's chain, absolute accelerations to relative displacements::
+
+    a_rel = relative(acc, table)                       # channel minus table
+    a_f   = highpass(a_rel, rate, cutoff=5.0, order=4) # removes drifting offsets
+    d     = integrate_twice(a_f, dt)                   # trapezoidal, zero initial values
+    d_fine = substeps(d, 10)                           # each interval in 10 substeps
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import scipy.integrate
+import scipy.signal
+
+from femupdate.errors import ConfigError, DataError
+
+__all__ = [
+    "detrend",
+    "fourier_amplitude",
+    "highpass",
+    "integrate",
+    "integrate_twice",
+    "peak_frequency",
+    "relative",
+    "remove_polynomial",
+    "substep_times",
+    "substeps",
+    "transfer_function",
+]
+
+
+def _as_signal(y: np.ndarray, name: str = "y") -> np.ndarray:
+    y = np.asarray(y, dtype=float)
+    if y.ndim not in (1, 2) or y.shape[0] < 2:
+        raise DataError(f"{name} must have shape (n,) or (n, channels) with n >= 2, "
+                        f"got {y.shape}")
+    return y
+
+
+def _check_rate(rate: float) -> None:
+    if not (np.isfinite(rate) and rate > 0):
+        raise ConfigError(f"rate must be a positive sampling rate in Hz, got {rate!r}")
+
+
+def _check_dt(dt: float) -> None:
+    if not (np.isfinite(dt) and dt > 0):
+        raise ConfigError(f"dt must be a positive time step in s, got {dt!r}")
+
+
+def highpass(y: np.ndarray, rate: float, cutoff: float, *, order: int = 4,
+             zero_phase: bool = True) -> np.ndarray:
+    """Butterworth high-pass filter along axis 0.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n,) or (n, k)
+        Signal.
+    rate : float
+        Sampling rate, Hz.
+    cutoff : float
+        -3 dB frequency of the designed filter, Hz, in (0, rate/2).
+    order : int
+        Filter order, 1–20.
+    zero_phase : bool
+        True: forward-backward (`sosfiltfilt`), no delay, the magnitude response squared
+        (gain 0.5 at ``cutoff``, effective order doubled). False: causal `sosfilt`.
+    """
+    y = _as_signal(y)
+    _check_rate(rate)
+    if not 0 < cutoff < rate / 2:
+        raise ConfigError(f"cutoff must be in (0, {rate / 2:g}) Hz (below Nyquist), "
+                          f"got {cutoff!r}")
+    if not 1 <= order <= 20:
+        raise ConfigError(f"order must be an integer in 1..20, got {order!r}")
+    sos = scipy.signal.butter(order, cutoff, btype="highpass", fs=rate, output="sos")
+    if zero_phase:
+        return scipy.signal.sosfiltfilt(sos, y, axis=0)
+    return scipy.signal.sosfilt(sos, y, axis=0)
+
+
+def relative(acceleration: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """Acceleration relative to the table: each channel minus the table acceleration.
+
+    ``acceleration`` is (n,) or (n, k); ``table`` is (n,).
+    """
+    a = _as_signal(acceleration, "acceleration")
+    g = np.asarray(table, dtype=float)
+    if g.shape != (a.shape[0],):
+        raise DataError(f"table acceleration must have shape ({a.shape[0]},) like the "
+                        f"channels, got {g.shape}")
+    return a - (g if a.ndim == 1 else g[:, None])
+
+
+def integrate(y: np.ndarray, dt: float) -> np.ndarray:
+    """Cumulative trapezoidal integral along axis 0, starting at 0."""
+    y = _as_signal(y)
+    _check_dt(dt)
+    return scipy.integrate.cumulative_trapezoid(y, dx=dt, axis=0, initial=0.0)
+
+
+def integrate_twice(acceleration: np.ndarray, dt: float) -> np.ndarray:
+    """Displacement from acceleration by two trapezoidal integrations, zero initial values.
+
+    The unknown initial displacement and velocity are the two "experimental parameters"
+    that the objective fits (`femupdate.objective.Objective`).
+    """
+    return integrate(integrate(acceleration, dt), dt)
+
+
+def substep_times(t: np.ndarray, n: int) -> np.ndarray:
+    """Times of `substeps`: each interval of ``t`` split into ``n`` equal substeps."""
+    return substeps(t, n)
+
+
+def substeps(y: np.ndarray, n: int) -> np.ndarray:
+    """Split each sample interval into ``n`` substeps, linearly interpolated.
+
+    Returns ``(len(y) - 1) * n + 1`` samples; every ``n``-th is an original sample.
+    """
+    y = _as_signal(y)
+    if not (isinstance(n, int | np.integer) and n >= 1):
+        raise ConfigError(f"n (substeps per interval) must be an integer >= 1, got {n!r}")
+    frac = np.arange(n) / n
+    shape = (1, n) if y.ndim == 1 else (1, n, 1)
+    steps = y[:-1, None] + frac.reshape(shape) * (y[1:] - y[:-1])[:, None]
+    out = steps.reshape((-1, *y.shape[1:]))
+    return np.concatenate([out, y[-1:]], axis=0)
+
+
+def detrend(y: np.ndarray, kind: Literal["constant", "linear"] = "linear") -> np.ndarray:
+    """Remove the mean ("constant") or the least-squares line ("linear") along axis 0."""
+    y = _as_signal(y)
+    if kind not in ("constant", "linear"):
+        raise ConfigError(f"kind must be 'constant' or 'linear', got {kind!r}")
+    return scipy.signal.detrend(y, axis=0, type=kind)
+
+
+def remove_polynomial(y: np.ndarray, order: int, *, fit: slice | None = None) -> np.ndarray:
+    """Subtract a least-squares polynomial of the sample index, degree ``order``.
+
+    Parameters
+    ----------
+    fit : slice, optional
+        Samples the polynomial is fitted to (e.g. a pre-event window ``slice(0, 200)`` with
+        ``order=0`` removes the pre-event offset); it is subtracted from all samples.
+    """
+    y = _as_signal(y)
+    if not (isinstance(order, int | np.integer) and 0 <= order <= 10):
+        raise ConfigError(f"order must be an integer in 0..10, got {order!r}")
+    x = np.linspace(-1.0, 1.0, y.shape[0])  # scaled for a well-conditioned fit
+    basis = np.polynomial.legendre.legvander(x, order)
+    rows = np.arange(y.shape[0])[fit if fit is not None else slice(None)]
+    if rows.size <= order:
+        raise DataError(f"fit window holds {rows.size} samples, need more than order={order}")
+    coef, *_ = np.linalg.lstsq(basis[rows], y[rows], rcond=None)
+    return y - basis @ coef
+
+
+def fourier_amplitude(y: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Fourier amplitude spectrum ``|Y(f)| = |dt · Σ y_k e^{-2πi f k dt}|`` (units·s).
+
+    Returns the frequencies 0..Nyquist, Hz, and the amplitudes (same trailing shape as y).
+    """
+    y = _as_signal(y)
+    _check_dt(dt)
+    return np.fft.rfftfreq(y.shape[0], dt), np.abs(np.fft.rfft(y, axis=0)) * dt
+
+
+def transfer_function(x: np.ndarray, y: np.ndarray, rate: float, *,
+                      nperseg: int | None = None,
+                      window: str = "hann") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """H1 estimate of the transfer function from input ``x`` to output(s) ``y``.
+
+    ``H1(f) = S_xy(f) / S_xx(f)`` (Welch averages; `scipy.signal.csd` and `welch`), with the
+    magnitude-squared coherence ``|S_xy|² / (S_xx S_yy)``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Input, e.g. the table acceleration.
+    y : ndarray, shape (n,) or (n, k)
+        Output(s), e.g. absolute accelerations of the structure.
+    rate : float
+        Sampling rate, Hz.
+    nperseg : int, optional
+        Welch segment length; default n // 8 (at least 16 samples, at most n).
+
+    Returns
+    -------
+    f : ndarray, shape (m,)
+    H : ndarray, complex, shape (m,) or (m, k)
+    coherence : ndarray, shape like H
+    """
+    x = _as_signal(x, "x")
+    y = _as_signal(y, "y")
+    _check_rate(rate)
+    if x.ndim != 1 or y.shape[0] != x.shape[0]:
+        raise DataError(f"x must be (n,) and y (n,) or (n, k) with the same n; got {x.shape} "
+                        f"and {y.shape}")
+    n = x.shape[0]
+    seg = nperseg if nperseg is not None else min(n, max(16, n // 8))
+    if not 2 <= seg <= n:
+        raise ConfigError(f"nperseg must be in 2..{n} (the signal length), got {seg}")
+    yy = y if y.ndim == 2 else y[:, None]
+    f, sxx = scipy.signal.welch(x, fs=rate, window=window, nperseg=seg)
+    _, sxy = scipy.signal.csd(x[:, None], yy, fs=rate, window=window, nperseg=seg, axis=0)
+    _, syy = scipy.signal.welch(yy, fs=rate, window=window, nperseg=seg, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = sxy / sxx[:, None]
+        coh = np.abs(sxy) ** 2 / (sxx[:, None] * syy)
+    if y.ndim == 1:
+        h, coh = h[:, 0], coh[:, 0]
+    return f, h, coh
+
+
+def peak_frequency(f: np.ndarray, h: np.ndarray,
+                   band: tuple[float, float] | None = None) -> float | np.ndarray:
+    """Frequency of the largest ``|h|`` within ``band`` (Hz), refined by a parabola.
+
+    The parabola through the log magnitudes of the peak bin and its neighbours gives the
+    peak between bins. Returns a float for 1-D ``h``, an array (k,) for ``h`` (m, k).
+    """
+    f = np.asarray(f, dtype=float)
+    mag = np.abs(np.asarray(h))
+    if mag.shape[0] != f.size:
+        raise DataError(f"h has {mag.shape[0]} frequencies on axis 0 but f has {f.size}")
+    lo, hi = band if band is not None else (f[0], f[-1])
+    inside = np.flatnonzero((f >= lo) & (f <= hi))
+    if inside.size < 1:
+        raise ConfigError(f"band [{lo}, {hi}] Hz holds no frequency of f "
+                          f"([{f[0]:.6g}, {f[-1]:.6g}] Hz)")
+    cols = mag if mag.ndim == 2 else mag[:, None]
+    out = np.empty(cols.shape[1])
+    df = f[1] - f[0] if f.size > 1 else 0.0
+    for j in range(cols.shape[1]):
+        k = inside[np.argmax(cols[inside, j])]
+        out[j] = f[k]
+        if 0 < k < f.size - 1 and np.all(cols[k - 1:k + 2, j] > 0):
+            a, b, c = np.log(cols[k - 1:k + 2, j])
+            denom = a - 2 * b + c
+            if denom < 0:
+                out[j] = f[k] + 0.5 * (a - c) / denom * df
+    return float(out[0]) if mag.ndim == 1 else out
