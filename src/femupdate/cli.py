@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -92,6 +93,80 @@ def bench_dynamic(
     _write_json(json_path, rows if method == "all" else rows[0])
 
 
+def _print_bridge(summary: dict[str, Any]) -> None:
+    print_update_summary(summary)
+    freqs = Table(title="natural frequencies [Hz] (paper Tables 7 and 11)")
+    for col in ("mode", "truth", "best", "mean ± std (successful)", "best error"):
+        freqs.add_column(col, justify="right")
+    spread = summary["spread"]["frequencies_hz"]
+    for i, (ft, fb) in enumerate(zip(summary["truth_frequencies_hz"][:4],
+                                     summary["best"]["frequencies_hz"][:4], strict=True)):
+        s = spread.get(f"f{i + 1}")
+        freqs.add_row(str(i + 1), f"{ft:.3f}", f"{fb:.3f}",
+                      f"{s['mean']:.3f} ± {s['std']:.3f}" if s else "–",
+                      f"{100 * (fb / ft - 1):+.2f} %")
+    console.print(freqs)
+    ident = summary["identifiability"]
+    errs = Table(title="best run against the truth; Δφ for a 1 % change of each parameter")
+    for col in ("parameter", "truth", "best", "error", "Δφ (1 %)"):
+        errs.add_column(col, justify="right")
+    best = summary["best"]["params"]
+    for name, value in summary["truth"].items():
+        rel = f"{100 * (best[name] / value - 1):+.3f} %" if value else f"{best[name]:.3g}"
+        errs.add_row(name, f"{value:.4g}", f"{best[name]:.4g}", rel,
+                     f"{ident['phi_change_1pct'][name]:.2e}")
+    console.print(errs)
+    floor = summary["noise_floor"]
+    console.print(f"noise floor (NMSE of the truth model against the data): {100 * floor:.4g} %"
+                  + (f"; runs within 1.5× of it: {summary['within_1_5_noise_floor']}/"
+                     f"{len(summary['runs'])}" if summary["within_1_5_noise_floor"] is not None
+                     else ""))
+    if ident["undetermined"]:
+        console.print(f"parameters the data hardly determine: {', '.join(ident['undetermined'])}")
+
+
+@bench_app.command("bridge")
+def bench_bridge(
+    model: Annotated[str, typer.Option(help="viscous (9 parameters) or friction (13).")
+                     ] = "viscous",
+    band: Annotated[str, typer.Option(help="narrow or broad bounds (the paper's).")] = "narrow",
+    method: Annotated[str, typer.Option(
+        help="ab, cmaes, … or a comma-separated list run on the same data (e.g. ab,cmaes)."
+    )] = "ab",
+    runs: Annotated[int, typer.Option(min=1, help="Independent runs.")] = 25,
+    seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.")
+                    ] = 0,
+    snr: Annotated[float, typer.Option(min=0.0, help="Noise: rms noise / rms signal.")] = 0.02,
+    max_evals: Annotated[int | None, typer.Option(min=1, help="Budget per run (default: the "
+                                                  "case's: 20,000 viscous, 5,000 friction).")
+                         ] = None,
+    work_dir: Annotated[Path | None, typer.Option(help="Keep the data and results here.")
+                        ] = None,
+    json_path: JsonOption = None,
+    workers: WorkersOption = 2,
+) -> None:
+    """Benchmark 2 of the paper: update the 1:50 bridge from a virtual experiment."""
+    from femupdate.benchmarks.bridge import run_bridge_benchmark
+
+    work = work_dir or Path("femupdate-bench-bridge")
+    rows = []
+    for m in method.split(","):
+        with console.status(f"{runs} runs of {m} on the {model} bridge…"):
+            summary = run_bridge_benchmark(model, band, m.strip(), runs=runs, seed=seed,
+                                           snr=snr, workers=workers, max_evals=max_evals,
+                                           work_dir=work)
+        _print_bridge(summary)
+        rows.append(summary)
+    if len(rows) > 1 and all(r["evals_mean"] for r in rows):
+        base = rows[0]
+        for r in rows[1:]:
+            console.print(f"mean evaluations to φ ≤ {base['benchmark']['f_target']:.3g}: "
+                          f"{r['method']} / {base['method']} = "
+                          f"{r['evals_mean'] / base['evals_mean']:.2f} "
+                          f"(medians: {r['evals_median'] / base['evals_median']:.2f})")
+    _write_json(json_path, rows[0] if len(rows) == 1 else rows)
+
+
 @app.command()
 def demo(
     runs: Annotated[int, typer.Option(min=1, help="Independent AB runs.")] = 20,
@@ -105,6 +180,171 @@ def demo(
     )
     _bench_dynamic("ab", runs, 0, workers, out)
     console.print(f"figures in {out.resolve()}")
+
+
+CaseArgument = Annotated[Path, typer.Argument(help="The case file (TOML).", exists=False)]
+
+
+def _load(path: Path):
+    from femupdate.case import load_case
+
+    return load_case(path)
+
+
+def _params_table(title: str, rows: list[tuple[str, str, str]]) -> Table:
+    table = Table(title=title)
+    for col in ("parameter", "value", "spread (successful runs)"):
+        table.add_column(col, justify="right")
+    for row in rows:
+        table.add_row(*row)
+    return table
+
+
+def print_update_summary(summary: dict[str, Any]) -> None:
+    """The table of runs (as the paper's Tables 5, 6, 9) and the best parameters."""
+    runs = Table(title=f"{summary['case']['case']['name']}: {summary['method']} runs "
+                       f"({summary['success_rule']})")
+    names = list(summary["best"]["params"])
+    for col in ("run", "NMSE %", "evals", "stop", "ok", *names):
+        runs.add_column(col, justify="right")
+    for r in summary["runs"]:
+        runs.add_row(str(r["index"]), f"{100 * r['phi']:.4g}", str(r["nfev"]),
+                     ",".join(r["stop"]), "✓" if r["success"] else "✗",
+                     *(f"{r['params'][n]:.4g}" for n in names))
+    console.print(runs)
+    spread = summary["spread"]["params"]
+    console.print(_params_table(
+        f"best run {summary['best']['run']}: NMSE {summary['best']['nmse_percent']:.4g} %",
+        [(n, f"{v:.6g}", f"{spread[n]['mean']:.4g} ± {spread[n]['std']:.2g}" if n in spread
+          else "–") for n, v in summary["best"]["params"].items()],
+    ))
+    freqs = ", ".join(f"{f:.3f}" for f in summary["best"]["frequencies_hz"])
+    console.print(f"natural frequencies of the best model [Hz]: {freqs}")
+    console.print(f"successful runs: {summary['successes']}/{summary['runs'].__len__()}; "
+                  f"evaluations (successful): mean {_fmt(summary['evals_mean'])}, "
+                  f"median {_fmt(summary['evals_median'])}; wall {summary['wall_s']:.1f} s")
+
+
+@app.command()
+def run(
+    case_file: CaseArgument,
+    out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
+    runs: Annotated[int | None, typer.Option(min=1, help="Override [search] runs.")] = None,
+    seed: Annotated[int | None, typer.Option(help="Override [search] seed.")] = None,
+    max_evals: Annotated[int | None, typer.Option(min=1, help="Override [search] max_evals.")
+                         ] = None,
+    data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
+                                                   "instead of [data] directory.")] = None,
+    workers: WorkersOption = 2,
+    json_path: JsonOption = None,
+) -> None:
+    """Update the model of a case from its measured data: repeated runs, summary, plots."""
+    from femupdate.workflow import run_case, with_data_directory
+
+    case = _load(case_file)
+    if data is not None:
+        case = with_data_directory(case, data)
+    with console.status(f"updating {case.label}…"):
+        result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals, workers=workers)
+    print_update_summary(result.summary)
+    console.print(f"results in {out.resolve()}")
+    _write_json(json_path, result.summary)
+
+
+def _read_params(text: str | None) -> dict[str, float] | None:
+    """Parameter values from a JSON object, a JSON file, or a summary.json (its best run)."""
+    if text is None:
+        return None
+    from femupdate.errors import ConfigError
+
+    source = Path(text)
+    raw = source.read_text() if source.is_file() else text
+    try:
+        data = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"--params: {text!r} is neither a JSON file nor a JSON object "
+                          f"({exc})") from None
+    if isinstance(data, dict) and "best" in data:
+        data = data["best"]["params"]
+    if not isinstance(data, dict):
+        raise ConfigError(f"--params: expected an object {{name: value}}, got {type(data)}")
+    return {str(k): float(v) for k, v in data.items()}
+
+
+@app.command()
+def modes(
+    case_file: CaseArgument,
+    params: Annotated[str | None, typer.Option(
+        help="Parameter values: a JSON object, a JSON file, or a summary.json (its best run). "
+             "Default: the case's nominal values.")] = None,
+    json_path: JsonOption = None,
+) -> None:
+    """Natural frequencies, damping ratios and mode shapes of a case's model."""
+    from femupdate.case import build_structure
+    from femupdate.model.modes import damped_modes, natural_frequencies
+
+    case = _load(case_file)
+    values = _read_params(params) or case.nominal()
+    structure = build_structure(case.model)
+    system = structure.assemble(values, direction=case.model.excitation_direction)
+    freqs, shapes = natural_frequencies(system)
+    damped = damped_modes(system)
+    table = Table(title=f"{case.label}: natural frequencies"
+                        + (" (friction elements stuck)" if not system.is_linear else ""))
+    for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
+        table.add_column(col, justify="right")
+    for i, f in enumerate(freqs):
+        fd = damped.damped_freqs_hz[i] if i < len(damped.freqs_hz) else float("nan")
+        zeta = damped.damping_ratios[i] if i < len(damped.freqs_hz) else float("nan")
+        table.add_row(str(i + 1), f"{f:.4f}", f"{fd:.4f}", f"{100 * zeta:.3f}")
+    console.print(table)
+    _write_json(json_path, {
+        "params": values, "frequencies_hz": freqs.tolist(),
+        "damped_frequencies_hz": np.asarray(damped.damped_freqs_hz).tolist(),
+        "damping_ratios": np.asarray(damped.damping_ratios).tolist(),
+        "dof_labels": list(system.dof_labels), "mode_shapes": shapes.tolist(),
+    })
+
+
+@app.command()
+def synth(
+    case_file: CaseArgument,
+    truth: Annotated[str, typer.Option(help="Truth parameter values: a JSON object or file.")],
+    out: Annotated[Path, typer.Option("--out", help="Directory for the records.")],
+    seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.")] = 0,
+    snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel.")
+                   ] = 0.02,
+    duration: Annotated[float, typer.Option(min=0.01, help="Record length, s (model scale).")
+                        ] = 4.6,
+    rate: Annotated[float | None, typer.Option(help="Sampling rate, Hz (default: the case's, "
+                                                    "else 1035).")] = None,
+    pga: Annotated[float, typer.Option(help="Peak ground acceleration of the EC8 spectrum, g."
+                                       )] = 0.25,
+    motion: Annotated[Path | None, typer.Option(
+        help="A recorded ground motion (El Centro formats, e.g. "
+             "../shared/data/elcentro1940/...) instead of the EC8 artificial one.")] = None,
+    length_scale: Annotated[float, typer.Option(help="Model length scale λ; time scales by √λ.")
+                            ] = 1 / 50,
+    offset: Annotated[float, typer.Option(help="Accelerometer offsets up to this, m/s².")
+                      ] = 0.05,
+    drift: Annotated[float, typer.Option(help="Accelerometer drifts up to this, m/s² per s.")
+                     ] = 0.01,
+) -> None:
+    """A virtual experiment: simulate a truth model and write what the sensors would record."""
+    from femupdate import virtual
+
+    case = _load(case_file)
+    values = _read_params(truth)
+    assert values is not None  # truth is required
+    rate = rate or (case.data.rate if case.data is not None and case.data.rate else 1035.0)
+    base = (None if motion is None
+            else virtual.recorded_motion(motion, rate=rate, length_scale=length_scale))
+    manifest = virtual.virtual_experiment(case, values, out, seed=seed, motion=base, snr=snr,
+                                          offset=offset, drift=drift, duration=duration,
+                                          rate=rate, pga_g=pga, length_scale=length_scale)
+    console.print(f"{manifest['motion']}; {manifest['samples']} samples at "
+                  f"{manifest['rate_hz']:g} Hz; noise {100 * snr:g} %")
+    console.print(f"wrote {', '.join(manifest['files'])}, truth.json, manifest.json in {out}")
 
 
 def main() -> None:

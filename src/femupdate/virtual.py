@@ -127,6 +127,8 @@ def virtual_experiment(
     snr: float = 0.02,
     offset: float = 0.05,
     drift: float = 0.01,
+    pga_g: float = 0.25,
+    length_scale: float = 1 / 50,
 ) -> dict[str, object]:
     """Simulate the truth model, add sensor errors, write the records and a manifest.
 
@@ -149,11 +151,14 @@ def virtual_experiment(
         rms noise / rms signal of each channel (0.02: 2 % noise).
     offset, drift : float
         Accelerometer offset (m/s²) and drift (m/s² per s), signs and sizes varied by channel.
+    pga_g, length_scale : float
+        Of the default EC8 motion: peak ground acceleration (g) and model scale λ.
     """
     rate = rate or (case.data.rate if case.data is not None and case.data.rate else 1035.0)
     motion_ss, noise_ss = np.random.SeedSequence(seed).spawn(2)
     if motion is None:
-        motion = ec8_motion(np.random.default_rng(motion_ss), rate=rate, duration=duration)
+        motion = ec8_motion(np.random.default_rng(motion_ss), rate=rate, duration=duration,
+                            pga_g=pga_g, length_scale=length_scale)
     outputs = simulate_truth(case, truth, motion)
     assert case.data is not None
     keys = ["input"] + [c.label for c in case.data.outputs]
