@@ -167,6 +167,22 @@ def bench_bridge(
     _write_json(json_path, rows[0] if len(rows) == 1 else rows)
 
 
+@bench_app.command("simulate")
+def bench_simulate(
+    repeat: Annotated[int, typer.Option(min=1, help="Timed repetitions per integrator.")] = 20,
+    opensees: Annotated[bool, typer.Option(help="Time the same models in OpenSeesPy too "
+                                                "(when installed).")] = True,
+    json_path: JsonOption = None,
+) -> None:
+    """Time every integrator on the paper-size bridge (and 10× longer), beside OpenSeesPy."""
+    from femupdate.benchmarks.simulate import print_simulate_rows, run_simulate_benchmark
+
+    with console.status("timing the integrators…"):
+        rows = run_simulate_benchmark(repeat, opensees=None if opensees else False)
+    print_simulate_rows(rows, console)
+    _write_json(json_path, rows)
+
+
 @app.command()
 def demo(
     runs: Annotated[int, typer.Option(min=1, help="Independent AB runs.")] = 20,

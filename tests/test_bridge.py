@@ -1,0 +1,73 @@
+"""The paper's bridge: example case files, the virtual experiment and one quick update."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femupdate.benchmarks import bridge
+from femupdate.case import load_case, parse_case
+from femupdate.experiment import load_experiment
+from femupdate.model.modes import natural_frequencies
+from femupdate.update import UpdateProblem
+from femupdate.virtual import virtual_experiment
+
+EXAMPLES = Path(__file__).parents[1] / "examples" / "bridge"
+
+
+@pytest.mark.parametrize("model", ["viscous", "friction"])
+@pytest.mark.parametrize("band", ["narrow", "broad"])
+def test_example_case_files_equal_the_embedded_cases(model: str, band: str) -> None:
+    path = EXAMPLES / f"{model}-{band}.toml"
+    with path.open("rb") as fh:
+        assert tomllib.load(fh) == bridge.bridge_case(model, band, directory=f"data-{model}")
+    case = load_case(path)
+    assert len(case.parameter_names) == (9 if model == "viscous" else 13)
+    truth = json.loads((EXAMPLES / f"truth-{model}.json").read_text())
+    assert truth == bridge.truth(model)
+    for p in case.parameters:  # the truth lies inside every band
+        assert p.lower <= truth[p.name] <= p.upper
+
+
+def test_truth_frequencies_near_the_papers() -> None:
+    for model in ("viscous", "friction"):
+        case = parse_case(bridge.bridge_case(model), source="bridge.toml")
+        from femupdate.case import build_structure
+
+        system = build_structure(case.model).assemble(bridge.truth(model))
+        freqs = natural_frequencies(system)[0][:4]
+        np.testing.assert_allclose(freqs, bridge.PAPER_FREQUENCIES_HZ, rtol=0.02)
+
+
+@pytest.fixture(scope="module")
+def viscous_noise_free(tmp_path_factory: pytest.TempPathFactory) -> UpdateProblem:
+    data = tmp_path_factory.mktemp("bridge") / "data"
+    case = parse_case(bridge.bridge_case("viscous", directory=str(data)), source="b.toml")
+    virtual_experiment(case, bridge.truth("viscous"), data, seed=3, duration=1.0, snr=0.0,
+                       offset=0.0, drift=0.0)
+    return UpdateProblem(case, load_experiment(case))
+
+
+def test_truth_fits_noise_free_data_exactly(viscous_noise_free: UpdateProblem) -> None:
+    # The prediction is processed like the data (causal high-pass, trapezoidal integration),
+    # so the truth reproduces noise-free records to rounding; a 1 % change of E does not.
+    problem = viscous_noise_free
+    x = problem.case.to_search(bridge.truth("viscous"))
+    assert problem(x) < 1e-15
+    x[0] *= 1.01
+    assert problem(x) > 1e-5
+
+
+def test_records_carry_offsets_drift_and_noise(tmp_path: Path) -> None:
+    case = parse_case(bridge.bridge_case("viscous", directory=str(tmp_path)), source="b.toml")
+    manifest = virtual_experiment(case, bridge.truth("viscous"), tmp_path, seed=1,
+                                  duration=1.0, snr=0.02)
+    assert manifest["samples"] == 1036
+    problem = UpdateProblem(case, load_experiment(case))
+    floor = problem(case.to_search(bridge.truth("viscous")))
+    # 2 % noise on the accelerations leaves a small but non-zero floor after processing.
+    assert 1e-6 < floor < 0.05
