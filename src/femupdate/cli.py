@@ -251,17 +251,30 @@ def run(
                          ] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
+    resume: Annotated[bool, typer.Option(help="Continue the unfinished runs stored in --out "
+                                              "(ib, ab, cmaes from their last checkpoint; "
+                                              "de, ga restart).")] = False,
+    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address, e.g. "
+                                                       "tcp://host:8786 (extra 'dask').")
+                         ] = None,
+    quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
+    log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
+                                                       "run event) to this file.")] = None,
     workers: WorkersOption = 2,
     json_path: JsonOption = None,
 ) -> None:
-    """Update the model of a case from its measured data: repeated runs, summary, plots."""
+    """Update the model of a case from its measured data: repeated runs, summary, plots.
+
+    Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
+    so an interrupted or killed run continues with --resume.
+    """
     from femupdate.workflow import run_case, with_data_directory
 
     case = _load(case_file)
     if data is not None:
         case = with_data_directory(case, data)
-    with console.status(f"updating {case.label}…"):
-        result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals, workers=workers)
+    result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals, workers=workers,
+                      resume=resume, scheduler=scheduler, quiet=quiet, log_json=log_json)
     print_update_summary(result.summary)
     console.print(f"results in {out.resolve()}")
     _write_json(json_path, result.summary)

@@ -18,7 +18,7 @@ from femupdate.case import Case, parse_case
 from femupdate.experiment import load_experiment
 from femupdate.model.modes import natural_frequencies
 from femupdate.objective import nmse
-from femupdate.runs.runner import RunOutcome, repeat
+from femupdate.runs.runner import RunOutcome, run_all
 from femupdate.runs.stats import evaluation_stats, spread
 from femupdate.update import UpdateProblem
 
@@ -136,31 +136,57 @@ def optimizer_options(case: Case) -> dict[str, Any]:
     return options
 
 
-def run_case(case: Case, out_dir: Path | None = None, *, runs: int | None = None,
-             workers: int = 1, plots: bool = True, seed: int | None = None,
-             max_evals: int | None = None) -> UpdateResult:
-    """Update the model of ``case`` from its data; write summary.json and plots to ``out_dir``.
+def run_case(
+    case: Case,
+    out_dir: Path | None = None,
+    *,
+    runs: int | None = None,
+    workers: int = 1,
+    plots: bool = True,
+    seed: int | None = None,
+    max_evals: int | None = None,
+    resume: bool = False,
+    scheduler: str | None = None,
+    quiet: bool = True,
+    log_json: Path | None = None,
+) -> UpdateResult:
+    """Update the model of ``case`` from its data; write the results to ``out_dir``.
 
-    ``runs``, ``seed`` and ``max_evals`` override the case's ``[search]`` values.
+    ``out_dir`` receives the results store (``results.sqlite``: every evaluation and the
+    optimizer checkpoints, written as they happen), ``summary.json`` and the plots; without it
+    the store is kept in memory and nothing is written. ``runs``, ``seed`` and ``max_evals``
+    override the case's ``[search]``. ``resume`` continues the unfinished runs of a store in
+    ``out_dir`` (refused for a store of another case or other settings); ``scheduler`` runs on
+    a Dask cluster; ``quiet=False`` shows a progress bar; ``log_json`` appends JSON lines.
     """
     experiment = load_experiment(case)
     problem = UpdateProblem(case, experiment)
     search = case.search
     start = time.perf_counter()
-    outcomes = repeat(
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    outcomes = run_all(
         problem, problem.bounds, search.method,
         runs=runs or search.runs,
         seed=search.seed if seed is None else seed,
-        workers=workers,
         max_evals=max_evals or search.max_evals,
         f_target=search.f_target,
+        options=optimizer_options(case),
+        store_dir=out_dir,
+        resume=resume,
+        workers=workers,
+        scheduler=scheduler,
+        quiet=quiet,
+        log_json=log_json,
+        case_dict=case.to_dict(),
+        fingerprint=case.fingerprint(),
+        names=problem.names,
+        label=case.label,
         keep_history=plots,
-        **optimizer_options(case),
     )
     summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target)
     result = UpdateResult(summary, outcomes, problem)
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         if plots:
             write_plots(result, out_dir)

@@ -16,6 +16,7 @@ vertical axis, so P1–P3 translations are the paper's DOFs 3, 5 and 7.
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -246,6 +247,7 @@ def run_bridge_benchmark(
         spec["search"]["f_target"] = f_target
         case = parse_case(spec, source=case.source)
     out = work / f"out-{model}-{band}-{method}"
+    shutil.rmtree(out, ignore_errors=True)  # a benchmark starts afresh
     result = run_case(case, out, runs=runs, workers=workers, plots=plots)
     summary = dict(result.summary)
     truth_sys = problem.system(truth_values)

@@ -1,0 +1,155 @@
+"""Progress of a set of runs: a rich progress bar and/or a JSON-lines log.
+
+The bar shows runs finished out of the total, the best φ so far over all runs, the evaluations
+done and the evaluations per second of this session. The log (``log_json``) gets one JSON
+object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run finished),
+``end``; each with ``time`` (Unix seconds) and ``elapsed`` (seconds since start), and where it
+applies ``run``, ``nfev``, ``best_phi`` (null when not finite) and ``status``. The file is
+appended to, so a resumed set continues the same log.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import IO, Any
+
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+)
+
+
+def _finite_or_none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+class RunProgress:
+    """Reports a set of runs; a context manager.
+
+    Parameters
+    ----------
+    total_runs : int
+        Runs in the set (including those already done in an earlier session).
+    label : str
+        Shown before the bar, e.g. ``"ab on the bridge"``.
+    quiet : bool
+        No bar (the log, if any, is still written).
+    log_json : path or None
+        Append one JSON line per event to this file.
+    console : rich.console.Console or None
+        Where the bar goes (default: standard error).
+    """
+
+    def __init__(self, total_runs: int, *, label: str = "runs", quiet: bool = False,
+                 log_json: str | os.PathLike[str] | None = None,
+                 console: Console | None = None) -> None:
+        self.total_runs = total_runs
+        self.label = label
+        self.quiet = quiet
+        self.log_path = None if log_json is None else Path(log_json)
+        self.console = console
+        self.best_phi = math.inf
+        self.runs_done = 0
+        self.evals = 0  # over all runs, including earlier sessions
+        self.session_evals = 0
+        self._t0 = time.perf_counter()
+        self._log: IO[str] | None = None
+        self._bar: Progress | None = None
+        self._task: TaskID | None = None
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    def __enter__(self) -> RunProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def start(self, *, runs_done: int = 0, evals: int = 0, best_phi: float = math.inf,
+              **extra: Any) -> None:
+        """Begin (with what earlier sessions already did, when resuming)."""
+        self.runs_done = runs_done
+        self.evals = evals
+        self.best_phi = best_phi
+        self._t0 = time.perf_counter()
+        if self.log_path is not None:
+            self.log_path.parent.mkdir(parents=True, exist_ok=True)
+            self._log = self.log_path.open("a", encoding="utf-8")
+        self._write("start", runs=self.total_runs, runs_done=runs_done, nfev=evals,
+                    best_phi=_finite_or_none(best_phi), **extra)
+        if not self.quiet:
+            self._bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("runs · best φ {task.fields[best]} · {task.fields[evals]} evals · "
+                           "{task.fields[rate]} evals/s"),
+                TimeElapsedColumn(),
+                console=self.console or Console(stderr=True),
+            )
+            self._bar.start()
+            self._task = self._bar.add_task(self.label, total=self.total_runs,
+                                            completed=runs_done, **self._fields())
+
+    def close(self) -> None:
+        """Stop the bar, log ``end`` and close the log (idempotent)."""
+        if self._bar is not None:
+            self._refresh()
+            self._bar.stop()
+            self._bar = None
+        if self._log is not None:
+            self._write("end", runs_done=self.runs_done, nfev=self.evals,
+                        best_phi=_finite_or_none(self.best_phi),
+                        session_evals=self.session_evals, rate=self.rate())
+            self._log.close()
+            self._log = None
+
+    # -- events ------------------------------------------------------------------------------
+
+    def chunk(self, run: int, nfev: int, best_phi: float, new_evals: int) -> None:
+        """Run ``run`` advanced by ``new_evals`` to ``nfev`` evaluations, best φ ``best_phi``."""
+        self.evals += new_evals
+        self.session_evals += new_evals
+        self.best_phi = min(self.best_phi, best_phi)
+        self._write("chunk", run=run, nfev=nfev, best_phi=_finite_or_none(best_phi))
+        self._refresh()
+
+    def run_done(self, run: int, nfev: int, best_phi: float, status: str) -> None:
+        """Run ``run`` finished (after its last :meth:`chunk`)."""
+        self.runs_done += 1
+        self.best_phi = min(self.best_phi, best_phi)
+        self._write("run", run=run, nfev=nfev, best_phi=_finite_or_none(best_phi),
+                    status=status)
+        self._refresh(advance=1)
+
+    # -- internals ---------------------------------------------------------------------------
+
+    def rate(self) -> float:
+        """Evaluations per second in this session."""
+        elapsed = time.perf_counter() - self._t0
+        return self.session_evals / elapsed if elapsed > 0 else 0.0
+
+    def _fields(self) -> dict[str, str]:
+        best = "–" if not math.isfinite(self.best_phi) else f"{self.best_phi:.3e}"
+        return {"best": best, "evals": f"{self.evals:,}", "rate": f"{self.rate():,.0f}"}
+
+    def _refresh(self, advance: int = 0) -> None:
+        if self._bar is not None and self._task is not None:
+            self._bar.update(self._task, advance=advance, **self._fields())
+
+    def _write(self, event: str, **fields: Any) -> None:
+        if self._log is None:
+            return
+        line = {"event": event, "time": time.time(),
+                "elapsed": time.perf_counter() - self._t0, **fields}
+        self._log.write(json.dumps(line, allow_nan=False) + "\n")
+        self._log.flush()

@@ -1,0 +1,48 @@
+"""Progress: the bar's figures and the JSON-lines log."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+
+from rich.console import Console
+
+from femupdate.runs.progress import RunProgress
+
+
+def test_bar_shows_runs_best_phi_and_evaluations() -> None:
+    out = io.StringIO()
+    console = Console(file=out, width=160, force_terminal=False, color_system=None)
+    with RunProgress(3, label="ab", console=console) as progress:
+        progress.start(runs_done=1, evals=500, best_phi=0.5)
+        progress.chunk(1, 300, 2e-3, 300)
+        progress.chunk(2, 100, math.inf, 100)  # a run whose evaluations all failed so far
+        progress.run_done(1, 300, 2e-3, "f_target reached")
+    text = out.getvalue()
+    assert "2/3" in text and "best φ 2.000e-03" in text and "900 evals" in text
+    assert progress.session_evals == 400 and progress.evals == 900
+
+
+def test_quiet_writes_nothing_but_the_log(tmp_path: Path) -> None:
+    out = io.StringIO()
+    log = tmp_path / "sub" / "log.jsonl"
+    with RunProgress(2, quiet=True, log_json=log, console=Console(file=out)) as progress:
+        progress.start(method="ab")
+        progress.chunk(0, 10, math.inf, 10)
+        progress.chunk(0, 20, 0.25, 10)
+        progress.run_done(0, 20, 0.25, "budget")
+    assert out.getvalue() == ""
+    lines = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [x["event"] for x in lines] == ["start", "chunk", "chunk", "run", "end"]
+    assert lines[0]["method"] == "ab" and lines[0]["runs"] == 2
+    assert lines[1]["best_phi"] is None  # not finite: null, the file stays strict JSON
+    assert lines[2] == {**lines[2], "run": 0, "nfev": 20, "best_phi": 0.25}
+    assert lines[3]["status"] == "budget"
+    assert lines[4]["nfev"] == 20 and lines[4]["session_evals"] == 20
+    assert all(x["elapsed"] >= 0 and x["time"] > 1e9 for x in lines)
+    # A resumed set appends to the same log.
+    with RunProgress(2, quiet=True, log_json=log) as progress:
+        progress.start(runs_done=1, evals=20)
+    assert len(log.read_text().splitlines()) == 7
