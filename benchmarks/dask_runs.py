@@ -7,7 +7,9 @@ processes (one thread each); and, for the cost of the store and the chunks, the 
 results agree bit for bit with the in-process ones. Each way writes its own results store in a
 temporary directory, as ``femupdate run`` does.
 
-φ is given as an import path ``module:attribute``; a class is instantiated without arguments.
+φ is given as an import path ``module:attribute``; a class is instantiated without arguments,
+and ``module:factory()`` calls a factory, e.g. ``femupdate.benchmarks.bridge:viscous_problem()``
+(the viscous bridge on its noise-free virtual experiment).
 The bounds come from its ``bounds`` attribute (or ``--bounds``, a JSON list of pairs).
 
     python benchmarks/dask_runs.py [--fun femupdate.benchmarks.dynamic:DynamicProblem]
@@ -31,10 +33,11 @@ from femupdate.runs.runner import RunOutcome, repeat, run_all
 
 
 def load_fun(path: str) -> Any:
-    """The object at ``module:attribute`` (a class is instantiated)."""
+    """The object at ``module:attribute`` (a class is instantiated, ``factory()`` called)."""
     module, _, attr = path.partition(":")
-    obj = getattr(importlib.import_module(module), attr)
-    return obj() if isinstance(obj, type) else obj
+    call = attr.endswith("()")
+    obj = getattr(importlib.import_module(module), attr.removesuffix("()"))
+    return obj() if call or isinstance(obj, type) else obj
 
 
 def timed(label: str, out: Path, fun: Any, bounds: Any, args: argparse.Namespace,

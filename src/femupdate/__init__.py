@@ -26,6 +26,10 @@ from femupdate.errors import (
 )
 from femupdate.optimize import minimize
 
+# Eager: the function shares its name with the subpackage, and a lazy attribute would be
+# shadowed by the subpackage module as soon as anything imports femupdate.simulate.*.
+from femupdate.simulate import simulate
+
 __version__ = "0.1.0"
 
 _LAZY = {
@@ -35,7 +39,6 @@ _LAZY = {
     "FrictionElements": "femupdate.model.system",
     "natural_frequencies": "femupdate.model.modes",
     "damped_modes": "femupdate.model.modes",
-    "simulate": "femupdate.simulate",
     "Response": "femupdate.simulate.response",
     "load_case": "femupdate.case",
     "Case": "femupdate.case",

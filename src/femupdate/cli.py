@@ -45,7 +45,7 @@ def _fmt(value: float | None, spec: str = ",.0f") -> str:
 
 def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
     table = Table(title="Two-mode identification (paper Table 2): evaluations of successful runs")
-    for col in ("method", "runs", "success", "min", "mean", "median", "max", "wall [s]"):
+    for col in ("method", "runs", "success", "min", "mean", "median", "max", "wall (s)"):
         table.add_column(col, justify="right")
     for r in rows:
         table.add_row(
@@ -181,6 +181,23 @@ def bench_simulate(
         rows = run_simulate_benchmark(repeat, opensees=None if opensees else False)
     print_simulate_rows(rows, console)
     _write_json(json_path, rows)
+
+
+@app.command()
+def report(
+    results: Annotated[Path, typer.Argument(help="A results directory (femupdate run --out).")],
+    data: Annotated[Path | None, typer.Option(help="Read the measured records from this "
+                                                   "directory (if they have moved).")] = None,
+    identifiability: Annotated[bool, typer.Option(help="Compute the sensitivities at the best "
+                                                       "solution (2 simulations per "
+                                                       "parameter).")] = True,
+) -> None:
+    """Write a self-contained HTML report (and its PNGs) of a results directory."""
+    from femupdate.report.html import write_report
+
+    with console.status("writing the report…"):
+        path = write_report(results, data_dir=data, identifiability=identifiability)
+    console.print(f"report: {path}")
 
 
 @app.command()

@@ -50,9 +50,16 @@ def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
 
 
 def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: float,
-              f_target: float | None) -> dict[str, Any]:
-    """summary.json: every run, the best, and the spread over successful runs."""
+              f_target: float | None, settings: dict[str, Any] | None = None) -> dict[str, Any]:
+    """summary.json: every run, the best, and the spread over successful runs.
+
+    The case is saved with its data directory made absolute, so that the results can be
+    re-simulated (``femupdate report``) from anywhere.
+    """
     case = problem.case
+    case_dict = case.to_dict()
+    if case_dict.get("data") is not None:
+        case_dict["data"]["directory"] = str(case.data_directory().resolve())
     names = problem.names
     phis = np.array([o.fun for o in outcomes])
     best = outcomes[int(np.argmin(phis))]
@@ -79,7 +86,9 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         for j, ch in enumerate(problem.experiment.channels)
     }
     return {
-        "case": case.to_dict(),
+        "case": case_dict,
+        "case_file": str(case.source) if case.source is not None else None,
+        "settings": settings or {},
         "fingerprint": case.fingerprint(),
         "method": case.search.method,
         **evaluation_stats([o.nfev for o in outcomes], success),
@@ -184,7 +193,12 @@ def run_case(
         label=case.label,
         keep_history=plots,
     )
-    summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target)
+    settings = {"runs": runs or search.runs, "seed": search.seed if seed is None else seed,
+                "max_evals": max_evals or search.max_evals, "f_target": search.f_target,
+                "method": search.method, "options": optimizer_options(case),
+                "workers": workers, "scheduler": scheduler}
+    summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target,
+                        settings)
     result = UpdateResult(summary, outcomes, problem)
     if out_dir is not None:
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

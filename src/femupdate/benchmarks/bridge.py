@@ -16,6 +16,7 @@ vertical axis, so P1–P3 translations are the paper's DOFs 3, 5 and 7.
 
 from __future__ import annotations
 
+import json
 import shutil
 import tempfile
 from pathlib import Path
@@ -184,6 +185,27 @@ def bridge_case(model: str = "viscous", band: str = "narrow", *,
     }
 
 
+def viscous_problem(work_dir: Path | None = None, *, seed: int = 0, snr: float = 0.0):
+    """φ of the viscous bridge (narrow band) on its virtual experiment, as an UpdateProblem.
+
+    The records are written once to ``work_dir`` (default: a folder in the temporary
+    directory named by the seed and noise) and reused.
+    """
+    from femupdate.case import parse_case
+    from femupdate.experiment import load_experiment
+    from femupdate.update import UpdateProblem
+    from femupdate.virtual import virtual_experiment
+
+    work = work_dir or Path(tempfile.gettempdir()) / f"femupdate-bridge-viscous-{seed}-{snr:g}"
+    case = parse_case(bridge_case("viscous", "narrow", directory=str(work)),
+                      source=work / "viscous-narrow.toml")
+    if not (work / "manifest.json").exists():
+        virtual_experiment(case, truth("viscous"), work, seed=seed, duration=DURATION,
+                           rate=SAMPLE_RATE, snr=snr, offset=0.05 if snr else 0.0,
+                           drift=0.01 if snr else 0.0)
+    return UpdateProblem(case, load_experiment(case))
+
+
 def run_bridge_benchmark(
     model: str = "viscous",
     band: str = "narrow",
@@ -266,4 +288,6 @@ def run_bridge_benchmark(
                       "seed": seed, "snr": snr, "f_target": f_target, "data": str(data_dir),
                       "results": str(out)},
     })
+    # The benchmark's extras (truth, noise floor, …) go into summary.json for the report.
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     return summary

@@ -1,0 +1,278 @@
+"""``write_report``: the HTML holds summary.json's numbers, every image exists and decodes, values
+at a bound are flagged, and what cannot be drawn is said."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from collections.abc import Callable
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import DESCRIPTION
+
+from femupdate.errors import FemupdateError
+from femupdate.report.html import (
+    BOUND_TOL,
+    bound_flags,
+    bound_positions,
+    format_number,
+    spectrum_limit,
+    write_report,
+)
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+class Page(HTMLParser):
+    """Image sources, and the tables with an id as rows of (text, class) cells."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.images: list[str] = []
+        self.tables: dict[str, list[list[tuple[str, str]]]] = {}
+        self.ids: set[str] = set()
+        self._table: str | None = None
+        self._cell: list[str] | None = None
+        self._cls = ""
+        self.feed(text)
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = dict(attrs)
+        if a.get("id"):
+            self.ids.add(a["id"] or "")
+        if tag == "img":
+            self.images.append(a["src"] or "")
+        elif tag == "table" and a.get("id"):
+            self._table = a["id"]
+            self.tables[self._table] = []
+        elif tag == "tr" and self._table is not None:
+            self.tables[self._table].append([])
+        elif tag in ("td", "th") and self._table is not None:
+            self._cell, self._cls = [], a.get("class") or ""
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag == "table":
+            self._table = None
+        elif tag in ("td", "th") and self._cell is not None and self._table is not None:
+            self.tables[self._table][-1].append(("".join(self._cell).strip(), self._cls))
+            self._cell = None
+
+    def handle_data(self, data: str) -> None:
+        if self._cell is not None:
+            self._cell.append(data)
+
+    def rows(self, table: str) -> list[dict[str, tuple[str, str]]]:
+        """Body rows of a table as {header: (text, class)}."""
+        header, *body = self.tables[table]
+        return [dict(zip([h for h, _ in header], row, strict=True)) for row in body]
+
+
+def parse(path: Path) -> tuple[Page, str]:
+    text = path.read_text(encoding="utf-8")
+    return Page(text), text
+
+
+def number(cell: str) -> float:
+    """A printed number back (thousands separators, plain exponents)."""
+    return float(cell.split()[0].replace(",", ""))
+
+
+def assert_printed(cell: str, value: float, digits: int = 4) -> None:
+    """The cell shows ``value`` to ``digits`` significant digits."""
+    rtol = 0.5 * 10.0 ** (1 - digits)
+    assert math.isclose(number(cell), value, rel_tol=rtol, abs_tol=1e-300), (cell, value)
+
+
+@pytest.fixture(scope="module")
+def report(results_dir: Path) -> Path:
+    return write_report(results_dir)
+
+
+@pytest.fixture(scope="module")
+def summary(results_dir: Path) -> dict:
+    return json.loads((results_dir / "summary.json").read_text())
+
+
+# ----------------------------------------------------------------------------- pure functions
+
+
+@pytest.mark.parametrize(("value", "text"), [
+    (1234.5678, "1235"), (0.012345678, "0.01235"), (2.1e11, "2.1e11"), (3.5e-5, "3.5e-5"),
+    (-123456.0, "-1.235e5"), (12345, "12,345"), (0.0, "0"), (None, "–"), (math.nan, "–"),
+    (math.inf, "∞"), (np.int64(300), "300"), (1.0, "1"), (1e4, "10000"), (0.5, "0.5"),
+])
+def test_format_number(value: object, text: str) -> None:
+    assert format_number(value) == text
+
+
+def test_bound_positions_linear_and_log() -> None:
+    lower, upper = np.array([0.0, 500.0]), np.array([5.0, 5000.0])
+    log = np.array([False, True])
+    values = np.array([[0.0, 500.0], [5.0, 5000.0], [1.25, math.sqrt(500.0 * 5000.0)],
+                       [2.5, -1.0]])
+    pos = bound_positions(values, lower, upper, log)
+    np.testing.assert_allclose(pos[:3], [[0.0, 0.0], [1.0, 1.0], [0.25, 0.5]], atol=1e-12)
+    assert pos[3, 0] == 0.5 and pos[3, 1] == -np.inf  # a log parameter ≤ 0: below its bound
+
+
+def test_bound_flags_use_the_tolerance_of_the_range() -> None:
+    pos = np.array([0.0, 0.5 * BOUND_TOL, 2 * BOUND_TOL, 0.5, 1 - 2 * BOUND_TOL,
+                    1 - 0.5 * BOUND_TOL, 1.0, -np.inf])
+    assert bound_flags(pos).tolist() == [-1, -1, 0, 0, 0, 1, 1, -1]
+
+
+def test_spectrum_limit() -> None:
+    f = np.linspace(0.0, 100.0, 101)
+    amp = np.zeros((101, 2))
+    amp[10, 0] = 1.0  # all the energy at 10 Hz
+    assert spectrum_limit(f, amp) == 15.0
+    amp[90, 1] = 1.0  # half of it at 90 Hz: 1.5 × 90 is beyond Nyquist
+    assert spectrum_limit(f, amp) == 100.0
+    assert spectrum_limit(f, np.zeros(101)) == 100.0
+
+
+# ----------------------------------------------------------------------------- the report
+
+
+def test_every_image_exists_and_is_a_png(report: Path) -> None:
+    from matplotlib.image import imread
+
+    page, _ = parse(report)
+    assert report.name == "report.html"
+    expected = {"phi", "beta", "parameters", "spread", "fit", "spectra", "correlation"}
+    assert {Path(src).stem for src in page.images} == expected
+    for src in page.images:
+        assert src.startswith("report/") and not Path(src).is_absolute()
+        path = report.parent / src
+        assert path.read_bytes()[:8] == PNG_SIGNATURE, src
+        image = imread(path)
+        assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100, src
+
+
+def test_runs_table_holds_the_summary(report: Path, summary: dict) -> None:
+    page, _ = parse(report)
+    rows = page.rows("runs")
+    assert len(rows) == len(summary["runs"]) == 3
+    names = list(summary["best"]["params"])
+    for row, run in zip(rows, summary["runs"], strict=True):
+        run_cell = row["run"][0]
+        assert int(run_cell.split()[0]) == run["index"]
+        assert ("best" in run_cell) == (run["index"] == summary["best"]["run"])
+        assert_printed(row["NMSE %"][0], 100.0 * run["phi"])
+        assert int(row["evaluations"][0].replace(",", "")) == run["nfev"]
+        assert row["success"][0] == ("yes" if run["success"] else "no")
+        assert "max_evals" in row["stop"][0]
+        for name in names:
+            cell = next(v for k, v in row.items() if k.split()[0] == name)
+            assert_printed(cell[0], run["params"][name])
+
+
+def test_best_parameters_and_frequencies(report: Path, summary: dict) -> None:
+    page, text = parse(report)
+    best = summary["best"]
+    for row in page.rows("spread"):
+        name = row["parameter"][0]
+        assert_printed(row["best"][0], best["params"][name])
+    freqs = page.rows("frequencies")
+    assert len(freqs) == len(best["frequencies_hz"]) == 2
+    for row, f in zip(freqs, best["frequencies_hz"], strict=True):
+        assert_printed(row["best model [Hz]"][0], f)
+    channels = {r["channel"][0]: r["NMSE %"][0] for r in page.rows("channels-nmse")}
+    for ch, value in best["nmse_per_channel"].items():
+        assert_printed(channels[ch], 100.0 * value)
+    # The re-simulated best model reproduces the stored φ: no warning.
+    assert "changed since the runs" not in text
+
+
+def test_case_section_and_escaping(report: Path) -> None:
+    page, text = parse(report)
+    assert "&lt;b&gt;test&lt;/b&gt; &amp; friends" in text
+    assert DESCRIPTION not in text
+    params = {r["parameter"][0]: r for r in page.rows("parameters")}
+    assert params["k2"]["scale"][0] == "log" and number(params["k2"]["upper"][0]) == 5000.0
+    assert params["c1"]["unit"][0] == "N·s/m"
+    assert "numpy" in text and "<script" not in text  # versions from the store; no JavaScript
+
+
+def test_identifiability_section(report: Path) -> None:
+    page, _ = parse(report)
+    rows = page.rows("identifiability")
+    assert [r["parameter"][0] for r in rows] == ["k1", "k2", "c1", "c2"]
+    for r in rows:
+        assert number(r["Δφ for a 1 % change"][0]) >= 0.0
+        assert r["determined"][0] in ("yes", "no")
+    assert "undetermined" in page.ids
+
+
+def test_parameters_at_a_bound_are_flagged(copy_results: Callable[[], Path]) -> None:
+    out = copy_results()
+    path = out / "summary.json"
+    summary = json.loads(path.read_text())
+    summary["runs"][0]["params"]["c2"] = 0.0                 # exactly the lower bound
+    summary["runs"][1]["params"]["k2"] = 5000.0 * (1 - 1e-4)  # log scale, within 1e-3
+    summary["runs"][2]["params"]["c1"] = 0.02                 # 4e-3 of the range: inside
+    path.write_text(json.dumps(summary))
+    page, _ = parse(write_report(out, identifiability=False))
+    rows = page.rows("runs")
+    assert "improper minimum" in rows[0]["improper minimum"][0]
+    assert "c2 (lower)" in rows[0]["improper minimum"][0]
+    assert "bound" in rows[0]["c2 [N·s/m]"][1]
+    assert "k2 (upper)" in rows[1]["improper minimum"][0]
+    assert "bound" not in rows[2]["c1 [N·s/m]"][1]
+    assert "c1" not in rows[2]["improper minimum"][0]
+    assert "improper" in page.ids
+
+
+def test_without_store_or_data_the_report_says_what_it_could_not_draw(
+        copy_results: Callable[[], Path], tmp_path: Path) -> None:
+    out = copy_results()
+    (out / "results.sqlite").unlink()
+    summary = json.loads((out / "summary.json").read_text())
+    data = Path(summary["case"]["data"]["directory"])
+    moved = tmp_path / "moved-data"
+    shutil.copytree(data, moved)
+    # Point the saved case at a directory that does not exist: the data "moved away".
+    summary["case"]["data"]["directory"] = str(tmp_path / "gone")
+    summary["truth_frequencies_hz"] = [4.0, 10.0]
+    (out / "summary.json").write_text(json.dumps(summary))
+    stale = out / "report" / "phi.png"  # from an earlier report that had the store
+    stale.parent.mkdir()
+    stale.write_bytes(PNG_SIGNATURE)
+
+    page, text = parse(write_report(out, identifiability=False))
+    assert not stale.exists()
+    assert "missing" in page.ids
+    assert "results.sqlite" in text
+    for what in ("φ against evaluations", "a, b and σ against step",
+                 "measured against predicted time histories and spectra"):
+        assert f"{what} not drawn" in text
+    assert "gone" in text and "file not found" in text  # which file could not be read
+    assert {Path(s).stem for s in page.images} == {"spread"}
+    for src in page.images:
+        assert (out / src).read_bytes()[:8] == PNG_SIGNATURE
+    # Frequencies against the reference given in the summary.
+    row = page.rows("frequencies")[0]
+    assert_printed(row["best − truth [%]"][0],
+                   100.0 * (summary["best"]["frequencies_hz"][0] / 4.0 - 1.0), digits=3)
+
+    # With the data directory given, the fit is drawn again.
+    page, _ = parse(write_report(out, data_dir=moved, identifiability=False))
+    assert {"fit", "spectra"} <= {Path(s).stem for s in page.images}
+
+
+def test_missing_summary_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(FemupdateError, match=r"summary\.json") as info:
+        write_report(tmp_path)
+    assert str(tmp_path / "summary.json") in str(info.value)
+    with pytest.raises(FemupdateError, match="results directory not found"):
+        write_report(tmp_path / "nowhere")
+    (tmp_path / "summary.json").write_text('{"case": ')
+    with pytest.raises(FemupdateError, match=r"summary\.json:1:\d+: not valid JSON"):
+        write_report(tmp_path)
+    (tmp_path / "summary.json").write_text('{"case": {}}')
+    with pytest.raises(FemupdateError, match="missing runs, best"):
+        write_report(tmp_path)
