@@ -17,7 +17,6 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.experiment import load_experiment
 from femupdate.model.modes import natural_frequencies
-from femupdate.objective import nmse
 from femupdate.runs.runner import RunOutcome, run_all
 from femupdate.runs.stats import evaluation_stats, spread
 from femupdate.update import UpdateProblem
@@ -79,12 +78,11 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     values = np.array([[r["params"][n] for n in names] for r, ok in zip(runs, success,
                                                                        strict=True) if ok])
     freqs = np.array([_frequencies(problem, o.x) for o in good])
-    response = problem.simulate(best.x)
-    prediction = problem.prediction(response)
-    per_channel = {
-        ch: nmse(prediction[:, [j]], problem.experiment.target[:, [j]])
-        for j, ch in enumerate(problem.experiment.channels)
-    }
+    # With experimental parameters, each channel's NMSE is against the measurement corrected
+    # by its fitted integration constants, as φ itself.
+    prediction = problem.prediction(problem.simulate(best.x))
+    per_channel = dict(zip(problem.experiment.channels,
+                           problem.objective.per_channel(prediction).tolist(), strict=True))
     return {
         "case": case_dict,
         "case_file": str(case.source) if case.source is not None else None,
@@ -120,8 +118,9 @@ def write_plots(result: UpdateResult, out_dir: Path) -> list[Path]:
     best = next(o for o in result.outcomes if o.index == best_index)
     exp = problem.experiment
     prediction = problem.prediction(problem.simulate(best.x))
+    measured = problem.objective.corrected_target(prediction).reshape(prediction.shape)
     unit = "m" if exp.quantity == "displacement" else "m/s²"
-    paths = [plot_fit(exp.t, exp.target, prediction, out_dir / "fit.png",
+    paths = [plot_fit(exp.t, measured, prediction, out_dir / "fit.png",
                       labels=[f"{c} [{unit}]" for c in exp.channels])]
     histories = [o.history for o in result.outcomes if o.history is not None]
     if histories:
