@@ -121,41 +121,36 @@ def foh_state_matrices(
 
 
 @njit(cache=True)
-def _modal_recursion(ag, fmod, e, c0, c1, g0, g1, z0, W, n_out):
-    """Run the modal filters and sum them into outputs at every sample.
+def _modal_recursion(ag, fmod, e, c0, c1, g0, g1, z0):
+    """Run the modal filters: the real and imaginary parts of every mode at every sample.
 
-    ``z_{k+1} = e z_k + c0 a_k + c1 a_{k+1} (+ g0 F_k + g1 F_{k+1})``; output column c at
-    sample k is ``Σ_j W[j,0,c] Re z_j + W[j,1,c] Im z_j``. Returns (out (3, ns, n_out), diverged).
+    ``z_{k+1} = e z_k + c0 a_k + c1 a_{k+1} (+ g0 F_k + g1 F_{k+1})``. Returns
+    (Z (ns, 2m) with ``Re z`` in the first m columns and ``Im z`` in the last m, diverged).
     """
     ns = ag.shape[0]
     m = e.shape[0]
-    q = W.shape[2]
     has_force = fmod.shape[0] > 0
-    out = np.empty((3, ns, n_out))
+    Z = np.empty((ns, 2 * m))
     z = z0.copy()
-    y = np.empty(q)
-    for k in range(ns):
-        if k > 0:
-            s = 0.0
-            for j in range(m):
-                zj = e[j] * z[j] + c0[j] * ag[k - 1] + c1[j] * ag[k]
-                if has_force:
-                    zj += g0[j] * fmod[k - 1, j] + g1[j] * fmod[k, j]
-                z[j] = zj
-                s += abs(zj.real) + abs(zj.imag)
-            if not s < DIVERGENCE_LIMIT:  # NaN fails too
-                return out, True
-        y[:] = 0.0
+    for j in range(m):
+        Z[0, j] = z[j].real
+        Z[0, m + j] = z[j].imag
+    for k in range(1, ns):
+        ak0 = ag[k - 1]
+        ak1 = ag[k]
         for j in range(m):
-            zr = z[j].real
-            zi = z[j].imag
-            for c in range(q):
-                y[c] += W[j, 0, c] * zr + W[j, 1, c] * zi
-        for o in range(n_out):
-            out[0, k, o] = y[o]
-            out[1, k, o] = y[n_out + o]
-            out[2, k, o] = y[2 * n_out + o]
-    return out, False
+            zj = e[j] * z[j] + c0[j] * ak0 + c1[j] * ak1
+            if has_force:
+                zj += g0[j] * fmod[k - 1, j] + g1[j] * fmod[k, j]
+            z[j] = zj
+            Z[k, j] = zj.real
+            Z[k, m + j] = zj.imag
+    # The recursion is linear: a solution that overflowed stays inf or NaN to the end, so the
+    # last state tells (one check instead of one per step).
+    s = 0.0
+    for j in range(m):
+        s += abs(z[j].real) + abs(z[j].imag)
+    return Z, not s < DIVERGENCE_LIMIT  # NaN fails the comparison too
 
 
 @njit(cache=True)
@@ -258,10 +253,9 @@ class ExactSimulator:
         self._c1 = g1 * b_ag
         out = self.outputs
         rows = np.vstack([V[out], V[n + out], (V * lam)[n + out]])[:, keep] * weight
-        W = np.empty((lam_k.size, 2, rows.shape[0]))
-        W[:, 0, :] = rows.real.T
-        W[:, 1, :] = -rows.imag.T
-        self._W = W
+        # Output = Re(rows · z) = rows.real · Re z − rows.imag · Im z: one product with the
+        # (samples × 2m) history of the modes gives every output at every sample.
+        self._W = np.ascontiguousarray(np.vstack([rows.real.T, -rows.imag.T]))
         self._no_force = np.zeros((0, lam_k.size), dtype=np.complex128)
 
     def _prepare_dense(self, system: System, minv: np.ndarray, A: np.ndarray) -> None:
@@ -314,19 +308,13 @@ class ExactSimulator:
         z0 = self._vinv @ np.concatenate([x0, v0])
         fmod = self._no_force if force is None else np.ascontiguousarray(force @ self._b_force.T)
         a = np.zeros(ns) if ag is None else ag
-        out, diverged = _modal_recursion(
-            a,
-            fmod,
-            self._e,
-            self._c0,
-            self._c1,
-            self._g0,
-            self._g1,
-            z0,
-            self._W,
-            self.outputs.size,
+        Z, diverged = _modal_recursion(
+            a, fmod, self._e, self._c0, self._c1, self._g0, self._g1, z0
         )
-        disp, vel, acc = out[0], out[1], out[2]
+        if diverged:
+            nan = np.full((ns, self.outputs.size), np.nan)
+            return nan, nan.copy(), nan.copy(), True
+        disp, vel, acc = np.hsplit(Z @ self._W, 3)
         if force is not None and not diverged:
             acc += force @ self._minv_out.T  # direct feed-through of the nodal forces
         return disp, vel, acc, diverged
