@@ -17,7 +17,7 @@ from femupdate.case import Case, build_structure, format_value, load_case, parse
 from femupdate.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
-MINIMAL = ROOT / "examples" / "minimal" / "case.toml"
+MINISHAKE = ROOT / "examples" / "minishake-1story" / "elcentro.toml"
 DOCS = ROOT / "docs" / "case-files.md"
 
 # A small beam on springs: deck A1 - P1 - A2 (2 DOF/node), both ends on the same spring "ka".
@@ -150,9 +150,10 @@ def assert_names(message: str, path: Path, field: str, *values: str) -> str:
 # ----------------------------------------------------------------------------- valid cases
 
 
-def test_minimal_example_loads() -> None:
-    case = load_case(MINIMAL)
-    assert case.source == MINIMAL
+def test_minishake_example_loads() -> None:
+    """The smaller, real case that docs/case-files.md points to."""
+    case = load_case(MINISHAKE)
+    assert case.source == MINISHAKE
     assert case.parameter_names == ("k1", "c1")
     # k1 is log scale on [500, 20000]: the search bounds are the log10 of the bounds
     assert case.bounds[0] == pytest.approx((math.log10(500.0), math.log10(20000.0)))
@@ -162,13 +163,18 @@ def test_minimal_example_loads() -> None:
     assert case.data is not None
     assert case.data_path(case.data.input).name == "stiff1_elcentro_t1_ground.csv"
     assert case.data_path(case.data.input).parent.name == "minishake_1story"
+    assert case.data.outputs[0].delay == "auto"
+    assert case.preprocess.delay_band_hz == [1.0, 10.0]
+    assert "examples/minishake-1story/elcentro.toml" in DOCS.read_text(encoding="utf-8")
 
 
 def test_base_case_loads_and_defaults_are_filled(tmp_path: Path) -> None:
     case = load_case(write(tmp_path, BASE))
     assert case.parameter_names == ("E", "ka", "kp")
     assert case.search.method == "ab" and case.search.runs == 1
-    assert case.preprocess.highpass_order == 4 and case.preprocess.zero_phase is True
+    assert case.preprocess.highpass_order == 4 and case.preprocess.zero_phase is False
+    assert case.preprocess.delay_band_hz == [1.0, 10.0]
+    assert case.data is not None and case.data.outputs[0].delay == 0.0
     assert case.objective.quantity == "displacement"
     assert case.model.beams[0].kappa == pytest.approx(5 / 6)
     assert case.model.excitation_direction == "y"
@@ -468,6 +474,47 @@ def test_time_axis_needs_exactly_one_of_time_column_and_rate(tmp_path: Path) -> 
     assert_names(message, tmp_path / "case.toml", "data.rate", "both given")
     message = problems(tmp_path, edit('format = "csv"', 'format = "uff"'))
     assert_names(message, tmp_path / "case.toml", "data.time_column", "UFF")
+
+
+OUTPUT = 'column = "p1"\nnode = "P1"\ndof = "uy"'
+
+
+@pytest.mark.parametrize(("value", "shown", "what"), [
+    ("12.5", "got 12.5", "out of range"),
+    ("-10.5", "got -10.5", "out of range"),
+    ('"soon"', "got 'soon'", 'not a number or "auto"'),
+    ('"0.02"', "got '0.02'", "remove the quotes"),
+    ("nan", "got nan", "not a finite number"),
+    ("true", "got true", "not a number"),
+])
+def test_bad_channel_delay(tmp_path: Path, value: str, shown: str, what: str) -> None:
+    message = problems(tmp_path, edit(OUTPUT, f"{OUTPUT}\ndelay = {value}"))
+    line = assert_names(message, tmp_path / "case.toml", "data.outputs[0].delay", shown, what)
+    assert 'a number in [-10, 10] (s), or "auto"' in line
+
+
+@pytest.mark.parametrize("value", ["-10", "0.0231", "10.0", '"auto"'])
+def test_channel_delay_accepts_numbers_in_range_and_auto(tmp_path: Path, value: str) -> None:
+    case = load_case(write(tmp_path, edit(OUTPUT, f"{OUTPUT}\ndelay = {value}")))
+    assert case.data is not None
+    assert case.data.outputs[0].delay == ("auto" if value == '"auto"' else float(value))
+    assert parse_case(case.to_dict()).to_dict() == case.to_dict()
+
+
+def test_delay_band(tmp_path: Path) -> None:
+    auto = edit(OUTPUT, f'{OUTPUT}\ndelay = "auto"')
+    message = problems(tmp_path, auto + "\n[preprocess]\ndelay_band_hz = [10.0, 2.0]\n")
+    assert_names(message, tmp_path / "case.toml", "preprocess.delay_band_hz", "[10, 2]",
+                 "low is not below high")
+    message = problems(tmp_path, auto + "\n[preprocess]\ndelay_band_hz = [0.0, 2.0]\n")
+    assert_names(message, tmp_path / "case.toml", "preprocess.delay_band_hz[0]", "got 0")
+    # with a known rate the band must lie below Nyquist, when a delay is "auto"
+    at_100 = auto.replace('time_column = "t"', "rate = 100.0")
+    message = problems(tmp_path, at_100 + "\n[preprocess]\ndelay_band_hz = [1.0, 50.0]\n")
+    assert_names(message, tmp_path / "case.toml", "preprocess.delay_band_hz", "[1, 50]",
+                 "100 Hz", "Nyquist frequency 50 Hz")
+    fixed = edit('time_column = "t"', "rate = 100.0") + "\n[preprocess]\ndelay_band_hz = [1, 50]\n"
+    assert load_case(write(tmp_path, fixed, "fixed.toml")).preprocess.delay_band_hz == [1, 50]
 
 
 def test_all_problems_are_reported_together(tmp_path: Path) -> None:

@@ -295,6 +295,25 @@ def _column_check(value: Any) -> str | int:
     return value
 
 
+_DELAY_RANGE = Range(ge=-10.0, le=10.0, unit="s")
+
+
+def _delay_check(value: Any) -> float | str:
+    """A channel delay: a number of seconds in range, or ``"auto"``."""
+    if value == "auto":
+        return "auto"
+    allowed = {"allowed": f"{_DELAY_RANGE.describe()}, or \"auto\" (estimated from the data)"}
+    if isinstance(value, str):
+        hint = "; a number in quotes: remove the quotes" if _is_number(value) else ""
+        raise PydanticCustomError("delay_value", "got {got}: not a number or \"auto\"" + hint,
+                                  {**allowed, "got": repr(value)})
+    try:
+        return _DELAY_RANGE(value)
+    except PydanticCustomError as exc:
+        raise PydanticCustomError(exc.type, exc.message_template, {**exc.context, **allowed}
+                                  ) from None
+
+
 def _json_value(value: Any, depth: int = 0) -> bool:
     if depth > 8:
         return False
@@ -336,6 +355,8 @@ Column = Annotated[str | int, PlainValidator(_column_check),
                    WithJsonSchema({"anyOf": [{"type": "string"}, {"type": "integer"}]})]
 Options = Annotated[dict[str, Any], PlainValidator(_options_check),
                     WithJsonSchema({"type": "object"})]
+Delay = Annotated[float | str, PlainValidator(_delay_check), WithJsonSchema(
+    {"anyOf": [_DELAY_RANGE.json_schema(), {"const": "auto"}]})]
 
 # Generous physical ranges: they catch slips of units and signs, not unusual structures.
 Coordinate = _number("m", ge=-1e6, le=1e6)
@@ -771,6 +792,7 @@ class OutputChannel(Channel):
     dof: DofName
     weight: _number(gt=0.0, le=1e6) = 1.0
     name: ElementName | None = None
+    delay: Delay = 0.0
 
     @property
     def label(self) -> str:
@@ -865,9 +887,20 @@ class Preprocess(_Section):
 
     highpass_hz: _number("Hz", ge=0.0, le=1e6) = 0.0
     highpass_order: _integer(ge=1, le=8) = 4
-    zero_phase: bool = True
+    zero_phase: bool = False
     resample_hz: _number("Hz", gt=0.0, le=1e7) | None = None
     substeps: _integer(ge=1, le=1000) = 1
+    delay_band_hz: Annotated[list[_number("Hz", gt=0.0, le=1e7)],
+                             Field(min_length=2, max_length=2)] = Field(
+        default_factory=lambda: [1.0, 10.0])
+
+    @model_validator(mode="after")
+    def _check(self) -> Preprocess:
+        low, high = self.delay_band_hz
+        if low >= high:
+            _raise_issues([("delay_band_hz", f"got {format_value(self.delay_band_hz)}: low is "
+                            "not below high", "[low, high] with 0 < low < high, Hz")])
+        return self
 
 
 class Objective(_Section):
@@ -1087,6 +1120,13 @@ def _case_issues(case: Case) -> list[Issue]:
             issues.append(("preprocess.highpass_hz", f"got {cutoff} for data at "
                            f"{format_value(rate)} Hz",
                            f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
+        band = case.preprocess.delay_band_hz
+        auto = any(out.delay == "auto" for out in case.data.outputs)
+        if auto and rate is not None and band[0] < band[1] and band[1] >= rate / 2:
+            issues.append(("preprocess.delay_band_hz", f"got {format_value(band)} for data at "
+                           f"{format_value(rate)} Hz (used by delay = \"auto\")",
+                           f"0 < low < high < the Nyquist frequency {format_value(rate / 2)} "
+                           "Hz, well below the first resonance"))
     return issues
 
 

@@ -1,20 +1,28 @@
 """Measured data of a case, read and processed as the paper did (METHOD.md §8).
 
-files ─► Measurement (SI units, one time base, window) ─► high-pass ─► the base input a_g and,
-per output channel, the target: relative displacement (channel − table, integrated twice by the
-trapezoidal rule) or absolute acceleration.
+files ─► Measurement (SI units, one time base, window) ─► channel delays removed ─► high-pass
+─► the base input a_g and, per output channel, the target: relative displacement (channel −
+table, integrated twice by the trapezoidal rule) or absolute acceleration.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import ACCELERATION_UNITS, TIME_UNITS, Case
+from femupdate.case import ACCELERATION_UNITS, TIME_UNITS, Case, format_value
 from femupdate.data import io, signal
-from femupdate.errors import DataError
+from femupdate.errors import ConfigError, DataError
+
+__all__ = ["Experiment", "apply_delays", "load_experiment", "process", "read_measurement"]
+
+#: Samples trimmed beyond those a shift leaves undefined: where the band-limited shift of
+#: `signal.advance` is approximate (within 0.5 % of the record's scale on measured records).
+DELAY_TRIM_EXTRA = 4
 
 
 @dataclass(frozen=True)
@@ -36,6 +44,9 @@ class Experiment:
     channels : tuple of str
         Output channel labels.
     weights : ndarray (k,)
+    delays : dict of str to float
+        Delay (s) removed from each output channel whose ``delay`` is not 0 (given, or
+        estimated for ``"auto"``); empty when none was.
     """
 
     t: np.ndarray
@@ -45,6 +56,7 @@ class Experiment:
     quantity: str
     channels: tuple[str, ...]
     weights: np.ndarray
+    delays: dict[str, float] = field(default_factory=dict)
 
     @property
     def dt(self) -> float:
@@ -52,29 +64,47 @@ class Experiment:
 
 
 def _read(case: Case, file: Path, column: str | int, name: str) -> io.Measurement:
+    """One channel of a file, renamed ``name`` once read: read errors name the file's column."""
     data = case.data
-    assert data is not None  # checked by the caller
-    fmt = data.format
-    if fmt == "csv":
-        time_unit = TIME_UNITS[data.time_unit]
-        return io.read_csv(
-            file, {name: column}, time=data.time_column, rate=data.rate, time_scale=time_unit,
-            delimiter=data.delimiter, skip_lines=data.skip_lines, header=data.header,
-            skip_rows=data.skip_rows, comments=data.comments,
+    if data is None:
+        raise DataError(f"{case.label}: the case has no [data] section: nothing to read")
+    if data.format == "csv":
+        rec = io.read_csv(
+            file, [column], time=data.time_column, rate=data.rate,
+            time_scale=TIME_UNITS[data.time_unit], delimiter=data.delimiter,
+            skip_lines=data.skip_lines, header=data.header, skip_rows=data.skip_rows,
+            comments=data.comments,
         )
-    if fmt == "npz":
-        return io.read_npz(file, [str(column)]).rename({str(column): name})
-    return io.read_uff58(file, [str(column)]).rename({str(column): name})
+    elif data.format == "npz":
+        rec = io.read_npz(file, [str(column)])
+    else:
+        rec = io.read_uff58(file, [str(column)])
+    (read_as,) = rec.names
+    return rec.rename({read_as: name})
+
+
+def _check_rates(case: Case, records: list[io.Measurement]) -> None:
+    """Files at different rates need ``resample_hz``; say so in the case file's words."""
+    rates = {rec.source: rec.rate for rec in records}  # one entry per file
+    fastest = max(rates.values())
+    if max(rates.values()) - min(rates.values()) <= 1e-6 * fastest:
+        return
+    listing = ", ".join(f"{source}: {rate:.6g} Hz" for source, rate in rates.items())
+    raise DataError(f"{case.label}: the data files are sampled at different rates ({listing}); "
+                    f"set [preprocess] resample_hz = {format_value(float(f'{fastest:.6g}'))} "
+                    "(or another rate) to resample all channels to one rate")
 
 
 def read_measurement(case: Case) -> io.Measurement:
     """The input and output channels of ``case`` in m/s² on one time base, windowed.
 
-    The input channel is named ``"input"``; outputs by their labels.
+    The input channel is named ``"input"``; outputs by their labels. With
+    ``[preprocess] resample_hz`` every record is resampled to that rate before alignment;
+    without it, all files must have the same rate.
     """
     data = case.data
     if data is None:
-        raise DataError(f"{case.source}: the case has no [data] section: nothing to fit")
+        raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
     specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
     records = []
     for name, channel in specs:
@@ -82,20 +112,92 @@ def read_measurement(case: Case) -> io.Measurement:
         scale = ACCELERATION_UNITS[channel.unit or data.unit]
         records.append(io.Measurement(rec.t, {name: rec[name] * scale}, {name: "m/s2"},
                                       rec.source))
-    aligned = io.align(*records)
+    rate = case.preprocess.resample_hz
+    if rate is None:
+        _check_rates(case, records)
+    aligned = io.align(*records, rate=rate)
     merged = io.Measurement(
         aligned[0].t, {k: v for m in aligned for k, v in m.channels.items()},
         {k: "m/s2" for m in aligned for k in m.channels}, str(case.data_directory()),
     )
     if data.window is not None:
         merged = merged.window(*data.window).shifted(0.0)
-    if case.preprocess.resample_hz is not None:
-        t_new = None
-        channels = {}
-        for name, y in merged.channels.items():
-            t_new, channels[name] = io.resample(merged.t, y, case.preprocess.resample_hz)
-        merged = io.Measurement(t_new - t_new[0], channels, merged.units, merged.source)
     return merged
+
+
+def apply_delays(
+    measurement: io.Measurement,
+    delays: Mapping[str, float | str],
+    *,
+    input_name: str = "input",
+    band: tuple[float, float] = (1.0, 10.0),
+    highpass_hz: float = 0.0,
+    highpass_order: int = 4,
+    zero_phase: bool = False,
+) -> tuple[io.Measurement, dict[str, float]]:
+    """Shift output channels back by their delay behind the input channel.
+
+    ``"auto"`` delays are estimated by `signal.estimate_delay` in ``band`` on copies
+    high-passed at ``highpass_hz`` (when > 0: offsets and drift removed); every delay is then
+    removed from the record itself by `signal.advance`. The samples a shift leaves undefined,
+    and `DELAY_TRIM_EXTRA` more where it is approximate, are trimmed from both ends of every
+    channel (so that all stay simultaneous); time restarts at 0. Zero delays change nothing.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        Aligned channels, the input among them.
+    delays : mapping
+        Channel name to its delay (s, positive when the channel lags the input) or ``"auto"``.
+
+    Returns
+    -------
+    measurement : Measurement
+        The realigned channels (the same object when no delay is removed).
+    delays : dict
+        Delay (s) removed from each channel with a non-zero (or "auto") delay.
+    """
+    rate = measurement.rate
+    if any(d == "auto" for d in delays.values()):
+        x = measurement[input_name]
+        if highpass_hz > 0.0:
+            x = signal.highpass(x, rate, highpass_hz, order=highpass_order,
+                                zero_phase=zero_phase)
+    applied: dict[str, float] = {}
+    for name, delay in delays.items():
+        if delay == "auto":
+            y = measurement[name]
+            if highpass_hz > 0.0:
+                y = signal.highpass(y, rate, highpass_hz, order=highpass_order,
+                                    zero_phase=zero_phase)
+            try:
+                applied[name] = signal.estimate_delay(x, y, rate, band=band)
+            except DataError as exc:
+                raise DataError(f"{measurement.source}: channel {name!r}: delay = \"auto\": "
+                                f"{exc} (allowed: a band where input and channel are coherent, "
+                                "or the delay as a number of seconds)") from None
+        elif not (isinstance(delay, int | float) and math.isfinite(delay)):
+            raise ConfigError(f"delay of channel {name!r}: got {delay!r} (allowed: a finite "
+                              "number of seconds, or \"auto\")")
+        elif delay != 0.0:
+            applied[name] = float(delay)
+    if not applied:
+        return measurement, applied
+    longest = max(applied, key=lambda name: abs(applied[name]))
+    trim = math.ceil(abs(applied[longest]) * rate) + DELAY_TRIM_EXTRA
+    if measurement.n_samples <= 2 * trim + 2:
+        raise DataError(f"{measurement.source}: channel {longest!r}: a delay of "
+                        f"{applied[longest]:.4g} s would trim {trim} samples from each end of "
+                        f"records of {measurement.n_samples} samples: too few left (allowed: a "
+                        f"delay under "
+                        f"{(measurement.n_samples / 2 - DELAY_TRIM_EXTRA - 2) / rate:.4g} s for "
+                        "these records)")
+    channels = dict(measurement.channels)
+    for name, delay in applied.items():
+        channels[name] = signal.advance(measurement[name], delay, rate)
+    shifted = io.Measurement(measurement.t, channels, measurement.units, measurement.source,
+                             measurement.time_rtol)
+    return shifted.slice(trim, measurement.n_samples - trim).shifted(0.0), applied
 
 
 def process(
@@ -106,9 +208,13 @@ def process(
     quantity: str = "displacement",
     highpass_hz: float = 0.0,
     highpass_order: int = 4,
-    zero_phase: bool = True,
+    zero_phase: bool = False,
+    delays: Mapping[str, float] | None = None,
 ) -> Experiment:
-    """Filter and (for displacements) integrate the measured accelerations."""
+    """Filter and (for displacements) integrate the measured accelerations.
+
+    ``delays`` (those `apply_delays` removed) are only recorded in the `Experiment`.
+    """
     rate = measurement.rate
     acc = measurement.array(("input", *channels))
     if highpass_hz > 0.0:
@@ -121,17 +227,41 @@ def process(
         target = outputs
     t = measurement.t - measurement.t[0]
     return Experiment(t=t, ag=ag, accelerations=outputs, target=target, quantity=quantity,
-                      channels=channels, weights=np.asarray(weights, dtype=float))
+                      channels=channels, weights=np.asarray(weights, dtype=float),
+                      delays=dict(delays or {}))
+
+
+def _check_band(case: Case, rate: float) -> tuple[float, float]:
+    low, high = case.preprocess.delay_band_hz
+    if not 0.0 < low < high < rate / 2:
+        raise ConfigError(f"{case.label}: preprocess.delay_band_hz: got "
+                          f"{format_value([low, high])} for data at {rate:.6g} Hz (used by "
+                          f"delay = \"auto\") (allowed: 0 < low < high < the Nyquist frequency "
+                          f"{rate / 2:.6g} Hz, well below the first resonance)")
+    return low, high
 
 
 def load_experiment(case: Case) -> Experiment:
-    """Read and process the measured data of ``case``."""
+    """Read the measured data of ``case``, remove the channel delays, process them.
+
+    Reading, alignment and window (`read_measurement`), then the ``delay`` of each output
+    channel (`apply_delays`), then the high-pass and the quantity compared (`process`).
+    """
     measurement = read_measurement(case)
-    assert case.data is not None  # read_measurement checked it
-    labels = tuple(c.label for c in case.data.outputs)
+    data = case.data
+    if data is None:  # read_measurement refused it already
+        raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
     pre = case.preprocess
+    labels = tuple(c.label for c in data.outputs)
+    wanted = {c.label: c.delay for c in data.outputs}
+    low, high = pre.delay_band_hz
+    band = _check_band(case, measurement.rate) if "auto" in wanted.values() else (low, high)
+    measurement, delays = apply_delays(
+        replace(measurement, source=case.label), wanted, band=band,
+        highpass_hz=pre.highpass_hz, highpass_order=pre.highpass_order,
+        zero_phase=pre.zero_phase)
     return process(
-        measurement, labels, np.array([c.weight for c in case.data.outputs]),
+        measurement, labels, np.array([c.weight for c in data.outputs]),
         quantity=case.objective.quantity, highpass_hz=pre.highpass_hz,
-        highpass_order=pre.highpass_order, zero_phase=pre.zero_phase,
+        highpass_order=pre.highpass_order, zero_phase=pre.zero_phase, delays=delays,
     )

@@ -87,6 +87,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         "case": case_dict,
         "case_file": str(case.source) if case.source is not None else None,
         "settings": settings or {},
+        "delays_s": dict(problem.experiment.delays),
         "fingerprint": case.fingerprint(),
         "method": case.search.method,
         **evaluation_stats([o.nfev for o in outcomes], success),

@@ -13,7 +13,9 @@ from hypothesis import strategies as st
 
 from femupdate.data.io import align, read_xsens_dot
 from femupdate.data.signal import (
+    advance,
     detrend,
+    estimate_delay,
     fourier_amplitude,
     highpass,
     integrate,
@@ -185,3 +187,91 @@ def test_real_minishake_frequency() -> None:
     f, h, _ = transfer_function(detrend(g["g"]), detrend(r["r"]), g.rate, nperseg=512)
     # PROVENANCE.md and the authors: first mode near 20 Hz (T ≈ 0.050 s), 20.5–22 Hz by H1
     assert 19.0 < peak_frequency(f, h, band=(10.0, 40.0)) < 23.0
+
+
+# ----------------------------------------------------------------------------- channel delays
+
+DOT_RATE = 120.0  # the minishake IMUs
+
+
+def _sines(rng: np.random.Generator, n: int = 20) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return rng.uniform(0.5, 40.0, n), rng.uniform(0.0, 2 * np.pi, n), rng.uniform(0.5, 1.0, n)
+
+
+def _signal(t: np.ndarray, freqs: np.ndarray, phases: np.ndarray, amps: np.ndarray
+            ) -> np.ndarray:
+    """A sum of sines below Nyquist plus a drift: its shifted values are known exactly."""
+    return (amps * np.sin(2 * np.pi * freqs * t[:, None] + phases)).sum(axis=1) + 0.3 * t
+
+
+@pytest.mark.parametrize("delay", [0.0123, -0.0071, 0.0, 0.05])
+def test_advance_matches_the_shifted_signal(delay: float) -> None:
+    parts = _sines(np.random.default_rng(1))
+    t = np.arange(2400) / DOT_RATE
+    shifted = advance(_signal(t, *parts), delay, DOT_RATE)
+    exact = _signal(t + delay, *parts)
+    trim = int(np.ceil(abs(delay) * DOT_RATE)) + 4
+    scale = np.std(exact)
+    assert np.max(np.abs(shifted - exact)[trim:-trim]) < 5e-3 * scale
+    assert np.max(np.abs(shifted - exact)[100:-100]) < 2e-5 * scale
+
+
+def test_advance_shifts_columns_alike() -> None:
+    parts = _sines(np.random.default_rng(4))
+    t = np.arange(1000) / DOT_RATE
+    y = np.column_stack([_signal(t, *parts), -2.0 * _signal(t, *parts) + 1.0])
+    out = advance(y, 0.0311, DOT_RATE)
+    np.testing.assert_allclose(out[:, 0], advance(y[:, 0], 0.0311, DOT_RATE), atol=1e-12)
+    np.testing.assert_allclose(out[:, 1], -2.0 * out[:, 0] + 1.0, atol=1e-11)
+    # a whole number of samples: the samples themselves, away from the ends
+    np.testing.assert_allclose(advance(y, 3 / DOT_RATE, DOT_RATE)[50:-50], y[53:-47],
+                               atol=1e-4 * np.std(y))
+
+
+def test_advance_rejects_bad_arguments() -> None:
+    with pytest.raises(ConfigError, match="delay must be a finite number"):
+        advance(np.arange(10.0), float("nan"), DOT_RATE)
+    with pytest.raises(ConfigError, match="positive sampling rate"):
+        advance(np.arange(10.0), 0.01, 0.0)
+    with pytest.raises(DataError, match="n >= 2"):
+        advance(np.ones(1), 0.01, DOT_RATE)
+
+
+def test_estimate_delay_of_a_pure_delay() -> None:
+    parts = _sines(np.random.default_rng(2))
+    t = np.arange(2400) / DOT_RATE
+    for delay in (0.0123, -0.0071, 0.0233):
+        x, y = _signal(t, *parts), _signal(t - delay, *parts)
+        assert estimate_delay(x, y, DOT_RATE) == pytest.approx(delay, abs=3e-4)
+
+
+def test_estimate_delay_ignores_a_stiff_storey() -> None:
+    """A 22 Hz, 1 % storey driven by white noise, its output delayed by 3 whole samples."""
+    rng = np.random.default_rng(3)
+    ag = rng.standard_normal(6000)
+    wn, zeta = 2 * np.pi * 22.0, 0.01
+    storey = scipy.signal.lti([2 * zeta * wn, wn**2], [1.0, 2 * zeta * wn, wn**2])
+    roof = scipy.signal.dlsim(storey.to_discrete(1 / DOT_RATE, method="foh"), ag)[1][:, 0]
+    assert abs(estimate_delay(ag, roof, DOT_RATE)) < 1e-4
+    late = np.concatenate([np.zeros(3), roof[:-3]])
+    assert estimate_delay(ag, late, DOT_RATE) == pytest.approx(3 / DOT_RATE, abs=2e-4)
+
+
+def test_estimate_delay_at_a_high_rate_resolves_the_band() -> None:
+    """At 1035 Hz the default segment still puts 16 bins or more in 1-10 Hz."""
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal(20_000)
+    y = np.concatenate([np.zeros(4), x[:-4]])  # 4 samples late: 3.86 ms
+    assert estimate_delay(x, y, RATE) == pytest.approx(4 / RATE, abs=5e-5)
+
+
+def test_estimate_delay_rejects_bad_bands_and_incoherent_records() -> None:
+    x = np.random.default_rng(6).standard_normal(2400)
+    with pytest.raises(ConfigError, match=r"band = \[1, 70\] Hz: need 0 < low < high < 60 Hz"):
+        estimate_delay(x, x, DOT_RATE, band=(1.0, 70.0))
+    with pytest.raises(ConfigError, match="holds 1 frequencies"):
+        estimate_delay(x, x, DOT_RATE, band=(1.0, 1.5), nperseg=256)
+    with pytest.raises(DataError, match="shape"):
+        estimate_delay(x, x[:-1], DOT_RATE)
+    with pytest.raises(DataError, match="no coherent signal"):
+        estimate_delay(x, np.zeros_like(x), DOT_RATE)
