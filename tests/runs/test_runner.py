@@ -56,8 +56,10 @@ def test_evaluation_stats_counts_only_successes() -> None:
     assert (stats["evals_min"], stats["evals_max"]) == (100, 300)
     assert stats["evals_mean"] == pytest.approx(200.0)
     assert stats["evals_median"] == 200.0
+    assert stats["evals_per_success"] == pytest.approx(50_600 / 3)
     none = evaluation_stats([10, 20], [False, False])
     assert none["successes"] == 0 and none["evals_mean"] is None
+    assert none["evals_per_success"] is None
 
 
 def test_spread() -> None:

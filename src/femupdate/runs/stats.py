@@ -22,7 +22,9 @@ def evaluation_stats(nfev: Sequence[int], success: Sequence[bool]) -> dict[str, 
     -------
     dict
         ``runs, successes, success_ratio, evals_min, evals_mean, evals_median, evals_max``
-        (the evaluation figures are None when no run succeeded).
+        (the evaluation figures are None when no run succeeded), and ``evals_per_success``:
+        the evaluations of all runs, failed ones included, per successful run (the expected
+        running time of restarts until a success, Hansen's ERT).
     """
     nfev_arr = np.asarray(nfev, dtype=float)
     ok = np.asarray(success, dtype=bool)
@@ -36,6 +38,7 @@ def evaluation_stats(nfev: Sequence[int], success: Sequence[bool]) -> dict[str, 
         "evals_mean": float(good.mean()) if have else None,
         "evals_median": float(np.median(good)) if have else None,
         "evals_max": int(good.max()) if have else None,
+        "evals_per_success": float(nfev_arr.sum() / good.size) if have else None,
     }
 
 
