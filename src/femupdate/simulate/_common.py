@@ -227,3 +227,60 @@ def make_response(
         friction_force=friction_force,
         slip=slip,
     )
+
+
+class Simulator:
+    """What every prepared integrator shares: the checks of its inputs, absolute accelerations
+    and the assembly of the :class:`Response`. Subclasses prepare the system in ``__init__``
+    (after ``super().__init__``) and integrate in :meth:`_integrate`.
+    """
+
+    def __init__(self, system: System, dt: float, outputs: Sequence[int] | np.ndarray | None,
+                 substeps: int = 1) -> None:
+        check_system(system)
+        self.dt, self.substeps = check_step(dt, substeps)
+        self.h = self.dt / self.substeps
+        self.n_dof = system.n_dof
+        self.outputs = check_outputs(outputs, self.n_dof)
+        self._r_out = system.r[self.outputs]
+
+    def run(
+        self,
+        ag: np.ndarray | None = None,
+        force: np.ndarray | None = None,
+        *,
+        x0: np.ndarray | None = None,
+        v0: np.ndarray | None = None,
+    ) -> Response:
+        """Simulate from ``(x0, v0)`` (rest by default) for the given input samples.
+
+        Parameters
+        ----------
+        ag : ndarray (n_samples,), optional
+            Base acceleration, linear between samples (load ``-p a_g``, ``p = M r`` unless
+            supports carry consistent beam mass: ``System.seismic_load``).
+        force : ndarray (n_samples, n_dof), optional
+            Nodal forces on the free DOFs, linear between samples.
+        x0, v0 : ndarray (n_dof,), optional
+            Initial displacement and velocity relative to the base; friction elements start
+            with zero slip.
+
+        Returns
+        -------
+        Response
+            Relative displacement and velocity, absolute acceleration at the outputs.
+        """
+        ag, force, ns = check_excitation(ag, force, self.n_dof)
+        x0, v0 = check_state(x0, v0, self.n_dof)
+        with np.errstate(over="ignore", invalid="ignore"):
+            disp, vel, acc, diverged, *friction = self._integrate(ag, force, ns, x0, v0)
+            if ag is not None and not diverged:
+                acc += np.outer(ag, self._r_out)  # absolute acceleration
+        return make_response(self.dt, ns, disp, vel, acc, diverged, *friction)
+
+    def _integrate(
+        self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
+        v0: np.ndarray,
+    ) -> tuple:
+        """(displacement, velocity, relative acceleration, diverged[, friction force, slip])."""
+        raise NotImplementedError

@@ -29,17 +29,11 @@ from femupdate.model.friction import elasto_slip
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     DIVERGENCE_LIMIT,
+    Simulator,
     check_critical_step,
-    check_excitation,
-    check_outputs,
-    check_state,
-    check_step,
-    check_system,
-    make_response,
     omega_max,
     sample_loads,
 )
-from femupdate.simulate.response import Response
 
 
 @njit(cache=True)
@@ -109,7 +103,7 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
     return disp, vel, acc, ff, slip, False
 
 
-class CentralDifferenceSimulator:
+class CentralDifferenceSimulator(Simulator):
     """Central differences prepared for one system, sample interval and number of substeps.
 
     Friction elements, if the system has them, are integrated with the elasto-slip law (that is
@@ -126,14 +120,8 @@ class CentralDifferenceSimulator:
         *,
         method: str = "central_difference",
     ) -> None:
-        check_system(system)
-        self.dt, self.substeps = check_step(dt, substeps)
-        n = system.n_dof
-        self.n_dof = n
-        self.outputs = check_outputs(outputs, n)
-        self._r_out = system.r[self.outputs]
-        h = self.dt / self.substeps
-        self.h = h
+        super().__init__(system, dt, outputs, substeps)
+        n, h = self.n_dof, self.h
         fr = system.friction
         nf = 0 if fr is None else fr.count
         if nf:
@@ -184,56 +172,34 @@ class CentralDifferenceSimulator:
         )
         return self._bf.T @ f
 
-    def run(
-        self,
-        ag: np.ndarray | None = None,
-        force: np.ndarray | None = None,
-        *,
-        x0: np.ndarray | None = None,
-        v0: np.ndarray | None = None,
-    ) -> Response:
-        """Simulate from ``(x0, v0)`` (rest by default) for the given input samples.
-
-        Parameters
-        ----------
-        ag : ndarray (n_samples,), optional
-            Base acceleration, linear between samples (load ``-M r a_g``).
-        force : ndarray (n_samples, n_dof), optional
-            Nodal forces on the free DOFs, linear between samples.
-        x0, v0 : ndarray (n_dof,), optional
-            Initial displacement and velocity relative to the base; friction elements start
-            with zero slip.
-        """
-        n = self.n_dof
-        ag, force, ns = check_excitation(ag, force, n)
-        x0, v0 = check_state(x0, v0, n)
+    def _integrate(
+        self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
+        v0: np.ndarray,
+    ) -> tuple:
         h = self.h
         q = sample_loads(ag, force, self._g, self._G3)
         # u_{-1} from a Taylor step backwards with the acceleration the equations give at t = 0
         p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._mr)
         a0 = self._minv @ (p0 - self._C @ v0 - self._K @ x0 - self._initial_force(x0))
         um1 = x0 - h * v0 + 0.5 * h * h * a0
-        with np.errstate(over="ignore", invalid="ignore"):
-            disp, vel, acc, ff, slip, diverged = _cd_kernel(
-                self._G1T,
-                self._G2T,
-                q,
-                self.substeps,
-                h,
-                x0,
-                um1,
-                self._fi,
-                self._fj,
-                self._kr,
-                self._fu,
-                self._HT,
-                self.outputs,
-            )
-            if ag is not None:
-                acc += np.outer(ag, self._r_out)  # absolute acceleration
+        disp, vel, acc, ff, slip, diverged = _cd_kernel(
+            self._G1T,
+            self._G2T,
+            q,
+            self.substeps,
+            h,
+            x0,
+            um1,
+            self._fi,
+            self._fj,
+            self._kr,
+            self._fu,
+            self._HT,
+            self.outputs,
+        )
         if self.n_friction:
-            return make_response(self.dt, ns, disp, vel, acc, diverged, ff, slip)
-        return make_response(self.dt, ns, disp, vel, acc, diverged)
+            return disp, vel, acc, diverged, ff, slip
+        return disp, vel, acc, diverged
 
 
 def prepare_central_difference(

@@ -33,14 +33,8 @@ from femupdate.errors import SimulationError
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     DIVERGENCE_LIMIT,
-    check_excitation,
-    check_outputs,
-    check_state,
-    check_step,
-    check_system,
-    make_response,
+    Simulator,
 )
-from femupdate.simulate.response import Response
 
 # Above this 1-norm condition number of the (balanced) eigenvector matrix, rounding in the modal
 # transform (about cond·eps) is no longer negligible: use the matrix-exponential discretisation.
@@ -175,7 +169,7 @@ def _dense_recursion(phiT, Q0, Q1, x0):
     return X, False
 
 
-class ExactSimulator:
+class ExactSimulator(Simulator):
     """A linear system discretised exactly for first-order-hold inputs at step ``dt``.
 
     Build it once per system (one 2n × 2n eigendecomposition), then call :meth:`run` for each
@@ -192,19 +186,18 @@ class ExactSimulator:
     def __init__(
         self, system: System, dt: float, outputs: Sequence[int] | np.ndarray | None = None
     ) -> None:
-        check_system(system)
+        super().__init__(system, dt, outputs)
         if not system.is_linear:
             raise SimulationError(
                 "method 'exact' is for linear systems; this system has "
                 f"{system.friction.count} friction elements: use method='nonlinear'"
             )
-        self.dt, _ = check_step(dt, 1)
-        n = system.n_dof
-        self.n_dof = n
-        self.outputs = check_outputs(outputs, n)
-        self._r_out = system.r[self.outputs]
+        n = self.n_dof
         minv = sla.cho_solve(sla.cho_factor(system.M), np.eye(n))
         self._minv_out = np.ascontiguousarray(minv[self.outputs])
+        # The state derivative A x omits the input's direct term: relative acceleration is
+        # A-part − (M⁻¹ p) a_g at the outputs.
+        self._ag_feed = (minv @ system.seismic_load)[self.outputs]
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
         A[n:, :n] = -minv @ system.K
@@ -268,34 +261,15 @@ class ExactSimulator:
         out = self.outputs
         self._rows = np.vstack([np.eye(2 * n)[out], np.eye(2 * n)[n + out], A[n + out]])
 
-    def run(
-        self,
-        ag: np.ndarray | None = None,
-        force: np.ndarray | None = None,
-        *,
-        x0: np.ndarray | None = None,
-        v0: np.ndarray | None = None,
-    ) -> Response:
-        """Simulate from ``(x0, v0)`` (rest by default) for the given input samples.
-
-        Parameters
-        ----------
-        ag : ndarray (n_samples,), optional
-            Base acceleration, linear between samples (load ``-M r a_g``).
-        force : ndarray (n_samples, n_dof), optional
-            Nodal forces on the free DOFs, linear between samples.
-        x0, v0 : ndarray (n_dof,), optional
-            Initial displacement and velocity relative to the base.
-        """
-        n = self.n_dof
-        ag, force, ns = check_excitation(ag, force, n)
-        x0, v0 = check_state(x0, v0, n)
-        with np.errstate(over="ignore", invalid="ignore"):
-            if self.modal:
-                disp, vel, acc, diverged = self._run_modal(ag, force, ns, x0, v0)
-            else:
-                disp, vel, acc, diverged = self._run_dense(ag, force, ns, x0, v0)
-        return make_response(self.dt, ns, disp, vel, acc, diverged)
+    def _integrate(
+        self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
+        v0: np.ndarray,
+    ) -> tuple:
+        run = self._run_modal if self.modal else self._run_dense
+        disp, vel, acc, diverged = run(ag, force, ns, x0, v0)
+        if ag is not None and not diverged:
+            acc -= np.outer(ag, self._ag_feed)
+        return disp, vel, acc, diverged
 
     def _run_modal(
         self,

@@ -24,17 +24,11 @@ from femupdate.errors import ConfigError, SimulationError
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     DIVERGENCE_LIMIT,
+    Simulator,
     check_critical_step,
-    check_excitation,
-    check_outputs,
-    check_state,
-    check_step,
-    check_system,
-    make_response,
     omega_max,
     sample_loads,
 )
-from femupdate.simulate.response import Response
 
 GAMMA_RANGE = (0.5, 1.0)
 BETA_RANGE = (0.0, 1.0)
@@ -120,7 +114,7 @@ def _newmark_kernel(AuT, AvT, AaT, q, substeps, h, beta, gamma, u0, v0, a0, out)
     return disp, vel, acc, False
 
 
-class NewmarkSimulator:
+class NewmarkSimulator(Simulator):
     """Newmark's method prepared for one linear system, sample interval, substeps, β and γ."""
 
     def __init__(
@@ -132,20 +126,14 @@ class NewmarkSimulator:
         beta: float = 0.25,
         gamma: float = 0.5,
     ) -> None:
-        check_system(system)
+        super().__init__(system, dt, outputs, substeps)
         if not system.is_linear:
             raise SimulationError(
                 "method 'newmark' is for linear systems; this system has "
                 f"{system.friction.count} friction elements: use method='nonlinear'"
             )
         self.beta, self.gamma = check_newmark_parameters(beta, gamma)
-        self.dt, self.substeps = check_step(dt, substeps)
-        n = system.n_dof
-        self.n_dof = n
-        self.outputs = check_outputs(outputs, n)
-        self._r_out = system.r[self.outputs]
-        h = self.dt / self.substeps
-        self.h = h
+        n, h = self.n_dof, self.h
         w_crit = newmark_omega_crit(self.beta, self.gamma)
         self.omega_max: float | None = None  # only needed (and computed) when conditional
         if np.isfinite(w_crit):
@@ -163,49 +151,28 @@ class NewmarkSimulator:
         self._minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
         self._M, self._C, self._K, self._mr = M, C, K, system.seismic_load
 
-    def run(
-        self,
-        ag: np.ndarray | None = None,
-        force: np.ndarray | None = None,
-        *,
-        x0: np.ndarray | None = None,
-        v0: np.ndarray | None = None,
-    ) -> Response:
-        """Simulate from ``(x0, v0)`` (rest by default) for the given input samples.
-
-        Parameters
-        ----------
-        ag : ndarray (n_samples,), optional
-            Base acceleration, linear between samples (load ``-M r a_g``).
-        force : ndarray (n_samples, n_dof), optional
-            Nodal forces on the free DOFs, linear between samples.
-        x0, v0 : ndarray (n_dof,), optional
-            Initial displacement and velocity relative to the base.
-        """
-        n = self.n_dof
-        ag, force, ns = check_excitation(ag, force, n)
-        x0, v0 = check_state(x0, v0, n)
+    def _integrate(
+        self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
+        v0: np.ndarray,
+    ) -> tuple:
         q = sample_loads(ag, force, self._g, self._S)
         p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._mr)
         a0 = self._minv @ (p0 - self._C @ v0 - self._K @ x0)
-        with np.errstate(over="ignore", invalid="ignore"):
-            disp, vel, acc, diverged = _newmark_kernel(
-                self._AuT,
-                self._AvT,
-                self._AaT,
-                q,
-                self.substeps,
-                self.h,
-                self.beta,
-                self.gamma,
-                x0,
-                v0,
-                a0,
-                self.outputs,
-            )
-            if ag is not None:
-                acc += np.outer(ag, self._r_out)  # absolute acceleration
-        return make_response(self.dt, ns, disp, vel, acc, diverged)
+        disp, vel, acc, diverged = _newmark_kernel(
+            self._AuT,
+            self._AvT,
+            self._AaT,
+            q,
+            self.substeps,
+            self.h,
+            self.beta,
+            self.gamma,
+            x0,
+            v0,
+            a0,
+            self.outputs,
+        )
+        return disp, vel, acc, diverged
 
 
 def prepare_newmark(
