@@ -46,9 +46,9 @@ def _fmt(value: float | None, spec: str = ",.0f") -> str:
 def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
     table = Table(title="Two-mode identification (paper Table 2): evaluations of successful runs")
     for col in ("method", "runs", "success", "min", "mean", "median", "max",
-                "per success*", "wall (s)"):
+                "ERT*", "wall (s)"):
         table.add_column(col, justify="right")
-    table.caption = "* evaluations of all runs, failed ones included, per successful run"
+    table.caption = "* ERT: evaluations of all runs, failed ones included, per successful run"
     for r in rows:
         table.add_row(
             r["method"], str(r["runs"]), f"{100 * r['success_ratio']:.0f} %",
