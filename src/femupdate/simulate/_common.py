@@ -235,6 +235,9 @@ class Simulator:
     (after ``super().__init__``) and integrate in :meth:`_integrate`.
     """
 
+    #: False: ``_integrate`` returns relative accelerations and ``run`` adds ``r·a_g``.
+    returns_absolute_acceleration = False
+
     def __init__(self, system: System, dt: float, outputs: Sequence[int] | np.ndarray | None,
                  substeps: int = 1) -> None:
         check_system(system)
@@ -274,7 +277,7 @@ class Simulator:
         x0, v0 = check_state(x0, v0, self.n_dof)
         with np.errstate(over="ignore", invalid="ignore"):
             disp, vel, acc, diverged, *friction = self._integrate(ag, force, ns, x0, v0)
-            if ag is not None and not diverged:
+            if ag is not None and not diverged and not self.returns_absolute_acceleration:
                 acc += np.outer(ag, self._r_out)  # absolute acceleration
         return make_response(self.dt, ns, disp, vel, acc, diverged, *friction)
 
@@ -282,5 +285,8 @@ class Simulator:
         self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
         v0: np.ndarray,
     ) -> tuple:
-        """(displacement, velocity, relative acceleration, diverged[, friction force, slip])."""
+        """(displacement, velocity, acceleration, diverged[, friction force, slip]).
+
+        The acceleration is relative, or absolute if ``returns_absolute_acceleration``.
+        """
         raise NotImplementedError

@@ -119,16 +119,19 @@ def _modal_recursion(ag, fmod, e, c0, c1, g0, g1, z0):
     """Run the modal filters: the real and imaginary parts of every mode at every sample.
 
     ``z_{k+1} = e z_k + c0 a_k + c1 a_{k+1} (+ g0 F_k + g1 F_{k+1})``. Returns
-    (Z (ns, 2m) with ``Re z`` in the first m columns and ``Im z`` in the last m, diverged).
+    (Z (ns, 2m + 1) with ``Re z`` in the first m columns, ``Im z`` in the next m and the input
+    ``a_k`` in the last, for its direct feed-through to the accelerations; diverged).
     """
     ns = ag.shape[0]
     m = e.shape[0]
     has_force = fmod.shape[0] > 0
-    Z = np.empty((ns, 2 * m))
+    Z = np.empty((ns, 2 * m + 1))
     z = z0.copy()
     for j in range(m):
         Z[0, j] = z[j].real
         Z[0, m + j] = z[j].imag
+    for k in range(ns):
+        Z[k, 2 * m] = ag[k]
     for k in range(1, ns):
         ak0 = ag[k - 1]
         ak1 = ag[k]
@@ -183,6 +186,9 @@ class ExactSimulator(Simulator):
         1-norm condition number of the eigenvector matrix that chose between the two.
     """
 
+    # Its outputs come from the state and the input together (absolute accelerations).
+    returns_absolute_acceleration = True
+
     def __init__(
         self, system: System, dt: float, outputs: Sequence[int] | np.ndarray | None = None
     ) -> None:
@@ -197,7 +203,7 @@ class ExactSimulator(Simulator):
         self._minv_out = np.ascontiguousarray(minv[self.outputs])
         # The state derivative A x omits the input's direct term: relative acceleration is
         # A-part − (M⁻¹ p) a_g at the outputs.
-        self._ag_feed = (minv @ system.seismic_load)[self.outputs]
+        self._ag_feed = self._r_out - (minv @ system.seismic_load)[self.outputs]
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
         A[n:, :n] = -minv @ system.K
@@ -248,7 +254,10 @@ class ExactSimulator(Simulator):
         rows = np.vstack([V[out], V[n + out], (V * lam)[n + out]])[:, keep] * weight
         # Output = Re(rows · z) = rows.real · Re z − rows.imag · Im z: one product with the
         # (samples × 2m) history of the modes gives every output at every sample.
-        self._W = np.ascontiguousarray(np.vstack([rows.real.T, -rows.imag.T]))
+        # The last row multiplies a_g: absolute acceleration = A-part + (r − M⁻¹p) a_g (0 when
+        # p = M r), displacement and velocity have no direct term.
+        feed = np.concatenate([np.zeros(2 * out.size), self._ag_feed])
+        self._W = np.ascontiguousarray(np.vstack([rows.real.T, -rows.imag.T, feed]))
         self._no_force = np.zeros((0, lam_k.size), dtype=np.complex128)
 
     def _prepare_dense(self, system: System, minv: np.ndarray, A: np.ndarray) -> None:
@@ -267,8 +276,6 @@ class ExactSimulator(Simulator):
     ) -> tuple:
         run = self._run_modal if self.modal else self._run_dense
         disp, vel, acc, diverged = run(ag, force, ns, x0, v0)
-        if ag is not None and not diverged:
-            acc -= np.outer(ag, self._ag_feed)
         return disp, vel, acc, diverged
 
     def _run_modal(
@@ -315,6 +322,8 @@ class ExactSimulator(Simulator):
         acc = np.ascontiguousarray(Y[:, 2 * no :])
         if force is not None:
             acc += force @ self._minv_out.T
+        if ag is not None:
+            acc += np.outer(ag, self._ag_feed)
         return disp, vel, acc, diverged
 
 
