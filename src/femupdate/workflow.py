@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
-from femupdate.experiment import load_experiment
+from femupdate.experiment import Experiment, load_experiment
 from femupdate.model.modes import natural_frequencies
 from femupdate.runs.runner import RunOutcome, run_all
 from femupdate.runs.stats import evaluation_stats, spread
@@ -158,6 +158,7 @@ def run_case(
     scheduler: str | None = None,
     quiet: bool = True,
     log_json: Path | None = None,
+    experiment: Experiment | None = None,
 ) -> UpdateResult:
     """Update the model of ``case`` from its data; write the results to ``out_dir``.
 
@@ -167,9 +168,9 @@ def run_case(
     override the case's ``[search]``. ``resume`` continues the unfinished runs of a store in
     ``out_dir`` (refused for a store of another case or other settings); ``scheduler`` runs on
     a Dask cluster; ``quiet=False`` shows a progress bar; ``log_json`` appends JSON lines.
+    ``experiment`` is the case's processed data when the caller has already loaded it.
     """
-    experiment = load_experiment(case)
-    problem = UpdateProblem(case, experiment)
+    problem = UpdateProblem(case, experiment or load_experiment(case))
     search = case.search
     start = time.perf_counter()
     if out_dir is not None:

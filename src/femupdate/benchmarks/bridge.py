@@ -270,7 +270,8 @@ def run_bridge_benchmark(
         case = parse_case(spec, source=case.source)
     out = work / f"out-{model}-{band}-{method}"
     shutil.rmtree(out, ignore_errors=True)  # a benchmark starts afresh
-    result = run_case(case, out, runs=runs, workers=workers, plots=plots)
+    result = run_case(case, out, runs=runs, workers=workers, plots=plots,
+                      experiment=problem.experiment)
     summary = dict(result.summary)
     truth_sys = problem.system(truth_values)
     errors = [{n: (r["params"][n] / truth_values[n] - 1.0) for n in truth_values}

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import json
 import os
-import time
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -35,21 +35,13 @@ from femupdate.data import signal
 from femupdate.errors import ConfigError, DataError
 from femupdate.experiment import Experiment, load_experiment
 from femupdate.model.modes import damped_modes
-from femupdate.runs.runner import repeat
 from femupdate.update import UpdateProblem
-from femupdate.workflow import (
-    UpdateResult,
-    optimizer_options,
-    summarize,
-    with_data_directory,
-    write_plots,
-)
+from femupdate.workflow import UpdateResult, run_case, with_data_directory
 
 __all__ = [
     "DATA_FILES",
     "DATA_SUBDIR",
     "find_data",
-    "fit",
     "format_table",
     "nmse_at",
     "run_minishake",
@@ -127,43 +119,18 @@ def spectral_peak(experiment: Experiment, *, band: tuple[float, float] = PEAK_BA
 # ----------------------------------------------------------------------------- fitting
 
 
-def fit(case: Case, experiment: Experiment, *, runs: int | None = None, seed: int | None = None,
-        max_evals: int | None = None, workers: int = 1, out_dir: Path | None = None,
-        plots: bool = True) -> UpdateResult:
-    """Update the case's model against ``experiment``: repeated runs, the workflow's summary.
-
-    As :func:`femupdate.workflow.run_case` (same summary.json and plots in ``out_dir``), but
-    on an experiment prepared by the caller.
-    """
-    problem = UpdateProblem(case, experiment)
-    search = case.search
-    start = time.perf_counter()
-    outcomes = repeat(
-        problem, problem.bounds, search.method,
-        runs=runs or search.runs,
-        seed=search.seed if seed is None else seed,
-        workers=workers,
-        max_evals=max_evals or search.max_evals,
-        f_target=search.f_target,
-        keep_history=plots and out_dir is not None,
-        **optimizer_options(case),
-    )
-    summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target)
-    result = UpdateResult(summary, outcomes, problem)
-    if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        if plots:
-            write_plots(result, out_dir)
-    return result
-
-
 def nmse_at(problem: UpdateProblem, params: Mapping[str, float]) -> float:
     """φ of ``problem`` at physical parameter values (no search): the prediction error."""
-    response = problem.simulate(dict(params))
-    if response.diverged:
-        return float("inf")
-    return float(problem.objective(problem.prediction(response)))
+    return problem(problem.case.to_search(params))
+
+
+def _fit(case: Case, experiment: Experiment, out_dir: Path | None, name: str,
+         opts: Mapping[str, Any]) -> UpdateResult:
+    """``run_case`` on an experiment already loaded; ``out_dir/name`` is rewritten afresh."""
+    where = None if out_dir is None else out_dir / name
+    if where is not None:
+        shutil.rmtree(where, ignore_errors=True)  # this benchmark's own output: start anew
+    return run_case(case, where, experiment=experiment, **opts)
 
 
 def _as_case(case: Case | str | os.PathLike[str], data: Path | None) -> Case:
@@ -222,7 +189,7 @@ def run_minishake(
     opts = {"runs": runs, "seed": seed, "max_evals": max_evals, "workers": workers}
 
     ec_exp = load_experiment(ec_case)
-    ec = fit(ec_case, ec_exp, out_dir=None if out_dir is None else out_dir / "elcentro", **opts)
+    ec = _fit(ec_case, ec_exp, out_dir, "elcentro", opts)
     best = ec.summary["best"]
     params = best["params"]
     freq, zeta = _modal(ec.problem, params)
@@ -264,8 +231,7 @@ def run_minishake(
                      "delay_band_hz": list(ec_case.preprocess.delay_band_hz)},
     }
     if refit_sine:
-        ref = fit(sine_case, sine_exp, out_dir=None if out_dir is None else out_dir / "sine",
-                  **opts)
+        ref = _fit(sine_case, sine_exp, out_dir, "sine", opts)
         ref_params = ref.summary["best"]["params"]
         ref_freq, ref_zeta = _modal(ref.problem, ref_params)
         result["sine_refit"] = {

@@ -275,8 +275,7 @@ class ExactSimulator(Simulator):
         v0: np.ndarray,
     ) -> tuple:
         run = self._run_modal if self.modal else self._run_dense
-        disp, vel, acc, diverged = run(ag, force, ns, x0, v0)
-        return disp, vel, acc, diverged
+        return run(ag, force, ns, x0, v0)
 
     def _run_modal(
         self,
@@ -296,7 +295,7 @@ class ExactSimulator(Simulator):
             nan = np.full((ns, self.outputs.size), np.nan)
             return nan, nan.copy(), nan.copy(), True
         disp, vel, acc = np.hsplit(Z @ self._W, 3)
-        if force is not None and not diverged:
+        if force is not None:
             acc += force @ self._minv_out.T  # direct feed-through of the nodal forces
         return disp, vel, acc, diverged
 
