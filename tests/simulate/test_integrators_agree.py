@@ -11,8 +11,10 @@ import pytest
 from bridge_like import DT, PIER_DOFS, bridge_like
 
 from femupdate.model.system import System
+from femupdate.simulate import central_difference as cd_module
 from femupdate.simulate import exact as exact_module
 from femupdate.simulate import prepare, prepare_exact, simulate
+from femupdate.simulate.central_difference import modal_damping
 
 PIERS = list(PIER_DOFS)
 
@@ -153,3 +155,34 @@ def test_nonlinear_on_a_linear_system_equals_central_differences(bridge, base_mo
     b = simulate(bridge, DT, ag=base_motion, method="central_difference", substeps=10)
     np.testing.assert_array_equal(a.displacement, b.displacement)
     assert a.friction_force is None
+
+
+# ------------------------------------------------------- modal central differences
+
+
+def test_modal_damping_detects_whether_the_modes_diagonalise_c(bridge):
+    assert modal_damping(bridge.M, bridge.C, bridge.K) is None  # discrete dashpots couple modes
+    rayleigh = 0.3 * bridge.M + 2e-4 * bridge.K
+    w2, phi, c = modal_damping(bridge.M, rayleigh, bridge.K)
+    np.testing.assert_allclose(phi.T @ bridge.M @ phi, np.eye(10), atol=1e-12)
+    np.testing.assert_allclose(c, 0.3 + 2e-4 * w2, rtol=1e-10)
+    assert modal_damping(bridge.M, np.zeros((10, 10)), bridge.K)[2].tolist() == [0.0] * 10
+
+
+@pytest.mark.parametrize("friction", [True, False])
+def test_modal_and_physical_central_differences_agree(base_motion, monkeypatch, friction):
+    system = bridge_like(friction=friction)
+    if not friction:  # proportional damping, so that the modal form applies
+        system = System(M=system.M, C=0.3 * system.M + 2e-4 * system.K, K=system.K, r=system.r)
+    method = "nonlinear" if friction else "central_difference"
+    modal = prepare(system, DT, method=method, substeps=10)
+    assert modal.modal
+    monkeypatch.setattr(cd_module, "modal_damping", lambda M, C, K: None)
+    physical = prepare(system, DT, method=method, substeps=10)
+    assert not physical.modal
+    x0 = np.linspace(-1e-4, 1e-4, 10)
+    a = modal.run(base_motion, x0=x0, v0=-x0)
+    b = physical.run(base_motion, x0=x0, v0=-x0)
+    names = ["displacement", "velocity", "acceleration"] + (["friction_force", "slip"] * friction)
+    for name in names:  # the same recurrence in other coordinates: rounding only (1e-12…1e-10)
+        assert rel(getattr(a, name), getattr(b, name)) <= 1e-9, name

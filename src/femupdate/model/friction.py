@@ -46,12 +46,11 @@ def elasto_slip(y: float, y_r: float, k_r: float, f_u: float) -> tuple[float, fl
     if k_r <= 0.0:
         return 0.0, y_r
     limit = f_u / k_r  # inf for f_u = inf: never slips
-    d = y - y_r
-    if d > limit:
-        return f_u, y - limit
-    if d < -limit:
-        return -f_u, y + limit
-    return k_r * d, y_r
+    # The slider follows only as far as it must: clamping y_r to [y - limit, y + limit] is the
+    # stick/slip decision without branches (a mispredicted branch costs more than the law).
+    # The force is clamped too: k_r (y - y_r) loses digits to cancellation when |y| >> limit.
+    y_r = min(max(y_r, y - limit), y + limit)
+    return min(max(k_r * (y - y_r), -f_u), f_u), y_r
 
 
 def check_friction_parameters(k_r: np.ndarray, f_u: np.ndarray) -> None:

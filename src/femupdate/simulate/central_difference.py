@@ -12,6 +12,13 @@ elasto-slip elements touch only their own DOFs. Velocity and acceleration at a s
 scheme's own central differences, ``(u_{n+1} - u_{n-1})/(2h)`` and
 ``(u_{n+1} - 2u_n + u_{n-1})/h²``, which satisfy the equation of motion at the sample exactly.
 
+When the undamped modes diagonalise C (no damping, Rayleigh or modal damping: Φᵀ C Φ diagonal),
+the same recurrence runs in modal coordinates ``u = Φ η`` (``Φᵀ M Φ = I``): the linear part is
+then a diagonal update ``η_{n+1} = a ⊙ η_n - b ⊙ η_{n-1} + q_n - P f_D`` and only the friction
+elements' deformations ``y = (B_f Φ) η`` and forces couple the modes. It is the same scheme (the
+results agree to rounding, ~1e-11) at about half the work per step. Non-proportional damping
+(discrete dashpots) keeps the physical form.
+
 The scheme is stable for ``h < 2/ω_max``; a larger step is refused with the largest stable step
 and the number of substeps that works.
 """
@@ -103,12 +110,102 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
     return disp, vel, acc, ff, slip, False
 
 
+# Fused multiply-adds and reassociated sums (vectorised dot products: ~10 % faster on the
+# friction bridge) but no 'nnan'/'ninf': the divergence check must still see NaN. The order of
+# a sum is fixed when the kernel compiles, so a run still repeats bit for bit on one machine.
+@njit(cache=True, fastmath={"contract", "reassoc"})
+def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po):
+    """Central differences in modal coordinates with elasto-slip elements (none if ``kr`` empty).
+
+    ``η_{n+1} = a ⊙ η_n - b ⊙ η_{n-1} + q_n - Pfᵀ f`` with the element deformations
+    ``y = Yf η``; ``q`` (ns, n) holds the modal loads at the samples, interpolated linearly in
+    between; ``Po`` maps modes to the output DOFs. Returns what :func:`_cd_kernel` returns.
+    """
+    ns = q.shape[0]
+    n = eta0.shape[0]
+    nf = kr.shape[0]
+    no = Po.shape[0]
+    disp = np.empty((ns, no))
+    vel = np.empty((ns, no))
+    acc = np.empty((ns, no))
+    ff = np.empty((ns, nf))
+    slip = np.empty((ns, nf))
+    eta_prev = eta_m1.copy()
+    eta = eta0.copy()
+    eta_next = np.empty(n)
+    dq = np.zeros(n)
+    yr = np.zeros(nf)
+    fe = np.empty(nf)
+    inv2h = 0.5 / h
+    invh2 = 1.0 / (h * h)
+    for k in range(ns):
+        last = k == ns - 1
+        if not last:
+            for i in range(n):
+                dq[i] = (q[k + 1, i] - q[k, i]) / substeps
+        for j in range(1 if last else substeps):
+            for i in range(n):
+                eta_next[i] = a[i] * eta[i] - b[i] * eta_prev[i] + (q[k, i] + j * dq[i])
+            for e in range(nf):
+                y = 0.0
+                for i in range(n):
+                    y += Yf[e, i] * eta[i]
+                f, y_r = elasto_slip(y, yr[e], kr[e], fu[e])
+                yr[e] = y_r
+                fe[e] = f
+                for i in range(n):
+                    eta_next[i] -= Pf[e, i] * f
+            if j == 0:
+                s = 0.0
+                for i in range(n):
+                    s += abs(eta_next[i])
+                if not s < DIVERGENCE_LIMIT:  # NaN fails too
+                    return disp, vel, acc, ff, slip, True
+                for o in range(no):
+                    d = 0.0
+                    v = 0.0
+                    w = 0.0
+                    for i in range(n):
+                        d += Po[o, i] * eta[i]
+                        v += Po[o, i] * (eta_next[i] - eta_prev[i])
+                        w += Po[o, i] * (eta_next[i] - 2.0 * eta[i] + eta_prev[i])
+                    disp[k, o] = d
+                    vel[k, o] = v * inv2h
+                    acc[k, o] = w * invh2
+                for e in range(nf):
+                    ff[k, e] = fe[e]
+                    slip[k, e] = yr[e]
+            eta_prev, eta, eta_next = eta, eta_next, eta_prev
+    return disp, vel, acc, ff, slip, False
+
+
+def modal_damping(
+    M: np.ndarray, C: np.ndarray, K: np.ndarray, rtol: float = 1e-12
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Undamped modes that diagonalise ``C``, or None when the damping couples them.
+
+    Returns
+    -------
+    (ω², Φ, c) or None
+        Eigenvalues of ``(K, M)``, mass-normalised modes (``Φᵀ M Φ = I``) and the diagonal of
+        ``Φᵀ C Φ``, if its off-diagonal entries are below ``rtol`` times its largest entry.
+    """
+    w2, phi = sla.eigh(K, M, check_finite=False)
+    c_modal = phi.T @ C @ phi
+    c = np.diag(c_modal).copy()
+    scale = np.abs(c_modal).max()
+    if scale > 0.0 and np.abs(c_modal - np.diag(c)).max() > rtol * scale:
+        return None
+    return w2, phi, c
+
+
 class CentralDifferenceSimulator(Simulator):
     """Central differences prepared for one system, sample interval and number of substeps.
 
     Friction elements, if the system has them, are integrated with the elasto-slip law (that is
     the nonlinear integrator, :func:`femupdate.simulate.nonlinear.prepare_nonlinear`);
-    :func:`prepare_central_difference` accepts linear systems only.
+    :func:`prepare_central_difference` accepts linear systems only. Runs in modal coordinates
+    when the modes diagonalise C (:func:`modal_damping`), in physical ones otherwise.
     """
 
     def __init__(
@@ -121,7 +218,7 @@ class CentralDifferenceSimulator(Simulator):
         method: str = "central_difference",
     ) -> None:
         super().__init__(system, dt, outputs, substeps)
-        n, h = self.n_dof, self.h
+        n = self.n_dof
         fr = system.friction
         nf = 0 if fr is None else fr.count
         if nf:
@@ -134,22 +231,15 @@ class CentralDifferenceSimulator(Simulator):
         self.omega_max = omega_max(system.M, system.K + k_stuck)
         check_critical_step(self.dt, self.substeps, self.omega_max, 2.0, method)
         M, C, K = system.M, system.C, system.K
-        a_eff = M / h**2 + C / (2.0 * h)
-        try:
-            lu = sla.lu_factor(a_eff, check_finite=False)
-        except (sla.LinAlgError, ValueError):
-            raise SimulationError(
-                f"{method}: M/h² + C/(2h) is singular at h = {h:.6g} s; check M and C"
-            ) from None
-        solve = lambda b: sla.lu_solve(lu, b, check_finite=False)  # noqa: E731
-        self._G1T = np.ascontiguousarray(solve(2.0 * M / h**2 - K).T)
-        self._G2T = np.ascontiguousarray(solve(M / h**2 - C / (2.0 * h)).T)
-        self._g = solve(-system.seismic_load)
-        self._G3 = solve(np.eye(n))
-        self._HT = np.ascontiguousarray(solve(bf.T).T) if nf else np.zeros((0, n))
+        modal = modal_damping(M, C, K)
+        self.modal = modal is not None
+        if modal is None:
+            self._prepare_physical(M, C, K, system.seismic_load, bf, method)
+        else:
+            self._prepare_modal(*modal, M, system.seismic_load, bf)
         self._bf = bf
         self._minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
-        self._M, self._C, self._K, self._mr = M, C, K, system.seismic_load
+        self._C, self._K, self._mr = C, K, system.seismic_load
         if nf:
             self._fi = np.ascontiguousarray(fr.dof_i, dtype=np.int64)
             self._fj = np.ascontiguousarray(fr.dof_j, dtype=np.int64)
@@ -161,6 +251,38 @@ class CentralDifferenceSimulator(Simulator):
             self._kr = np.zeros(0)
             self._fu = np.zeros(0)
         self.n_friction = nf
+
+    def _prepare_physical(self, M: np.ndarray, C: np.ndarray, K: np.ndarray, p: np.ndarray,
+                          bf: np.ndarray, method: str) -> None:
+        """The fused recurrence's matrices in physical coordinates (module docstring)."""
+        h = self.h
+        a_eff = M / h**2 + C / (2.0 * h)
+        try:
+            lu = sla.lu_factor(a_eff, check_finite=False)
+        except (sla.LinAlgError, ValueError):
+            raise SimulationError(
+                f"{method}: M/h² + C/(2h) is singular at h = {h:.6g} s; check M and C"
+            ) from None
+        solve = lambda b: sla.lu_solve(lu, b, check_finite=False)  # noqa: E731
+        self._G1T = np.ascontiguousarray(solve(2.0 * M / h**2 - K).T)
+        self._G2T = np.ascontiguousarray(solve(M / h**2 - C / (2.0 * h)).T)
+        self._g = solve(-p)
+        self._G3 = solve(np.eye(self.n_dof))
+        self._HT = np.ascontiguousarray(solve(bf.T).T) if len(bf) else np.zeros((0, self.n_dof))
+
+    def _prepare_modal(self, w2: np.ndarray, phi: np.ndarray, c: np.ndarray, M: np.ndarray,
+                       p: np.ndarray, bf: np.ndarray) -> None:
+        """The same recurrence per mode: ``(1/h² + c/2h) η_{n+1} = …`` divided through."""
+        h = self.h
+        gain = 1.0 / (1.0 / h**2 + c / (2.0 * h))
+        self._a = (2.0 / h**2 - w2) * gain
+        self._b = (1.0 / h**2 - c / (2.0 * h)) * gain
+        self._g = gain * (phi.T @ -p)
+        self._G3 = gain[:, None] * phi.T
+        self._Yf = np.ascontiguousarray(bf @ phi)
+        self._Pf = np.ascontiguousarray(bf @ phi * gain[None, :])
+        self._Po = np.ascontiguousarray(phi[self.outputs])
+        self._to_modal = phi.T @ M  # η = Φᵀ M u
 
     def _initial_force(self, x0: np.ndarray) -> np.ndarray:
         """Friction forces on the DOFs at the initial state (slip offsets start at zero)."""
@@ -182,21 +304,17 @@ class CentralDifferenceSimulator(Simulator):
         p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._mr)
         a0 = self._minv @ (p0 - self._C @ v0 - self._K @ x0 - self._initial_force(x0))
         um1 = x0 - h * v0 + 0.5 * h * h * a0
-        disp, vel, acc, ff, slip, diverged = _cd_kernel(
-            self._G1T,
-            self._G2T,
-            q,
-            self.substeps,
-            h,
-            x0,
-            um1,
-            self._fi,
-            self._fj,
-            self._kr,
-            self._fu,
-            self._HT,
-            self.outputs,
-        )
+        friction = (self._kr, self._fu)
+        if self.modal:
+            disp, vel, acc, ff, slip, diverged = _modal_cd_kernel(
+                self._a, self._b, q, self.substeps, h, self._to_modal @ x0,
+                self._to_modal @ um1, self._Yf, *friction, self._Pf, self._Po,
+            )
+        else:
+            disp, vel, acc, ff, slip, diverged = _cd_kernel(
+                self._G1T, self._G2T, q, self.substeps, h, x0, um1, self._fi, self._fj,
+                *friction, self._HT, self.outputs,
+            )
         if self.n_friction:
             return disp, vel, acc, diverged, ff, slip
         return disp, vel, acc, diverged
