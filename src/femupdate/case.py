@@ -893,6 +893,7 @@ class Preprocess(_Section):
     delay_band_hz: Annotated[list[_number("Hz", gt=0.0, le=1e7)],
                              Field(min_length=2, max_length=2)] = Field(
         default_factory=lambda: [1.0, 10.0])
+    filter_prediction: bool | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Preprocess:
@@ -1000,6 +1001,18 @@ class Case(_Section):
         return {p.name: p.nominal_value for p in self.parameters}
 
     # -- resolved defaults
+
+    @property
+    def filters_prediction(self) -> bool:
+        """Whether the high-pass is applied to the model's prediction rather than its input.
+
+        ``preprocess.filter_prediction``, or by default: with frictions (a filter commutes with
+        a linear model only). Never without a high-pass.
+        """
+        pre = self.preprocess
+        if pre.highpass_hz <= 0.0:
+            return False
+        return self.model.has_friction if pre.filter_prediction is None else pre.filter_prediction
 
     @property
     def simulation_method(self) -> str:

@@ -47,6 +47,9 @@ class Experiment:
     delays : dict of str to float
         Delay (s) removed from each output channel whose ``delay`` is not 0 (given, or
         estimated for ``"auto"``); empty when none was.
+    ag_unfiltered : ndarray (n,) or None
+        The base acceleration before the high-pass (None: there was none), the input of a model
+        whose prediction is filtered instead (``Case.filters_prediction``).
     """
 
     t: np.ndarray
@@ -57,6 +60,7 @@ class Experiment:
     channels: tuple[str, ...]
     weights: np.ndarray
     delays: dict[str, float] = field(default_factory=dict)
+    ag_unfiltered: np.ndarray | None = None
 
     @property
     def dt(self) -> float:
@@ -217,7 +221,9 @@ def process(
     """
     rate = measurement.rate
     acc = measurement.array(("input", *channels))
+    ag_unfiltered = None
     if highpass_hz > 0.0:
+        ag_unfiltered = acc[:, 0].copy()
         acc = signal.highpass(acc, rate, highpass_hz, order=highpass_order,
                               zero_phase=zero_phase)
     ag, outputs = acc[:, 0], acc[:, 1:]
@@ -228,7 +234,7 @@ def process(
     t = measurement.t - measurement.t[0]
     return Experiment(t=t, ag=ag, accelerations=outputs, target=target, quantity=quantity,
                       channels=channels, weights=np.asarray(weights, dtype=float),
-                      delays=dict(delays or {}))
+                      delays=dict(delays or {}), ag_unfiltered=ag_unfiltered)
 
 
 def _check_band(case: Case, rate: float) -> tuple[float, float]:

@@ -41,6 +41,10 @@ class UpdateProblem:
         self.substeps = 1 if self.method == "exact" else case.preprocess.substeps
         self.integrate = (experiment.quantity == "displacement"
                           and case.objective.integrate_prediction)
+        # A nonlinear model is driven by the record as measured and its prediction filtered as
+        # the data were: the high-pass does not commute with it (Case.filters_prediction).
+        self.filter = case.filters_prediction and experiment.ag_unfiltered is not None
+        self._ag = experiment.ag_unfiltered if self.filter else experiment.ag
         assert case.data is not None  # an Experiment exists only for cases with data
         self.outputs = np.array(
             [self.structure.dof_index(c.node, c.dof) for c in case.data.outputs], dtype=np.int64
@@ -76,21 +80,30 @@ class UpdateProblem:
         """Response of the model at ``x`` to the measured base motion, at the output DOFs."""
         sim = prepare(self.system(x), self.experiment.dt, method=self.method,
                       outputs=self.outputs, substeps=self.substeps)
-        return sim.run(self.experiment.ag)
+        return sim.run(self._ag)
+
+    def _highpass(self, x: np.ndarray) -> np.ndarray:
+        """The measured data's high-pass, applied to a prediction when ``self.filter``."""
+        if not self.filter:
+            return x
+        pre = self.case.preprocess
+        return signal.highpass(x, 1.0 / self.experiment.dt, pre.highpass_hz,
+                               order=pre.highpass_order, zero_phase=pre.zero_phase)
 
     def prediction(self, response: Response) -> np.ndarray:
         """What the objective compares, from a response.
 
         Displacements relative to the base: by default the model's relative accelerations
         integrated twice by the trapezoidal rule, exactly as the measured ones were
-        (``[objective] integrate_prediction``), else the model's displacements.
+        (``[objective] integrate_prediction``), else the model's displacements; or absolute
+        accelerations. High-passed first when the model's input was not (``self.filter``).
         """
         if self.integrate:
-            relative = response.acceleration - np.outer(self.experiment.ag, self._r_out)
-            return signal.integrate_twice(relative, self.experiment.dt)
+            relative = response.acceleration - np.outer(self._ag, self._r_out)
+            return signal.integrate_twice(self._highpass(relative), self.experiment.dt)
         if self.experiment.quantity == "displacement":
-            return response.displacement
-        return response.acceleration
+            return self._highpass(response.displacement)
+        return self._highpass(response.acceleration)
 
     def __call__(self, x: np.ndarray) -> float:
         try:

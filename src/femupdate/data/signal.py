@@ -17,6 +17,7 @@ A channel recorded late (a sensor's latency) is realigned before that chain::
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Literal
 
@@ -61,6 +62,13 @@ def _check_dt(dt: float) -> None:
         raise ConfigError(f"dt must be a positive time step in s, got {dt!r}")
 
 
+@functools.lru_cache(maxsize=16)
+def _butter_highpass(order: int, cutoff: float, rate: float) -> np.ndarray:
+    """Second-order sections of a Butterworth high-pass (cached: a model's prediction is
+    filtered at every evaluation)."""
+    return scipy.signal.butter(order, cutoff, btype="highpass", fs=rate, output="sos")
+
+
 def highpass(y: np.ndarray, rate: float, cutoff: float, *, order: int = 4,
              zero_phase: bool = True) -> np.ndarray:
     """Butterworth high-pass filter along axis 0.
@@ -86,7 +94,7 @@ def highpass(y: np.ndarray, rate: float, cutoff: float, *, order: int = 4,
                           f"got {cutoff!r}")
     if not 1 <= order <= 20:
         raise ConfigError(f"order must be an integer in 1..20, got {order!r}")
-    sos = scipy.signal.butter(order, cutoff, btype="highpass", fs=rate, output="sos")
+    sos = _butter_highpass(order, float(cutoff), float(rate))
     if zero_phase:
         return scipy.signal.sosfiltfilt(sos, y, axis=0)
     return scipy.signal.sosfilt(sos, y, axis=0)
