@@ -48,6 +48,13 @@ from femupdate.simulate._common import (
 _FASTMATH = {"contract", "reassoc"}
 
 
+@njit(cache=True)
+def _sample_arrays(ns, no, nf):
+    """Displacement, velocity, acceleration (ns, no); friction force and slip (ns, nf)."""
+    return (np.empty((ns, no)), np.empty((ns, no)), np.empty((ns, no)), np.empty((ns, nf)),
+            np.empty((ns, nf)))
+
+
 @njit(cache=True, fastmath=_FASTMATH)
 def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
     """Central-difference time stepping with elasto-slip elements (none when ``kr`` is empty).
@@ -61,11 +68,7 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
     n = u0.shape[0]
     nf = kr.shape[0]
     no = out.shape[0]
-    disp = np.empty((ns, no))
-    vel = np.empty((ns, no))
-    acc = np.empty((ns, no))
-    ff = np.empty((ns, nf))
-    slip = np.empty((ns, nf))
+    disp, vel, acc, ff, slip = _sample_arrays(ns, no, nf)
     u_prev = um1.copy()
     u = u0.copy()
     u_next = np.empty(n)
@@ -127,11 +130,7 @@ def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po):
     n = eta0.shape[0]
     nf = kr.shape[0]
     no = Po.shape[0]
-    disp = np.empty((ns, no))
-    vel = np.empty((ns, no))
-    acc = np.empty((ns, no))
-    ff = np.empty((ns, nf))
-    slip = np.empty((ns, nf))
+    disp, vel, acc, ff, slip = _sample_arrays(ns, no, nf)
     eta_prev = eta_m1.copy()
     eta = eta0.copy()
     eta_next = np.empty(n)
