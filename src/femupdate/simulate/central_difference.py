@@ -16,7 +16,7 @@ When the undamped modes diagonalise C (no damping, Rayleigh or modal damping: Φ
 the same recurrence runs in modal coordinates ``u = Φ η`` (``Φᵀ M Φ = I``): the linear part is
 then a diagonal update ``η_{n+1} = a ⊙ η_n - b ⊙ η_{n-1} + q_n - P f_D`` and only the friction
 elements' deformations ``y = (B_f Φ) η`` and forces couple the modes. It is the same scheme (the
-results agree to rounding, ~1e-11) at about half the work per step. Non-proportional damping
+results agree to rounding, 1e-12…1e-10) at about half the work per step. Non-proportional damping
 (discrete dashpots) keeps the physical form.
 
 The scheme is stable for ``h < 2/ω_max``; a larger step is refused with the largest stable step
