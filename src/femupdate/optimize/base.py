@@ -52,6 +52,24 @@ class Optimizer(Protocol):
         ...
 
 
+class KeepsBest:
+    """The best candidate told so far, for optimizers whose library does not keep it: call
+    :meth:`_keep_best` in ``tell`` and set ``best_x`` (a start point) in ``__init__``."""
+
+    best_x: np.ndarray
+    best_f: float = math.inf
+
+    def _keep_best(self, xs: np.ndarray, fs: np.ndarray) -> None:
+        i = int(np.argmin(fs))
+        if fs[i] < self.best_f:
+            self.best_f = float(fs[i])
+            self.best_x = xs[i].copy()
+
+    @property
+    def result(self) -> tuple[np.ndarray, float]:
+        return self.best_x.copy(), self.best_f
+
+
 #: A factory ``(n, rng, **options) -> Optimizer`` that validates its options.
 Factory = Callable[..., Optimizer]
 

@@ -14,7 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.optimize.base import check_batch, check_option_names, int_option, real_option
+from femupdate.optimize.base import (
+    KeepsBest,
+    check_batch,
+    check_option_names,
+    int_option,
+    real_option,
+)
 
 #: Redraws of one candidate before it is clipped into the box instead. The mean stays inside
 #: the box, but at a corner (an improper minimum at several bounds) with an elongated
@@ -35,7 +41,7 @@ class GeneratorRandn:
         return self.rng.standard_normal(shape)
 
 
-class CMAES:
+class CMAES(KeepsBest):
     """pycma's ``CMAEvolutionStrategy`` on the unit cube, truncated by resampling. Picklable.
 
     Parameters
@@ -86,7 +92,6 @@ class CMAES:
             },
         )
         self.best_x = x0
-        self.best_f = math.inf
         self.resamples = 0
         self._trace_sigma: list[float] = []
         self._trace_f: list[float] = []
@@ -118,10 +123,7 @@ class CMAES:
     def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
         """Pass the values to pycma (failures ranked last)."""
         xs, fs = check_batch(xs, fs, self.n)
-        i = int(np.argmin(fs))
-        if fs[i] < self.best_f:
-            self.best_f = float(fs[i])
-            self.best_x = xs[i].copy()
+        self._keep_best(xs, fs)
         finite = np.isfinite(fs)
         if not finite.all():
             worst = float(fs[finite].max()) if finite.any() else 0.0
@@ -133,10 +135,6 @@ class CMAES:
     def stop(self) -> dict[str, object]:
         """pycma's termination criteria that fired."""
         return dict(self.es.stop())
-
-    @property
-    def result(self) -> tuple[np.ndarray, float]:
-        return self.best_x.copy(), self.best_f
 
     def trace(self) -> dict[str, np.ndarray]:
         """Per step: pycma's global ``sigma`` and ``f_best``."""

@@ -6,7 +6,6 @@ pickled: a checkpointed ``de`` or ``ga`` run restarts from its seed instead of r
 
 from __future__ import annotations
 
-import math
 import queue
 import threading
 import weakref
@@ -16,7 +15,13 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import ConfigError, FemupdateError
-from femupdate.optimize.base import check_batch, check_option_names, int_option, real_option
+from femupdate.optimize.base import (
+    KeepsBest,
+    check_batch,
+    check_option_names,
+    int_option,
+    real_option,
+)
 
 
 class _Abort(Exception):
@@ -65,7 +70,7 @@ def _shutdown(tells: queue.Queue, thread: threading.Thread) -> None:
         thread.join()
 
 
-class DifferentialEvolution:
+class DifferentialEvolution(KeepsBest):
     """scipy's ``differential_evolution`` driven as ask/tell. Not picklable.
 
     The solver runs in a worker thread (``vectorized=True, updating="deferred"``: one call of
@@ -106,7 +111,6 @@ class DifferentialEvolution:
         self._tells: queue.Queue = queue.Queue()
         self._message: tuple[str, Any] | None = None
         self.best_x = np.full(n, 0.5)
-        self.best_f = math.inf
         self._thread = threading.Thread(
             target=_run_solver, args=(_Handoff(self._asks, self._tells), n, settings),
             name="femupdate-de", daemon=True,
@@ -143,10 +147,7 @@ class DifferentialEvolution:
         kind, payload = self._next_message()
         if kind != "ask" or payload.shape[0] != fs.shape[0]:
             raise FemupdateError("tell() must follow ask() with one value per asked row")
-        i = int(np.argmin(fs))
-        if fs[i] < self.best_f:
-            self.best_f = float(fs[i])
-            self.best_x = xs[i].copy()
+        self._keep_best(xs, fs)
         self._message = None
         self._tells.put(fs)
 
@@ -154,10 +155,6 @@ class DifferentialEvolution:
         """``{"de_tol": tol}`` once scipy's own convergence criterion ended the solver."""
         kind, _ = self._next_message()  # waits until the solver asks again or ends
         return {"de_tol": self.tol} if kind == "done" else {}
-
-    @property
-    def result(self) -> tuple[np.ndarray, float]:
-        return self.best_x.copy(), self.best_f
 
     def trace(self) -> dict[str, np.ndarray]:
         return {}
@@ -198,7 +195,7 @@ def make_de(n: int, rng: np.random.Generator, **options: Any) -> DifferentialEvo
                                  mutation=mutation, recombination=recombination)
 
 
-class GeneticAlgorithm:
+class GeneticAlgorithm(KeepsBest):
     """pymoo's single-objective GA through its native ask/tell, on the unit box. Not picklable
     by contract (a checkpointed ``ga`` run restarts).
 
@@ -231,7 +228,6 @@ class GeneticAlgorithm:
                              seed=int(rng.integers(2**63)), verbose=False)
         self._pop: Any = None
         self.best_x = np.full(n, 0.5)
-        self.best_f = math.inf
 
     def __getstate__(self) -> dict[str, Any]:
         raise TypeError("the 'ga' optimizer cannot be pickled: ga runs restart from their "
@@ -250,10 +246,7 @@ class GeneticAlgorithm:
         xs, fs = check_batch(xs, fs, self.n)
         if self._pop is None or len(self._pop) != fs.shape[0]:
             raise FemupdateError("tell() must follow ask() with one value per asked row")
-        i = int(np.argmin(fs))
-        if fs[i] < self.best_f:
-            self.best_f = float(fs[i])
-            self.best_x = xs[i].copy()
+        self._keep_best(xs, fs)
         Evaluator().eval(StaticProblem(self.problem, F=fs[:, None]), self._pop)
         self.algorithm.tell(infills=self._pop)
         self._pop = None
@@ -261,10 +254,6 @@ class GeneticAlgorithm:
     def stop(self) -> dict[str, object]:
         """The GA has no criterion of its own here."""
         return {}
-
-    @property
-    def result(self) -> tuple[np.ndarray, float]:
-        return self.best_x.copy(), self.best_f
 
     def trace(self) -> dict[str, np.ndarray]:
         return {}

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import scipy.linalg as sla
+from numba import njit
 
 from femupdate.errors import ConfigError, DataError, ModelError, SimulationError
 from femupdate.model.friction import check_friction_parameters
@@ -20,8 +21,11 @@ from femupdate.simulate.response import Response
 DIVERGENCE_LIMIT = 1e150
 
 
-def check_system(system: System) -> None:
-    """Raise ModelError unless M, C, K, r and the friction elements are consistent and finite."""
+def check_system(system: System) -> np.ndarray:
+    """Raise ModelError unless M, C, K, r and the friction elements are consistent and finite.
+
+    Returns the lower Cholesky factor of M (computed by the positive-definiteness check).
+    """
     n = system.n_dof
     if n < 1:
         raise ModelError("the system has no degrees of freedom; M must be at least 1 × 1")
@@ -36,7 +40,7 @@ def check_system(system: System) -> None:
     if not np.all(np.isfinite(system.r)):
         raise ModelError("system.r contains NaN or inf; all entries must be finite")
     try:
-        sla.cholesky(system.M, lower=True, check_finite=False)
+        chol = sla.cholesky(system.M, lower=True, check_finite=False)
     except sla.LinAlgError:
         raise ModelError(
             "system.M is not positive definite; every free DOF needs mass (or rotary inertia)"
@@ -56,6 +60,7 @@ def check_system(system: System) -> None:
                 f"friction.dof_j must lie in [-1, {n - 1}] (-1 = ground); got {fr.dof_j.tolist()}"
             )
         check_friction_parameters(fr.k_r, fr.f_u)
+    return chol
 
 
 def check_step(dt: float, substeps: int) -> tuple[float, int]:
@@ -190,6 +195,15 @@ def check_critical_step(
     )
 
 
+@njit(cache=True, inline="always")
+def is_diverged(x: np.ndarray) -> bool:
+    """Whether a state vector has left any physical range (or holds NaN), inside the kernels."""
+    s = 0.0
+    for i in range(x.shape[0]):
+        s += abs(x[i])
+    return not s < DIVERGENCE_LIMIT  # NaN fails the comparison too
+
+
 def sample_loads(
     ag: np.ndarray | None, force: np.ndarray | None, g: np.ndarray, G: np.ndarray | None
 ) -> np.ndarray:
@@ -240,12 +254,23 @@ class Simulator:
 
     def __init__(self, system: System, dt: float, outputs: Sequence[int] | np.ndarray | None,
                  substeps: int = 1) -> None:
-        check_system(system)
+        chol = check_system(system)
         self.dt, self.substeps = check_step(dt, substeps)
         self.h = self.dt / self.substeps
         self.n_dof = system.n_dof
         self.outputs = check_outputs(outputs, self.n_dof)
         self._r_out = system.r[self.outputs]
+        self._minv = sla.cho_solve((chol, True), np.eye(self.n_dof), check_finite=False)
+        self._C, self._K, self._p = system.C, system.K, system.seismic_load
+
+    def _initial_acceleration(
+        self, ag: np.ndarray | None, force: np.ndarray | None, x0: np.ndarray, v0: np.ndarray,
+        internal: np.ndarray | float = 0.0,
+    ) -> np.ndarray:
+        """Relative acceleration at t = 0 from the equations of motion, with ``internal`` the
+        forces of elements outside K and C (friction)."""
+        p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._p)
+        return self._minv @ (p0 - self._C @ v0 - self._K @ x0 - internal)
 
     def run(
         self,

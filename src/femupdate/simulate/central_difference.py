@@ -35,9 +35,9 @@ from femupdate.errors import SimulationError
 from femupdate.model.friction import elasto_slip
 from femupdate.model.system import System
 from femupdate.simulate._common import (
-    DIVERGENCE_LIMIT,
     Simulator,
     check_critical_step,
+    is_diverged,
     omega_max,
     sample_loads,
 )
@@ -101,10 +101,7 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
                 for i in range(n):
                     u_next[i] -= HT[e, i] * f
             if j == 0:
-                s = 0.0
-                for i in range(n):
-                    s += abs(u_next[i])
-                if not s < DIVERGENCE_LIMIT:  # NaN fails too
+                if is_diverged(u_next):
                     return disp, vel, acc, ff, slip, True
                 for o in range(no):
                     d = out[o]
@@ -157,10 +154,7 @@ def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po):
                 for i in range(n):
                     eta_next[i] -= Pf[e, i] * f
             if j == 0:
-                s = 0.0
-                for i in range(n):
-                    s += abs(eta_next[i])
-                if not s < DIVERGENCE_LIMIT:  # NaN fails too
+                if is_diverged(eta_next):
                     return disp, vel, acc, ff, slip, True
                 for o in range(no):
                     d = 0.0
@@ -239,8 +233,6 @@ class CentralDifferenceSimulator(Simulator):
         else:
             self._prepare_modal(*modal, M, system.seismic_load, bf)
         self._bf = bf
-        self._minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
-        self._C, self._K, self._mr = C, K, system.seismic_load
         if nf:
             self._fi = np.ascontiguousarray(fr.dof_i, dtype=np.int64)
             self._fj = np.ascontiguousarray(fr.dof_j, dtype=np.int64)
@@ -302,8 +294,7 @@ class CentralDifferenceSimulator(Simulator):
         h = self.h
         q = sample_loads(ag, force, self._g, self._G3)
         # u_{-1} from a Taylor step backwards with the acceleration the equations give at t = 0
-        p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._mr)
-        a0 = self._minv @ (p0 - self._C @ v0 - self._K @ x0 - self._initial_force(x0))
+        a0 = self._initial_acceleration(ag, force, x0, v0, self._initial_force(x0))
         um1 = x0 - h * v0 + 0.5 * h * h * a0
         friction = (self._kr, self._fu)
         if self.modal:

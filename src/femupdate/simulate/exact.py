@@ -34,6 +34,7 @@ from femupdate.model.system import System
 from femupdate.simulate._common import (
     DIVERGENCE_LIMIT,
     Simulator,
+    is_diverged,
 )
 
 # Above this 1-norm condition number of the (balanced) eigenvector matrix, rounding in the modal
@@ -164,10 +165,7 @@ def _dense_recursion(phiT, Q0, Q1, x0):
             xc = X[k - 1, c]
             for i in range(n):
                 X[k, i] += phiT[c, i] * xc
-        s = 0.0
-        for i in range(n):
-            s += abs(X[k, i])
-        if not s < DIVERGENCE_LIMIT:
+        if is_diverged(X[k]):
             return X, True
     return X, False
 
@@ -199,7 +197,7 @@ class ExactSimulator(Simulator):
                 f"{system.friction.count} friction elements: use method='nonlinear'"
             )
         n = self.n_dof
-        minv = sla.cho_solve(sla.cho_factor(system.M), np.eye(n))
+        minv = self._minv
         self._minv_out = np.ascontiguousarray(minv[self.outputs])
         # The state derivative A x omits the input's direct term: relative acceleration is
         # A-part − (M⁻¹ p) a_g at the outputs.
@@ -266,7 +264,6 @@ class ExactSimulator(Simulator):
         phi, G0, G1 = foh_state_matrices(A, B, self.dt)
         self._phiT = np.ascontiguousarray(phi.T)
         self._G0, self._G1 = G0, G1
-        self._mr = system.seismic_load
         out = self.outputs
         self._rows = np.vstack([np.eye(2 * n)[out], np.eye(2 * n)[n + out], A[n + out]])
 
@@ -310,7 +307,7 @@ class ExactSimulator(Simulator):
         n = self.n_dof
         loads = np.zeros((ns, n)) if force is None else force.copy()
         if ag is not None:
-            loads -= np.outer(ag, self._mr)
+            loads -= np.outer(ag, self._p)
         Q0 = np.ascontiguousarray(loads @ self._G0.T)
         Q1 = np.ascontiguousarray(loads @ self._G1.T)
         X, diverged = _dense_recursion(self._phiT, Q0, Q1, np.concatenate([x0, v0]))

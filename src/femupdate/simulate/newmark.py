@@ -148,16 +148,13 @@ class NewmarkSimulator(Simulator):
         self._AaT = np.ascontiguousarray(solve(-(h * (1 - g) * C + h * h * (0.5 - b) * K)).T)
         self._g = solve(-system.seismic_load)
         self._S = solve(np.eye(n))
-        self._minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
-        self._M, self._C, self._K, self._mr = M, C, K, system.seismic_load
 
     def _integrate(
         self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
         v0: np.ndarray,
     ) -> tuple:
         q = sample_loads(ag, force, self._g, self._S)
-        p0 = (0.0 if force is None else force[0]) - (0.0 if ag is None else ag[0] * self._mr)
-        a0 = self._minv @ (p0 - self._C @ v0 - self._K @ x0)
+        a0 = self._initial_acceleration(ag, force, x0, v0)
         disp, vel, acc, diverged = _newmark_kernel(
             self._AuT,
             self._AvT,
