@@ -74,3 +74,36 @@ def test_unknown_method_is_a_clear_error(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "nelder" in proc.stdout and "ab" in proc.stdout
+
+
+@pytest.mark.parametrize(("text", "expected"), [("{tolfun: 0}", "neither a JSON file"),
+                                                ("[0]", "expected a JSON object")])
+def test_bench_bridge_options_must_be_a_json_object(text: str, expected: str) -> None:
+    from femupdate.errors import ConfigError
+
+    result = runner.invoke(app, ["bench", "bridge", "--options", text, "--runs", "1"])
+    assert isinstance(result.exception, ConfigError)
+    assert "--options" in str(result.exception) and expected in str(result.exception)
+
+
+def test_bench_bridge_json_has_the_summary_keys_and_the_truth(tmp_path: Path) -> None:
+    out = tmp_path / "bridge.json"
+    result = runner.invoke(app, ["bench", "bridge", "--model", "viscous", "--runs", "2",
+                                 "--max-evals", "40", "--workers", "1", "--work-dir",
+                                 str(tmp_path / "work"), "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    data = json.loads(out.read_text())
+    assert {"runs", "best", "spread", "truth", "noise_floor", "truth_frequencies_hz",
+            "parameter_errors", "frequency_errors", "within_1_5_noise_floor"} <= set(data)
+    assert len(data["runs"]) == len(data["frequency_errors"]) == 2
+    for run, errors, freq_errors in zip(data["runs"], data["parameter_errors"],
+                                        data["frequency_errors"], strict=True):
+        assert {"seed", "success", "status", "stop", "phi", "nfev", "params",
+                "at_bounds"} <= set(run)
+        assert run["nfev"] <= 40
+        for name, value in data["truth"].items():
+            assert errors[name] == pytest.approx(run["params"][name] / value - 1.0)
+        assert len(freq_errors) == 4
+    assert data["within_1_5_noise_floor"] == sum(r["phi"] <= 1.5 * data["noise_floor"]
+                                                 for r in data["runs"])
+    assert "noise floor" in result.output

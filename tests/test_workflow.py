@@ -146,6 +146,8 @@ def test_summary_json(result: UpdateResult, case_dir: Path) -> None:
         assert 1 <= run["nfev"] <= 3000
         # success means reaching f_target here
         assert run["success"] == (run["phi"] <= 1e-8)
+        # runs that found the truth end inside the box, none at an improper minimum
+        assert run["at_bounds"] == {} or not run["success"]
     assert {"phi", "params", "frequencies_hz"} <= set(summary["best"])
     assert summary["best"]["phi"] == min(run["phi"] for run in summary["runs"])
     assert set(summary["spread"]["params"]) == set(TRUTH)

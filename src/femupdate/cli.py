@@ -96,6 +96,8 @@ def bench_dynamic(
 
 
 def _print_bridge(summary: dict[str, Any]) -> None:
+    from femupdate.identifiability import strong_correlations
+
     print_update_summary(summary)
     freqs = Table(title="natural frequencies [Hz] (paper Tables 7 and 11)")
     for col in ("mode", "truth", "best", "mean ± std (successful)", "best error"):
@@ -123,8 +125,20 @@ def _print_bridge(summary: dict[str, Any]) -> None:
                   + (f"; runs within 1.5× of it: {summary['within_1_5_noise_floor']}/"
                      f"{len(summary['runs'])}" if summary["within_1_5_noise_floor"] is not None
                      else ""))
+    if summary["within_1_5_noise_floor"]:
+        near = np.array([np.abs(e[:2]) for r, e in zip(summary["runs"],
+                                                       summary["frequency_errors"], strict=True)
+                         if r["phi"] <= 1.5 * floor])
+        worst = 100 * near.max(axis=0)
+        console.print(f"their largest f1, f2 errors against the truth's: {worst[0]:.3f} %, "
+                      f"{worst[1]:.3f} %")
     if ident["undetermined"]:
         console.print(f"parameters the data hardly determine: {', '.join(ident['undetermined'])}")
+    sv = ident["singular_values"]
+    pairs = strong_correlations(ident["names"], ident["correlations"])
+    console.print(f"sensitivity matrix at the best run: condition number {sv[0] / sv[-1]:.3g}"
+                  + ("; strongly correlated (|ρ| > 0.9): " + ", ".join(
+                      f"{a}–{b} {rho:+.3f}" for a, b, rho in pairs) if pairs else ""))
 
 
 @bench_app.command("bridge")
@@ -144,19 +158,23 @@ def bench_bridge(
                          ] = None,
     work_dir: Annotated[Path | None, typer.Option(help="Keep the data and results here.")
                         ] = None,
+    options: Annotated[str | None, typer.Option(
+        help='Options of the method(s) as JSON, e.g. \'{"tolfun": 0, "tolfunhist": 0}\'.')
+    ] = None,
     json_path: JsonOption = None,
     workers: WorkersOption = 2,
 ) -> None:
     """Benchmark 2 of the paper: update the 1:50 bridge from a virtual experiment."""
     from femupdate.benchmarks.bridge import run_bridge_benchmark
 
+    method_options = _json_object("--options", options)
     work = work_dir or Path("femupdate-bench-bridge")
     rows = []
     for m in method.split(","):
         with console.status(f"{runs} runs of {m} on the {model} bridge…"):
             summary = run_bridge_benchmark(model, band, m.strip(), runs=runs, seed=seed,
                                            snr=snr, workers=workers, max_evals=max_evals,
-                                           work_dir=work)
+                                           options=method_options, work_dir=work)
         _print_bridge(summary)
         rows.append(summary)
     if len(rows) > 1 and all(r["evals_mean"] for r in rows):
@@ -263,6 +281,14 @@ def print_update_summary(summary: dict[str, Any]) -> None:
                   f"median {_fmt(summary['evals_median'])}; per success, failed runs "
                   f"included: {_fmt(summary['evals_per_success'])}; "
                   f"wall {summary['wall_s']:.1f} s")
+    failed = [r for r in summary["runs"] if not r["success"]]
+    improper = [r for r in failed if r.get("at_bounds")]
+    if failed:
+        console.print(f"unsuccessful runs: {len(failed)}, of which {len(improper)} end with a "
+                      "parameter at a bound (improper minima): " + "; ".join(
+                          f"run {r['index']}: " + ", ".join(f"{n} {side}" for n, side
+                                                              in r["at_bounds"].items())
+                          for r in improper))
 
 
 @app.command()
@@ -304,8 +330,8 @@ def run(
     _write_json(json_path, result.summary)
 
 
-def _read_params(text: str | None) -> dict[str, float] | None:
-    """Parameter values from a JSON object, a JSON file, or a summary.json (its best run)."""
+def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
+    """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:
         return None
     from femupdate.errors import ConfigError
@@ -315,12 +341,21 @@ def _read_params(text: str | None) -> dict[str, float] | None:
     try:
         data = json.loads(raw)
     except json.JSONDecodeError as exc:
-        raise ConfigError(f"--params: {text!r} is neither a JSON file nor a JSON object "
+        raise ConfigError(f"{flag}: {text!r} is neither a JSON file nor a JSON object "
                           f"({exc})") from None
-    if isinstance(data, dict) and "best" in data:
-        data = data["best"]["params"]
     if not isinstance(data, dict):
-        raise ConfigError(f"--params: expected an object {{name: value}}, got {type(data)}")
+        raise ConfigError(f"{flag}: expected a JSON object {{name: value}}, got "
+                          f"{type(data).__name__}")
+    return data
+
+
+def _read_params(text: str | None) -> dict[str, float] | None:
+    """Parameter values from a JSON object, a JSON file, or a summary.json (its best run)."""
+    data = _json_object("--params", text)
+    if data is None:
+        return None
+    if "best" in data:
+        data = data["best"]["params"]
     return {str(k): float(v) for k, v in data.items()}
 
 

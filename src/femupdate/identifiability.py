@@ -108,3 +108,17 @@ def identifiability(problem: UpdateProblem, x: np.ndarray, *, rel_step: float = 
         singular_values=sv, correlations=corr,
         undetermined=tuple(names[i] for i in sorted(weak)),
     )
+
+
+def strong_correlations(names: list[str] | tuple[str, ...], correlations: np.ndarray,
+                        threshold: float = 0.9) -> list[tuple[str, str, float]]:
+    """Pairs of parameters whose estimates correlate beyond ``threshold`` in magnitude.
+
+    Such a pair is a diagonal valley of φ: the data fix a combination of the two, not each.
+    Sorted by decreasing |ρ|.
+    """
+    corr = np.asarray(correlations, dtype=float)
+    pairs = [(names[i], names[j], float(corr[i, j]))
+             for i in range(len(names)) for j in range(i + 1, len(names))
+             if abs(corr[i, j]) > threshold]
+    return sorted(pairs, key=lambda pair: -abs(pair[2]))

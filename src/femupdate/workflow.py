@@ -18,7 +18,7 @@ from femupdate.case import Case, parse_case
 from femupdate.experiment import Experiment, load_experiment
 from femupdate.model.modes import natural_frequencies
 from femupdate.runs.runner import RunOutcome, run_all
-from femupdate.runs.stats import evaluation_stats, spread
+from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.update import UpdateProblem
 
 #: Without a target φ_s, a run counts as successful when its φ is within this factor of the
@@ -73,6 +73,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         row = o.to_dict(names)
         row["params"] = problem.values(o.x)
         row["success"] = ok
+        row["at_bounds"] = at_bounds(o.x, problem.bounds, names)
         runs.append(row)
     good = [o for o, ok in zip(outcomes, success, strict=True) if ok]
     values = np.array([[r["params"][n] for n in names] for r, ok in zip(runs, success,

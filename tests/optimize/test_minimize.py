@@ -78,7 +78,8 @@ def test_unknown_option(method: str) -> None:
 @pytest.mark.parametrize(
     ("method", "option", "value"),
     [("ab", "sigma_min", -1.0), ("ib", "sigma0", 0.5), ("ab", "f_change_min", 0.0),
-     ("cmaes", "popsize", 1), ("cmaes", "sigma0", 0.0), ("de", "popsize", 4),
+     ("cmaes", "popsize", 1), ("cmaes", "sigma0", 0.0), ("cmaes", "tolfun", -1e-11),
+     ("cmaes", "tolx", math.inf), ("de", "popsize", 4),
      ("de", "recombination", 1.5), ("de", "mutation", (1.0, 0.5)), ("ga", "popsize", 1.5)],
 )
 def test_option_out_of_range(method: str, option: str, value: object) -> None:
@@ -143,6 +144,18 @@ def test_history_and_result_consistent(method: str) -> None:
     best = int(np.argmin(h["fun"]))
     assert res.fun == h["fun"][best]
     np.testing.assert_array_equal(res.x, h["x"][best])
+
+
+def test_cmaes_tolerances_reach_pycma() -> None:
+    def offset_sphere(x: np.ndarray) -> float:  # pycma's tolerances are absolute
+        return sphere(x) + 1.0
+
+    default = minimize(offset_sphere, BOX, "cmaes", seed=0, max_evals=20_000)
+    assert "tolfun" in default.stop
+    off = minimize(offset_sphere, BOX, "cmaes", seed=0, max_evals=20_000, tolfun=0.0,
+                   tolfunhist=0.0)
+    assert not {"tolfun", "tolfunhist"} & set(off.stop)
+    assert off.nfev > default.nfev
 
 
 def test_partial_batch_is_not_told() -> None:

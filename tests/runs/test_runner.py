@@ -9,7 +9,7 @@ from femupdate.benchmarks.dynamic import DynamicProblem
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
 from femupdate.runs.runner import repeat, run_seeds
-from femupdate.runs.stats import evaluation_stats, spread
+from femupdate.runs.stats import BOUND_TOL, at_bounds, evaluation_stats, spread
 
 
 def sphere(x: np.ndarray) -> float:
@@ -60,6 +60,13 @@ def test_evaluation_stats_counts_only_successes() -> None:
     none = evaluation_stats([10, 20], [False, False])
     assert none["successes"] == 0 and none["evals_mean"] is None
     assert none["evals_per_success"] is None
+
+
+def test_at_bounds_names_the_parameters_at_a_bound_and_the_side() -> None:
+    bounds = [(0.0, 10.0), (2.0, 3.0), (-1.0, 1.0), (5.0, 6.0)]
+    x = np.array([10.0 * (1 - 0.5 * BOUND_TOL), 2.0, 0.0, 5.0 + 2 * BOUND_TOL])
+    assert at_bounds(x, bounds, ["a", "b", "c", "d"]) == {"a": "upper", "b": "lower"}
+    assert at_bounds(np.array([5.0, 2.5, 0.3, 5.5]), bounds, ["a", "b", "c", "d"]) == {}
 
 
 def test_spread() -> None:

@@ -55,6 +55,11 @@ class CMAES(KeepsBest):
         λ, candidates per step (default 5, as the paper).
     sigma0 : float
         Initial step size in the unit cube (default 0.5, half the box).
+    tolfun, tolfunhist, tolx : float
+        pycma's termination tolerances on the range of recent φ values, of the best φ over the
+        last iterations, and on the step size (its defaults: 1e-11, 1e-12, 1e-11); 0 switches a
+        criterion off. They are absolute: with a target φ near 1e-6 on an ill-conditioned
+        problem, the defaults may stop a run that is still converging.
 
     Notes
     -----
@@ -66,7 +71,8 @@ class CMAES(KeepsBest):
     """
 
     def __init__(self, n: int, rng: np.random.Generator, *, popsize: int = 5,
-                 sigma0: float = 0.5) -> None:
+                 sigma0: float = 0.5, tolfun: float = 1e-11, tolfunhist: float = 1e-12,
+                 tolx: float = 1e-11) -> None:
         import cma  # imported here: about a second to import
 
         self.n = n
@@ -77,6 +83,9 @@ class CMAES(KeepsBest):
             sigma0,
             {
                 "popsize": popsize,
+                "tolfun": tolfun,
+                "tolfunhist": tolfunhist,
+                "tolx": tolx,
                 "randn": GeneratorRandn(rng),
                 "seed": math.nan,  # "do nothing" to numpy's global state
                 "verbose": -9,
@@ -148,12 +157,18 @@ def _inside(x: np.ndarray) -> bool:
     return bool(np.all(x >= 0.0) and np.all(x <= 1.0))
 
 
-_CMAES_OPTIONS = ("popsize", "sigma0")
+_CMAES_OPTIONS = ("popsize", "sigma0", "tolfun", "tolfunhist", "tolx")
 
 
 def make_cmaes(n: int, rng: np.random.Generator, **options: Any) -> CMAES:
-    """CMA-ES. Options: ``popsize`` (int ≥ 2, default 5), ``sigma0`` (in (0, 1], default 0.5)."""
+    """CMA-ES. Options: ``popsize`` (int ≥ 2, default 5), ``sigma0`` (in (0, 1], default 0.5),
+    ``tolfun``, ``tolfunhist``, ``tolx`` (≥ 0, pycma's defaults; 0 switches off)."""
     check_option_names("cmaes", options, _CMAES_OPTIONS)
     popsize = int_option("cmaes", "popsize", options.get("popsize", 5), 2)
     sigma0 = real_option("cmaes", "sigma0", options.get("sigma0", 0.5), 0.0, 1.0, low_open=True)
-    return CMAES(n, rng, popsize=popsize, sigma0=sigma0)  # type: ignore[arg-type]
+    tolfun = real_option("cmaes", "tolfun", options.get("tolfun", 1e-11), 0.0, high_open=True)
+    tolfunhist = real_option("cmaes", "tolfunhist", options.get("tolfunhist", 1e-12), 0.0,
+                             high_open=True)
+    tolx = real_option("cmaes", "tolx", options.get("tolx", 1e-11), 0.0, high_open=True)
+    return CMAES(n, rng, popsize=popsize, sigma0=sigma0,  # type: ignore[arg-type]
+                 tolfun=tolfun, tolfunhist=tolfunhist, tolx=tolx)

@@ -27,6 +27,7 @@ import numpy as np
 
 from femupdate.case import Case, build_structure, parse_case
 from femupdate.errors import FemupdateError
+from femupdate.runs.stats import BOUND_TOL, bound_flags
 
 __all__ = [
     "BOUND_TOL",
@@ -45,9 +46,6 @@ REPORT_NAME = "report.html"
 FIGURE_DIR = "report"
 SUMMARY_NAME = "summary.json"
 STORE_NAME = "results.sqlite"
-#: A parameter within this fraction of its search range from a bound sits at the bound: an
-#: improper minimum (METHOD.md §2).
-BOUND_TOL = 1e-3
 #: Re-simulated φ and stored φ of the best run may differ by this much (relative) before the
 #: report warns that the data or the code changed since the runs.
 PHI_RTOL = 1e-6
@@ -113,15 +111,6 @@ def bound_positions(values: np.ndarray, lower: np.ndarray, upper: np.ndarray,
         lo = np.where(log, np.log10(np.where(log, lower, 1.0)), lower)
         hi = np.where(log, np.log10(np.where(log, upper, 1.0)), upper)
     return (v - lo) / (hi - lo)
-
-
-def bound_flags(positions: np.ndarray, tol: float = BOUND_TOL) -> np.ndarray:
-    """−1 at (or below) the lower bound, +1 at (or above) the upper, 0 inside.
-
-    "At" means within ``tol`` of the search range (``positions`` from :func:`bound_positions`).
-    """
-    p = np.asarray(positions, dtype=float)
-    return np.where(p <= tol, -1, np.where(p >= 1.0 - tol, 1, 0)).astype(np.int8)
 
 
 def spectrum_limit(f: np.ndarray, amplitude: np.ndarray, *, fraction: float = 0.995,

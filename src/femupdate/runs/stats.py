@@ -7,6 +7,10 @@ from typing import Any
 
 import numpy as np
 
+#: A parameter within this fraction of its search range from a bound sits at the bound: an
+#: improper minimum (METHOD.md §2).
+BOUND_TOL = 1e-3
+
 
 def evaluation_stats(nfev: Sequence[int], success: Sequence[bool]) -> dict[str, Any]:
     """Success ratio and evaluations over the successful runs.
@@ -56,3 +60,26 @@ def spread(values: np.ndarray, names: Sequence[str]) -> dict[str, dict[str, floa
         }
         for name, col in zip(names, values.T, strict=True)
     }
+
+
+def bound_flags(positions: np.ndarray, tol: float = BOUND_TOL) -> np.ndarray:
+    """−1 at (or below) the lower bound, +1 at (or above) the upper, 0 inside.
+
+    "At" means within ``tol`` of the search range; ``positions`` are 0 at the lower bound and 1
+    at the upper, in the search space (log10 for log-scale parameters).
+    """
+    p = np.asarray(positions, dtype=float)
+    return np.where(p <= tol, -1, np.where(p >= 1.0 - tol, 1, 0)).astype(np.int8)
+
+
+def at_bounds(x: np.ndarray, bounds: Sequence[tuple[float, float]],
+              names: Sequence[str]) -> dict[str, str]:
+    """The parameters of search point ``x`` that sit at a bound: name → "lower" or "upper".
+
+    A run that ends with any is at an improper minimum (METHOD.md §2), the typical failure of
+    a bounded search, unless the bound is where the parameter physically is.
+    """
+    lower, upper = np.asarray(bounds, dtype=float).T
+    flags = bound_flags((np.asarray(x, dtype=float) - lower) / (upper - lower))
+    return {name: ("lower" if f < 0 else "upper")
+            for name, f in zip(names, flags, strict=True) if f}
