@@ -90,7 +90,8 @@ def test_bench_bridge_json_has_the_summary_keys_and_the_truth(tmp_path: Path) ->
     out = tmp_path / "bridge.json"
     result = runner.invoke(app, ["bench", "bridge", "--model", "viscous", "--runs", "2",
                                  "--max-evals", "40", "--workers", "1", "--work-dir",
-                                 str(tmp_path / "work"), "--json", str(out)])
+                                 str(tmp_path / "work"), "--json", str(out),
+                                 "--options", '{"restarts": 2, "sigma_min": 0.28}'])
     assert result.exit_code == 0, result.output
     data = json.loads(out.read_text())
     assert {"runs", "best", "spread", "truth", "noise_floor", "truth_frequencies_hz",
@@ -99,11 +100,14 @@ def test_bench_bridge_json_has_the_summary_keys_and_the_truth(tmp_path: Path) ->
     for run, errors, freq_errors in zip(data["runs"], data["parameter_errors"],
                                         data["frequency_errors"], strict=True):
         assert {"seed", "success", "status", "stop", "phi", "nfev", "params",
-                "at_bounds"} <= set(run)
+                "at_bounds", "restarts"} <= set(run)
         assert run["nfev"] <= 40
+        assert run["restarts"] == 2  # σ falls below 0.28 after a few failures
         for name, value in data["truth"].items():
             assert errors[name] == pytest.approx(run["params"][name] / value - 1.0)
         assert len(freq_errors) == 4
     assert data["within_1_5_noise_floor"] == sum(r["phi"] <= 1.5 * data["noise_floor"]
                                                  for r in data["runs"])
     assert "noise floor" in result.output
+    assert ("restarts (searches that converged or stalled): 4 in all, in 2 of 2 runs"
+            in result.output)

@@ -261,11 +261,14 @@ def print_update_summary(summary: dict[str, Any]) -> None:
     runs = Table(title=f"{summary['case']['case']['name']}: {summary['method']} runs "
                        f"({summary['success_rule']})")
     names = list(summary["best"]["params"])
-    for col in ("run", "NMSE %", "evals", "stop", "ok", *names):
+    restarted = any(r.get("restarts") for r in summary["runs"])
+    for col in ("run", "NMSE %", "evals", "stop", "ok", *(["restarts"] if restarted else []),
+                *names):
         runs.add_column(col, justify="right")
     for r in summary["runs"]:
         runs.add_row(str(r["index"]), f"{100 * r['phi']:.4g}", str(r["nfev"]),
                      ",".join(r["stop"]), "✓" if r["success"] else "✗",
+                     *([str(r.get("restarts", 0))] if restarted else []),
                      *(f"{r['params'][n]:.4g}" for n in names))
     console.print(runs)
     spread = summary["spread"]["params"]
@@ -281,6 +284,10 @@ def print_update_summary(summary: dict[str, Any]) -> None:
                   f"median {_fmt(summary['evals_median'])}; per success, failed runs "
                   f"included: {_fmt(summary['evals_per_success'])}; "
                   f"wall {summary['wall_s']:.1f} s")
+    if restarted:
+        counts = [int(r.get("restarts", 0)) for r in summary["runs"]]
+        console.print(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
+                      f"{sum(c > 0 for c in counts)} of {len(counts)} runs")
     failed = [r for r in summary["runs"] if not r["success"]]
     improper = [r for r in failed if r.get("at_bounds")]
     if failed:

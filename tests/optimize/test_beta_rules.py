@@ -42,7 +42,7 @@ def test_ib_success_and_failure() -> None:
     sigma *= alpha
     np.testing.assert_array_equal(opt.mode, [0.6, 0.1, 0.5, 0.9])
     assert opt.sigma == pytest.approx(sigma, rel=1e-14)
-    assert opt.f_best == 0.5
+    assert opt.phi_m == 0.5
     _tell(opt, [0.0, 0.0, 0.0, 0.0], 0.5)  # not lower: failure, σ shrinks by α^(-1/4)
     sigma *= alpha**-0.25
     np.testing.assert_array_equal(opt.mode, [0.6, 0.1, 0.5, 0.9])

@@ -79,7 +79,9 @@ def test_unknown_option(method: str) -> None:
     ("method", "option", "value"),
     [("ab", "sigma_min", -1.0), ("ib", "sigma0", 0.5), ("ab", "f_change_min", 0.0),
      ("cmaes", "popsize", 1), ("cmaes", "sigma0", 0.0), ("cmaes", "tolfun", -1e-11),
-     ("cmaes", "tolx", math.inf), ("de", "popsize", 4),
+     ("cmaes", "tolx", math.inf), ("ab", "restarts", -1), ("cmaes", "restarts", 1.5),
+     ("ib", "stall_window", 0), ("cmaes", "stall_tol", 1.0),
+     ("de", "popsize", 4),
      ("de", "recombination", 1.5), ("de", "mutation", (1.0, 0.5)), ("ga", "popsize", 1.5)],
 )
 def test_option_out_of_range(method: str, option: str, value: object) -> None:
@@ -178,6 +180,81 @@ def test_optimizer_criterion_stops() -> None:
     assert res.status == Status.OPTIMIZER and not res.success
     assert res.stop["sigma_min"] < 1e-4
     assert "sigma_min" in res.message
+
+
+def trap(x: np.ndarray) -> float:
+    """An improper minimum at the lower bound (φ = 0.5, a quarter of the box drains into it) and
+    the global one, φ = 0, at 0.7: a converged search in the trap can only restart."""
+    u = float(x[0])
+    return 0.5 + u if u < 0.25 else min(1.0, 20.0 * (u - 0.7) ** 2)
+
+
+@pytest.mark.parametrize(("method", "options"),
+                         [("ab", {"sigma_min": 1e-3}), ("ib", {"f_change_min": 1e-3}),
+                          ("cmaes", {"tolx": 1e-3})])
+def test_restarts_leave_a_converged_search(method: str, options: dict) -> None:
+    res = minimize(trap, [(0.0, 1.0)], method, seed=1, max_evals=5_000, restarts=3, **options)
+    h = res.history
+    assert res.restarts == 3 and h["restarts"][-1] == 3
+    assert np.all(np.diff(h["restarts"]) >= 0) and set(np.unique(h["restarts"])) == {0, 1, 2, 3}
+    assert res.status == Status.OPTIMIZER and res.nfev < 5_000  # the last search converged
+    assert res.fun == h["fun"].min()  # the best over all searches
+    per_step = 5 if method == "cmaes" else 1  # λ = 5; IB/AB one sample a step
+    last_of_step = np.arange(1, res.nit + 1) * per_step - 1
+    np.testing.assert_array_equal(h["f_best"], np.minimum.accumulate(h["fun"])[last_of_step])
+    again = minimize(trap, [(0.0, 1.0)], method, seed=1, max_evals=5_000, restarts=3, **options)
+    np.testing.assert_array_equal(again.history["fun"], h["fun"])
+
+
+def test_restarts_escape_improper_minima() -> None:
+    def successes(restarts: int) -> int:
+        return sum(minimize(trap, [(0.0, 1.0)], "ab", seed=seed, max_evals=3_000, f_target=1e-8,
+                            sigma_min=1e-4, restarts=restarts).success for seed in range(20))
+
+    without, with_restarts = successes(0), successes(20)
+    assert without < 20 and with_restarts == 20
+
+
+@pytest.mark.parametrize("method", ["ab", "cmaes"])
+def test_stall_fires_when_the_best_falls_by_less_than_stall_tol_over_the_window(
+        method: str) -> None:
+    opt = METHODS[method](2, np.random.default_rng(0), stall_window=3, stall_tol=0.1)
+    values = [8.0, 4.0, 2.0, 1.0, 0.95, 0.95, 0.95]  # told one at a time
+    fired = []
+    for f in values:
+        opt._track(np.array([f]))
+        fired.append(opt._stall())
+    assert fired[:6] == [{}] * 6  # 6 evaluations: 0.95 against 2.0 three evaluations earlier
+    assert fired[6] == {"stall": pytest.approx(0.95)}  # 0.95 against 1.0: less than 10 % less
+
+
+def test_stall_restarts_a_search_creeping_into_an_improper_minimum() -> None:
+    # σ_s off: a search in the trap creeps towards the bound with ever smaller successes and
+    # never converges; only the stall criterion ends it.
+    def runs(**options: object) -> list:
+        return [minimize(trap, [(0.0, 1.0)], "ab", seed=seed, max_evals=2_000, f_target=1e-8,
+                         sigma_min=0.0, **options) for seed in range(20)]
+
+    creeping = runs(restarts=5)
+    trapped = [r for r in creeping if not r.success]
+    assert trapped and all(r.nfev == 2_000 and r.restarts == 0 for r in trapped)
+    assert all(r.x[0] < 1e-3 for r in trapped)
+    restarted = runs(restarts=5, stall_window=100)
+    assert all(r.success for r in restarted)
+    assert {r.restarts for r in restarted} > {0}
+    alone = runs(stall_window=100)  # no restart left: stall stops the run
+    stopped = [r for r in alone if not r.success]
+    assert stopped and all("stall" in r.stop and r.nfev < 200 for r in stopped)
+
+
+def test_no_restart_is_the_paper_algorithm() -> None:
+    """restarts=0 stops at the first convergence; more restarts change nothing before it."""
+    one = minimize(trap, [(0.0, 1.0)], "ab", seed=2, max_evals=5_000, sigma_min=1e-3)
+    more = minimize(trap, [(0.0, 1.0)], "ab", seed=2, max_evals=5_000, sigma_min=1e-3,
+                    restarts=2)
+    assert one.restarts == 0 and "sigma_min" in one.stop
+    np.testing.assert_array_equal(more.history["fun"][: one.nfev], one.history["fun"])
+    assert more.nfev > one.nfev
 
 
 def test_bounds_object_same_as_pairs() -> None:

@@ -165,7 +165,7 @@ def test_runs_table_holds_the_summary(report: Path, summary: dict) -> None:
         assert_printed(row["NMSE %"][0], 100.0 * run["phi"])
         assert int(row["evaluations"][0].replace(",", "")) == run["nfev"]
         assert row["success"][0] == ("yes" if run["success"] else "no")
-        assert "max_evals" in row["stop"][0]
+        assert "max_evals" in row["stop"][0] and "restart" not in row["stop"][0]
         for name in names:
             cell = next(v for k, v in row.items() if k.split()[0] == name)
             assert_printed(cell[0], run["params"][name])
@@ -225,6 +225,19 @@ def test_parameters_at_a_bound_are_flagged(copy_results: Callable[[], Path]) -> 
     assert "bound" not in rows[2]["c1 [N·s/m]"][1]
     assert "c1" not in rows[2]["improper minimum"][0]
     assert "improper" in page.ids
+
+
+def test_restarts_are_shown_with_the_stop(copy_results: Callable[[], Path]) -> None:
+    out = copy_results()
+    path = out / "summary.json"
+    summary = json.loads(path.read_text())
+    summary["runs"][0]["restarts"] = 2
+    summary["runs"][1]["restarts"] = 1
+    path.write_text(json.dumps(summary))
+    rows = parse(write_report(out, identifiability=False))[0].rows("runs")
+    assert rows[0]["stop"][0].endswith("(after 2 restarts)")
+    assert rows[1]["stop"][0].endswith("(after 1 restart)")
+    assert "restart" not in rows[2]["stop"][0]
 
 
 def test_without_store_or_data_the_report_says_what_it_could_not_draw(

@@ -44,18 +44,26 @@ def assert_same_store(dir_a: Path, dir_b: Path) -> None:
         assert xa.tobytes() == xb.tobytes() and fa.tobytes() == fb.tobytes()
 
 
-@pytest.mark.parametrize("method", ["ab", "ib", "cmaes"])
-def test_each_run_is_minimize_with_its_child_seed(method: str) -> None:
+RESTARTING = {"ab": {"sigma_min": 0.02, "restarts": 5}, "cmaes": {"tolx": 0.05, "restarts": 5}}
+
+
+@pytest.mark.parametrize(
+    ("method", "options"),
+    [(m, OPTIONS[m]) for m in ("ab", "ib", "cmaes")] + list(RESTARTING.items()),
+)
+def test_each_run_is_minimize_with_its_child_seed(method: str, options: dict) -> None:
     # Tiny, odd chunks: every run is pickled, stripped and resumed dozens of times.
     kw = dict(runs=2, seed=4, max_evals=700, f_target=1e-10)
-    outcomes = run_all(PROBLEM, BOUNDS, method, options=OPTIONS[method], chunk_evals=37,
+    outcomes = run_all(PROBLEM, BOUNDS, method, options=options, chunk_evals=37,
                        keep_history=True, **kw)
+    if "restarts" in options:  # restarts made between chunks survive the pickling
+        assert all(o.restarts > 0 for o in outcomes)
     for i, outcome in enumerate(outcomes):
         ref = minimize(PROBLEM, BOUNDS, method, seed=np.random.default_rng(run_seeds(4, 2)[i]),
-                       max_evals=700, f_target=1e-10, **OPTIONS[method])
+                       max_evals=700, f_target=1e-10, **options)
         np.testing.assert_array_equal(outcome.x, ref.x)
-        assert (outcome.fun, outcome.nfev, outcome.nit, outcome.stop) == (
-            ref.fun, ref.nfev, ref.nit, ref.stop)
+        assert (outcome.fun, outcome.nfev, outcome.nit, outcome.stop, outcome.restarts) == (
+            ref.fun, ref.nfev, ref.nit, ref.stop, ref.restarts)
         assert outcome.history.keys() == ref.history.keys()
         for key, value in ref.history.items():  # evaluations and the optimizer's trace
             assert outcome.history[key].tobytes() == value.tobytes(), key

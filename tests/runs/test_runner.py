@@ -8,7 +8,7 @@ import pytest
 from femupdate.benchmarks.dynamic import DynamicProblem
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
-from femupdate.runs.runner import repeat, run_seeds
+from femupdate.runs.runner import RunOutcome, repeat, run_seeds
 from femupdate.runs.stats import BOUND_TOL, at_bounds, evaluation_stats, spread
 
 
@@ -40,6 +40,16 @@ def test_parallel_equals_serial() -> None:
     for a, b in zip(serial, parallel, strict=True):
         np.testing.assert_array_equal(a.x, b.x)
         assert (a.fun, a.nfev, a.stop) == (b.fun, b.nfev, b.stop)
+
+
+def test_outcome_records_restarts() -> None:
+    outcomes = repeat(sphere, BOUNDS, "ab", runs=2, seed=1, max_evals=2_000, sigma_min=1e-2,
+                      restarts=3)
+    for o in outcomes:
+        ref = minimize(sphere, BOUNDS, "ab", seed=np.random.default_rng(run_seeds(1, 2)[o.index]),
+                       max_evals=2_000, sigma_min=1e-2, restarts=3)
+        assert o.restarts == ref.restarts == 3
+        assert RunOutcome.from_dict(o.to_dict()).restarts == 3
 
 
 def test_bad_runs_and_workers() -> None:

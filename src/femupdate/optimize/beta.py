@@ -19,7 +19,14 @@ import numpy as np
 from numba import njit
 
 from femupdate.errors import ConfigError
-from femupdate.optimize.base import check_batch, check_option_names, real_option
+from femupdate.optimize.base import (
+    KeepsBest,
+    Restarts,
+    check_batch,
+    check_option_names,
+    real_option,
+    restart_options,
+)
 
 #: The largest variance of a Beta distribution with a, b ≥ 1 (the uniform one, Eq. 7).
 VARIANCE_CAP = 1.0 / 12.0
@@ -197,7 +204,7 @@ def _update_beta(
         b[i] = 1.0 + (1.0 - m) * s
 
 
-class BetaSearch:
+class BetaSearch(KeepsBest, Restarts):
     """IB (``anisotropic=False``) or AB (``anisotropic=True``) on the unit cube, one sample a step.
 
     Parameters
@@ -220,6 +227,16 @@ class BetaSearch:
         σ before the first step, in (0, SIGMA_CAP]; default (None): ``SIGMA_CAP``, just below
         √(1/12), which is also σ's cap. The first sample is uniform whatever sigma0 (a = b = 1);
         the first (always successful) step then sets σ = min(sigma0·α, SIGMA_CAP).
+    stall_window : int or None
+        Stop (or restart) when φ_m fell by less than the fraction ``stall_tol`` over the last
+        ``stall_window`` evaluations (see :class:`~femupdate.optimize.base.Restarts`). None
+        (default) switches it off, as in the paper.
+    stall_tol : float
+        See ``stall_window``; default 0.01.
+    restarts : int
+        How many times to start afresh (uniform samples, σ = sigma0, no records) when
+        ``sigma_min``, ``f_change_min`` or the stall criterion fires; 0 (default) is the
+        paper's algorithm. The result is the best point over all the searches.
 
     Notes
     -----
@@ -244,29 +261,44 @@ class BetaSearch:
         sigma_min: float = SIGMA_MIN_DEFAULT,
         f_change_min: float | None = None,
         sigma0: float | None = None,
+        stall_window: int | None = None,
+        stall_tol: float = 0.01,
+        restarts: int = 0,
     ) -> None:
         self.n = n
         self.rng = rng
         self.anisotropic = anisotropic
         self.sigma_min = sigma_min
         self.f_change_min = f_change_min
+        self.sigma0 = SIGMA_CAP if sigma0 is None else sigma0
+        self.restarts = restarts
+        self.stall_window = stall_window
+        self.stall_tol = stall_tol
         self.alpha = 2.0 ** (1.0 / n)
         self.alpha_fail = self.alpha ** -0.25
-        self.sigma = SIGMA_CAP if sigma0 is None else sigma0
-        self.mode = np.full(n, 0.5)
-        self.a = np.ones(n)  # step 1: uniform
-        self.b = np.ones(n)
-        self.var = np.full(n, VARIANCE_CAP)
-        self.records = np.ones((n, n))  # AB: the last n increments, one per row
-        self.next_record = 0
-        self.f_best = math.inf
-        self.last_change = math.inf  # φ_m decrease at the last success (after the first)
+        self.best_x = np.full(n, 0.5)  # over all restarts; replaced at the first step
+        self._new_search()
         self.steps = 0
         self._trace_mode = np.empty((64, n))
         self._trace_a = np.empty((64, n))
         self._trace_b = np.empty((64, n))
         self._trace_sigma = np.empty(64)
         self._trace_f = np.empty(64)
+        self._trace_restarts = np.empty(64)
+
+    def _restart(self) -> None:
+        """Step 1: uniform samples (a = b = 1), σ = sigma0, records 1, φ_m = ∞."""
+        n = self.n
+        self.sigma = self.sigma0
+        self.mode = np.full(n, 0.5)
+        self.a = np.ones(n)
+        self.b = np.ones(n)
+        self.var = np.full(n, VARIANCE_CAP)
+        self.records = np.ones((n, n))  # AB: the last n increments, one per row
+        self.next_record = 0
+        self.phi_m = math.inf  # φ at the mode
+        self.fresh = True  # the next step is the search's first: it always succeeds
+        self.last_change = math.inf  # φ_m decrease at the last success (after the first)
 
     # -- protocol --------------------------------------------------------------------------
 
@@ -281,38 +313,40 @@ class BetaSearch:
             raise ConfigError(f"IB/AB take one sample per step, got {xs.shape[0]}")
         xi = xs[0]
         f = fs[0]
-        if self.steps == 0 or f < self.f_best:
-            if self.steps > 0:
+        if self.fresh or f < self.phi_m:
+            if not self.fresh:
                 if self.anisotropic:
                     self.records[self.next_record] = xi - self.mode
                     self.next_record = (self.next_record + 1) % self.n
-                self.last_change = self.f_best - f
+                self.last_change = self.phi_m - f
             self.mode = xi.copy()
-            self.f_best = f
+            self.phi_m = f
+            self.fresh = False
             self.sigma = min(self.sigma * self.alpha, SIGMA_CAP)
         else:
             self.sigma *= self.alpha_fail
+        if self.steps == 0 or f < self.best_f:
+            self.best_f = f
+            self.best_x = xi.copy()
         _update_beta(self.mode, self.sigma, self.records, self.anisotropic, self.var,
                      self.a, self.b)
         self._record_trace()
         self.steps += 1
+        self._track(fs)
+        self._restart_if_converged()
 
-    def stop(self) -> dict[str, object]:
-        """``sigma_min`` (σ) and/or ``f_change_min`` (the last Δφ) when they fired."""
-        fired: dict[str, object] = {}
+    def _criteria(self) -> dict[str, object]:
+        """``sigma_min`` (σ), ``f_change_min`` (the last Δφ) and ``stall`` when they fired."""
+        fired = self._stall()
         if self.sigma < self.sigma_min:
             fired["sigma_min"] = self.sigma
         if self.f_change_min is not None and self.last_change < self.f_change_min:
             fired["f_change_min"] = self.last_change
         return fired
 
-    @property
-    def result(self) -> tuple[np.ndarray, float]:
-        """The mode (the best sample) and φ_m."""
-        return self.mode.copy(), self.f_best
-
     def trace(self) -> dict[str, np.ndarray]:
-        """Per step, after its update: ``mode``, ``sigma``, ``a``, ``b`` (steps, n), ``f_best``."""
+        """Per step, after its update: ``mode``, ``sigma``, ``a``, ``b`` (steps, n), ``f_best``
+        (the best φ so far, over all restarts) and ``restarts`` (how many so far)."""
         k = self.steps
         return {
             "mode": self._trace_mode[:k].copy(),
@@ -320,6 +354,7 @@ class BetaSearch:
             "a": self._trace_a[:k].copy(),
             "b": self._trace_b[:k].copy(),
             "f_best": self._trace_f[:k].copy(),
+            "restarts": self._trace_restarts[:k].copy(),
         }
 
     def close(self) -> None:
@@ -335,11 +370,13 @@ class BetaSearch:
             self._trace_b = _grown(self._trace_b)
             self._trace_sigma = _grown(self._trace_sigma)
             self._trace_f = _grown(self._trace_f)
+            self._trace_restarts = _grown(self._trace_restarts)
         self._trace_mode[k] = self.mode
         self._trace_a[k] = self.a
         self._trace_b[k] = self.b
         self._trace_sigma[k] = self.sigma
-        self._trace_f[k] = self.f_best
+        self._trace_f[k] = self.best_f
+        self._trace_restarts[k] = self.restarts_done
 
 
 def _grown(arr: np.ndarray) -> np.ndarray:
@@ -348,7 +385,7 @@ def _grown(arr: np.ndarray) -> np.ndarray:
     return out
 
 
-_BETA_OPTIONS = ("sigma_min", "f_change_min", "sigma0")
+_BETA_OPTIONS = ("sigma_min", "f_change_min", "sigma0", "stall_window", "stall_tol", "restarts")
 
 
 def _make(method: str, n: int, rng: np.random.Generator, anisotropic: bool,
@@ -361,14 +398,17 @@ def _make(method: str, n: int, rng: np.random.Generator, anisotropic: bool,
     sigma0 = real_option(method, "sigma0", options.get("sigma0"), 0.0, SIGMA_CAP,
                          low_open=True, allow_none=True)
     return BetaSearch(n, rng, anisotropic=anisotropic, sigma_min=sigma_min,  # type: ignore[arg-type]
-                      f_change_min=f_change_min, sigma0=sigma0)
+                      f_change_min=f_change_min, sigma0=sigma0,
+                      **restart_options(method, options))
 
 
 def make_ib(n: int, rng: np.random.Generator, **options: Any) -> BetaSearch:
-    """IB, the isotropic Beta search. Options: ``sigma_min``, ``f_change_min``, ``sigma0``."""
+    """IB, the isotropic Beta search. Options: ``sigma_min``, ``f_change_min``, ``sigma0``,
+    ``stall_window``, ``stall_tol``, ``restarts``."""
     return _make("ib", n, rng, False, options)
 
 
 def make_ab(n: int, rng: np.random.Generator, **options: Any) -> BetaSearch:
-    """AB, the anisotropic Beta search. Options: ``sigma_min``, ``f_change_min``, ``sigma0``."""
+    """AB, the anisotropic Beta search. Options: ``sigma_min``, ``f_change_min``, ``sigma0``,
+    ``stall_window``, ``stall_tol``, ``restarts``."""
     return _make("ab", n, rng, True, options)

@@ -16,10 +16,12 @@ import numpy as np
 
 from femupdate.optimize.base import (
     KeepsBest,
+    Restarts,
     check_batch,
     check_option_names,
     int_option,
     real_option,
+    restart_options,
 )
 
 #: Redraws of one candidate before it is clipped into the box instead. The mean stays inside
@@ -41,7 +43,7 @@ class GeneratorRandn:
         return self.rng.standard_normal(shape)
 
 
-class CMAES(KeepsBest):
+class CMAES(KeepsBest, Restarts):
     """pycma's ``CMAEvolutionStrategy`` on the unit cube, truncated by resampling. Picklable.
 
     Parameters
@@ -60,6 +62,13 @@ class CMAES(KeepsBest):
         last iterations, and on the step size (its defaults: 1e-11, 1e-12, 1e-11); 0 switches a
         criterion off. They are absolute: with a target φ near 1e-6 on an ill-conditioned
         problem, the defaults may stop a run that is still converging.
+    stall_window, stall_tol : int or None, float
+        Stop (or restart) when the best φ fell by less than the fraction ``stall_tol`` over the
+        last ``stall_window`` evaluations (:class:`~femupdate.optimize.base.Restarts`); off
+        (None) by default.
+    restarts : int
+        How many times to start afresh (a new uniform mean, σ = sigma0, λ unchanged) when
+        pycma's criteria or the stall criterion fire; 0 (default) as the paper ran it.
 
     Notes
     -----
@@ -72,38 +81,45 @@ class CMAES(KeepsBest):
 
     def __init__(self, n: int, rng: np.random.Generator, *, popsize: int = 5,
                  sigma0: float = 0.5, tolfun: float = 1e-11, tolfunhist: float = 1e-12,
-                 tolx: float = 1e-11) -> None:
-        import cma  # imported here: about a second to import
-
+                 tolx: float = 1e-11, stall_window: int | None = None, stall_tol: float = 0.01,
+                 restarts: int = 0) -> None:
         self.n = n
         self.rng = rng
-        x0 = rng.random(n)
-        self.es = cma.CMAEvolutionStrategy(
-            x0,
-            sigma0,
-            {
-                "popsize": popsize,
-                "tolfun": tolfun,
-                "tolfunhist": tolfunhist,
-                "tolx": tolx,
-                "randn": GeneratorRandn(rng),
-                "seed": math.nan,  # "do nothing" to numpy's global state
-                "verbose": -9,
-                "verb_log": 0,
-                "verb_disp": 0,
-                "maxfevals": math.inf,  # minimize owns the budget,
-                "maxiter": math.inf,  # in evaluations or in steps
-                "bounds": [None, None],
-                # No mirrored sampling: a mirror redrawn for lying outside the box breaks the
-                # pair pycma's selective mirroring relies on ("orphanated injected solution");
-                # the paper's CMA-ES (2010) had none either.
-                "CMA_mirrors": 0,
-            },
-        )
-        self.best_x = x0
+        self.sigma0 = sigma0
+        self.restarts = restarts
+        self.stall_window = stall_window
+        self.stall_tol = stall_tol
+        self.es_options = {
+            "popsize": popsize,
+            "tolfun": tolfun,
+            "tolfunhist": tolfunhist,
+            "tolx": tolx,
+            "randn": GeneratorRandn(rng),
+            "seed": math.nan,  # "do nothing" to numpy's global state
+            "verbose": -9,
+            "verb_log": 0,
+            "verb_disp": 0,
+            "maxfevals": math.inf,  # minimize owns the budget,
+            "maxiter": math.inf,  # in evaluations or in steps
+            "bounds": [None, None],
+            # No mirrored sampling: a mirror redrawn for lying outside the box breaks the
+            # pair pycma's selective mirroring relies on ("orphanated injected solution");
+            # the paper's CMA-ES (2010) had none either.
+            "CMA_mirrors": 0,
+        }
+        self._new_search()
+        self.best_x = self.es.mean.copy()
         self.resamples = 0
         self._trace_sigma: list[float] = []
         self._trace_f: list[float] = []
+        self._trace_restarts: list[float] = []
+
+    def _restart(self) -> None:
+        """A new strategy: mean uniform at random in the box, σ = sigma0."""
+        import cma  # imported here: about a second to import
+
+        self.es = cma.CMAEvolutionStrategy(self.rng.random(self.n), self.sigma0,
+                                           dict(self.es_options))
 
     def ask(self) -> np.ndarray:
         """λ candidates inside [0, 1]^n, each redrawn until inside."""
@@ -140,14 +156,18 @@ class CMAES(KeepsBest):
         self.es.tell(list(xs), fs.tolist())
         self._trace_sigma.append(float(self.es.sigma))
         self._trace_f.append(self.best_f)
+        self._trace_restarts.append(self.restarts_done)
+        self._track(fs)
+        self._restart_if_converged()
 
-    def stop(self) -> dict[str, object]:
-        """pycma's termination criteria that fired."""
-        return dict(self.es.stop())
+    def _criteria(self) -> dict[str, object]:
+        """pycma's termination criteria that fired, and ``stall``."""
+        return {**self.es.stop(), **self._stall()}
 
     def trace(self) -> dict[str, np.ndarray]:
-        """Per step: pycma's global ``sigma`` and ``f_best``."""
-        return {"sigma": np.array(self._trace_sigma), "f_best": np.array(self._trace_f)}
+        """Per step: pycma's global ``sigma``, ``f_best`` and ``restarts`` (how many so far)."""
+        return {"sigma": np.array(self._trace_sigma), "f_best": np.array(self._trace_f),
+                "restarts": np.array(self._trace_restarts, dtype=float)}
 
     def close(self) -> None:
         """Nothing to release."""
@@ -157,12 +177,14 @@ def _inside(x: np.ndarray) -> bool:
     return bool(np.all(x >= 0.0) and np.all(x <= 1.0))
 
 
-_CMAES_OPTIONS = ("popsize", "sigma0", "tolfun", "tolfunhist", "tolx")
+_CMAES_OPTIONS = ("popsize", "sigma0", "tolfun", "tolfunhist", "tolx", "stall_window",
+                  "stall_tol", "restarts")
 
 
 def make_cmaes(n: int, rng: np.random.Generator, **options: Any) -> CMAES:
     """CMA-ES. Options: ``popsize`` (int ≥ 2, default 5), ``sigma0`` (in (0, 1], default 0.5),
-    ``tolfun``, ``tolfunhist``, ``tolx`` (≥ 0, pycma's defaults; 0 switches off)."""
+    ``tolfun``, ``tolfunhist``, ``tolx`` (≥ 0, pycma's defaults; 0 switches off),
+    ``stall_window``, ``stall_tol``, ``restarts`` (see :class:`CMAES`)."""
     check_option_names("cmaes", options, _CMAES_OPTIONS)
     popsize = int_option("cmaes", "popsize", options.get("popsize", 5), 2)
     sigma0 = real_option("cmaes", "sigma0", options.get("sigma0", 0.5), 0.0, 1.0, low_open=True)
@@ -171,4 +193,5 @@ def make_cmaes(n: int, rng: np.random.Generator, **options: Any) -> CMAES:
                              high_open=True)
     tolx = real_option("cmaes", "tolx", options.get("tolx", 1e-11), 0.0, high_open=True)
     return CMAES(n, rng, popsize=popsize, sigma0=sigma0,  # type: ignore[arg-type]
-                 tolfun=tolfun, tolfunhist=tolfunhist, tolx=tolx)
+                 tolfun=tolfun, tolfunhist=tolfunhist, tolx=tolx,
+                 **restart_options("cmaes", options))

@@ -202,6 +202,7 @@ class MinimizeState:
             message=message,
             stop=stop,
             method=self.method,
+            restarts=int(getattr(self.optimizer, "restarts_done", 0)),
             history=self.history(),
         )
 
@@ -269,7 +270,8 @@ def minimize(
     scipy.optimize.OptimizeResult
         ``x, fun, nfev, nit`` (ask/tell steps), ``success`` (f_target given and reached),
         ``status`` (:class:`~femupdate.optimize.termination.Status`), ``message``, ``stop``
-        (every criterion that fired, with its value), ``method``, ``history`` (``x`` (nfev, n),
+        (every criterion that fired, with its value), ``method``, ``restarts`` (how many times
+        the optimizer started afresh: its option ``restarts``), ``history`` (``x`` (nfev, n),
         ``fun`` (nfev,) and the optimizer's trace arrays).
     """
     if callback is not None and not callable(callback):

@@ -459,6 +459,12 @@ def _run_positions(res: Results) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _stop_text(run: Mapping[str, Any]) -> str:
+    restarts = int(run.get("restarts", 0))
+    after = f" (after {restarts} restart{'s' if restarts > 1 else ''})" if restarts else ""
+    return _criteria_text(run) + after
+
+
+def _criteria_text(run: Mapping[str, Any]) -> str:
     stop = run.get("stop") or {}
     if not stop:
         return str(run.get("message", ""))

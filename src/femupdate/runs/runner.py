@@ -91,6 +91,7 @@ class RunOutcome:
     message: str
     stop: dict[str, Any]
     wall_s: float
+    restarts: int = 0
     history: dict[str, np.ndarray] | None = field(default=None, repr=False)
 
     def to_dict(self, names: Sequence[str] | None = None) -> dict[str, Any]:
@@ -105,6 +106,7 @@ class RunOutcome:
             "phi": self.fun,
             "nfev": self.nfev,
             "nit": self.nit,
+            "restarts": self.restarts,
             "wall_s": self.wall_s,
             "x": self.x.tolist(),
         }
@@ -127,6 +129,7 @@ class RunOutcome:
             message=str(data["message"]),
             stop=dict(data["stop"]),
             wall_s=float(data["wall_s"]),
+            restarts=int(data.get("restarts", 0)),
         )
 
 
@@ -191,6 +194,7 @@ class RunTask:
             message=str(res.message),
             stop=dict(res.stop),
             wall_s=time.perf_counter() - start,
+            restarts=int(res.restarts),
             history=res.history if self.keep_history else None,
         )
 
@@ -373,7 +377,8 @@ def _outcome(index: int, seed: np.random.SeedSequence, state: MinimizeState,
     return RunOutcome(index=index, seed=_seed_record(seed), x=np.asarray(res.x),
                       fun=float(res.fun), nfev=int(res.nfev), nit=int(res.nit),
                       success=bool(res.success), status=int(res.status),
-                      message=str(res.message), stop=dict(res.stop), wall_s=wall_s)
+                      message=str(res.message), stop=dict(res.stop), wall_s=wall_s,
+                      restarts=int(res.restarts))
 
 
 def _picklable(state: MinimizeState) -> bool:
