@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
@@ -74,6 +75,26 @@ def test_unknown_method_is_a_clear_error(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "nelder" in proc.stdout and "ab" in proc.stdout
+
+
+def test_bench_bridge_resume_continues_the_stored_runs(tmp_path: Path) -> None:
+    common = ["bench", "bridge", "--runs", "2", "--max-evals", "30", "--workers", "1",
+              "--work-dir", str(tmp_path)]
+    first = runner.invoke(app, [*common, "--json", str(tmp_path / "a.json")])
+    assert first.exit_code == 0, first.output
+    # As if killed before run 1 started: its rows gone, run 0 done.
+    with sqlite3.connect(tmp_path / "out-viscous-narrow-ab" / "results.sqlite") as db:
+        for table in ("evaluations", "traces", "checkpoints"):
+            db.execute(f"DELETE FROM {table} WHERE run = 1")
+        db.execute("UPDATE runs SET status = 'pending', nfev = 0, nit = 0, best_phi = NULL, "
+                   "wall_s = 0, result = NULL WHERE run = 1")
+    again = runner.invoke(app, [*common, "--resume", "--json", str(tmp_path / "b.json")])
+    assert again.exit_code == 0, again.output
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("a.json", "b.json"))
+    assert [(r["phi"], r["nfev"], r["x"]) for r in a["runs"]] == [
+        (r["phi"], r["nfev"], r["x"]) for r in b["runs"]]
+    assert b["runs"][0]["wall_s"] == a["runs"][0]["wall_s"]  # run 0 kept, not run again
+    assert b["runs"][1]["wall_s"] != a["runs"][1]["wall_s"]  # run 1 run again
 
 
 @pytest.mark.parametrize(("text", "expected"), [("{tolfun: 0}", "neither a JSON file"),

@@ -163,6 +163,9 @@ def bench_bridge(
     ] = None,
     json_path: JsonOption = None,
     workers: WorkersOption = 2,
+    resume: Annotated[bool, typer.Option(
+        "--resume", help="Continue an interrupted benchmark in --work-dir (same settings)."
+    )] = False,
 ) -> None:
     """Benchmark 2 of the paper: update the 1:50 bridge from a virtual experiment."""
     from femupdate.benchmarks.bridge import run_bridge_benchmark
@@ -174,7 +177,8 @@ def bench_bridge(
         with console.status(f"{runs} runs of {m} on the {model} bridge…"):
             summary = run_bridge_benchmark(model, band, m.strip(), runs=runs, seed=seed,
                                            snr=snr, workers=workers, max_evals=max_evals,
-                                           options=method_options, work_dir=work)
+                                           options=method_options, work_dir=work,
+                                           resume=resume)
         _print_bridge(summary)
         rows.append(summary)
     if len(rows) > 1 and all(r["evals_mean"] for r in rows):

@@ -238,6 +238,7 @@ def run_bridge_benchmark(
     options: dict[str, Any] | None = None,
     work_dir: Path | None = None,
     plots: bool = False,
+    resume: bool = False,
 ) -> dict[str, Any]:
     """Tables 5–6 and 9 (runs) and 7 and 11 (frequencies) of the bridge, in form.
 
@@ -245,7 +246,9 @@ def run_bridge_benchmark(
     ``work_dir/data-<model>-<snr>``, then ``runs`` updates of the ``model`` case with ``band``
     bounds. ``f_target`` defaults to the case's (1e-6 for the viscous model) when the data are
     noise-free, and to 1.05 × the noise floor (the NMSE of the truth model against the noisy
-    data) otherwise, so that "success" means the same thing for every method.
+    data) otherwise, so that "success" means the same thing for every method. The results go
+    to ``work_dir/out-<model>-<band>-<method>``, replaced unless ``resume``: then the runs of an
+    interrupted benchmark with the same settings continue where they stopped.
 
     Returns
     -------
@@ -284,8 +287,9 @@ def run_bridge_benchmark(
         spec["search"]["f_target"] = f_target
         case = parse_case(spec, source=case.source)
     out = work / f"out-{model}-{band}-{method}"
-    shutil.rmtree(out, ignore_errors=True)  # a benchmark starts afresh
-    result = run_case(case, out, runs=runs, workers=workers, plots=plots,
+    if not resume:
+        shutil.rmtree(out, ignore_errors=True)  # a benchmark starts afresh
+    result = run_case(case, out, runs=runs, workers=workers, plots=plots, resume=resume,
                       experiment=problem.experiment)
     summary = dict(result.summary)
     truth_sys = problem.system(truth_values)
