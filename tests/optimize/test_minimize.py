@@ -225,7 +225,18 @@ def test_stall_fires_when_the_best_falls_by_less_than_stall_tol_over_the_window(
         opt._track(np.array([f]))
         fired.append(opt._stall())
     assert fired[:6] == [{}] * 6  # 6 evaluations: 0.95 against 2.0 three evaluations earlier
-    assert fired[6] == {"stall": pytest.approx(0.95)}  # 0.95 against 1.0: less than 10 % less
+    assert fired[6] == {"stall": pytest.approx(0.05)}  # 0.95 against 1.0: less than 10 % less
+
+
+def test_stall_is_relative_to_the_magnitude_of_phi() -> None:
+    opt = METHODS["ab"](1, np.random.default_rng(0), stall_window=2, stall_tol=0.1)
+    opt._track(np.array([-10.0, -10.5, -10.6]))  # negative φ: a fall of 6 % of |φ|
+    assert opt._stall() == {"stall": pytest.approx(0.06)}
+    opt._track(np.array([-20.0]))
+    assert opt._stall() == {}
+    fresh = METHODS["ab"](1, np.random.default_rng(0), stall_window=2)
+    fresh._track(np.array([np.inf, np.inf, np.inf]))  # all failed: nothing to compare
+    assert fresh._stall() == {}
 
 
 def test_stall_restarts_a_search_creeping_into_an_improper_minimum() -> None:

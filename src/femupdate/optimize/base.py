@@ -80,13 +80,13 @@ class Restarts:
     criteria that fired, merged with :meth:`_stall`), and in ``tell`` calls :meth:`_track`
     with the values told and then :meth:`_restart_if_converged`.
 
-    A search has *stalled* when its best φ fell by less than the fraction ``stall_tol`` over its
-    last ``stall_window`` evaluations. On the noise-free viscous bridge (AB, window 1,000,
-    tolerance 1 %) searches creeping into an improper minimum (a parameter at a bound,
-    METHOD.md §2) stalled after 1,500–1,800 evaluations, long before σ reached σ_s, and none
-    of the 17 that went on to φ < 1e-6 stalled on the way. With
-    ``restarts`` left, a converged or stalled search gives way to a fresh one; the best point
-    over all of them is the result. ``stop()`` reports the criteria once no restart is left.
+    A search has *stalled* when its best φ fell by less than the fraction ``stall_tol`` (of
+    |φ|) over its last ``stall_window`` evaluations. On the noise-free viscous bridge (AB,
+    window 1,000, tolerance 1 %) searches creeping into an improper minimum (a parameter at a
+    bound, METHOD.md §2) stalled after 1,500–1,800 evaluations, long before σ reached σ_s, and
+    none of the 17 that went on to φ < 1e-6 stalled on the way. With ``restarts`` left, a
+    converged or stalled search gives way to a fresh one; the best point over all of them is
+    the result. ``stop()`` reports the criteria once no restart is left.
     """
 
     restarts: int = 0
@@ -116,13 +116,16 @@ class Restarts:
             self._search_evals += 1
 
     def _stall(self) -> dict[str, object]:
-        """``stall``: the search's best φ now over its best ``stall_window`` evaluations ago."""
+        """``stall``: the relative fall of the search's best φ over its last ``stall_window``
+        evaluations, when below ``stall_tol``."""
         window = self.stall_window
         if window is None or self._search_evals <= window:
             return {}
         before = self._search_bests[(self._search_evals - 1 - window) % (window + 1)]
-        if self._search_best > (1.0 - self.stall_tol) * before:  # inf > inf is False
-            return {"stall": self._search_best / before}
+        with np.errstate(invalid="ignore"):  # inf − inf (nothing finite yet): not a stall
+            fall = (before - self._search_best) / abs(before) if before != 0.0 else math.inf
+        if fall < self.stall_tol:
+            return {"stall": fall}
         return {}
 
     def _restart_if_converged(self) -> None:
