@@ -102,28 +102,32 @@ class Restarts:
 
     def _new_search(self) -> None:
         self._restart()
-        self._search_best = math.inf
-        # The search's best φ after each of its last stall_window + 1 evaluations (a ring).
-        self._search_bests = np.full((self.stall_window or 0) + 1, math.inf)
+        # The search's best φ after each of its last stall_window + 1 evaluations: a ring,
+        # inf where not yet written (so the entry before the first is inf too).
+        window = self.stall_window
+        self._search_bests = None if window is None else np.full(window + 1, math.inf)
         self._search_evals = 0
 
     def _track(self, fs: np.ndarray) -> None:
         """Record the values of a step (in the order evaluated) for the stall criterion."""
-        size = self._search_bests.size
+        ring = self._search_bests
+        if ring is None:
+            return
         for f in fs:
-            self._search_best = min(self._search_best, float(f))
-            self._search_bests[self._search_evals % size] = self._search_best
-            self._search_evals += 1
+            n = self._search_evals
+            ring[n % ring.size] = min(ring[(n - 1) % ring.size], float(f))
+            self._search_evals = n + 1
 
     def _stall(self) -> dict[str, object]:
         """``stall``: the relative fall of the search's best φ over its last ``stall_window``
         evaluations, when below ``stall_tol``."""
-        window = self.stall_window
-        if window is None or self._search_evals <= window:
+        ring = self._search_bests
+        n = self._search_evals
+        if ring is None or n < ring.size:
             return {}
-        before = self._search_bests[(self._search_evals - 1 - window) % (window + 1)]
+        best, before = ring[(n - 1) % ring.size], ring[n % ring.size]  # now, window ago
         with np.errstate(invalid="ignore"):  # inf − inf (nothing finite yet): not a stall
-            fall = (before - self._search_best) / abs(before) if before != 0.0 else math.inf
+            fall = (before - best) / abs(before) if before != 0.0 else math.inf
         if fall < self.stall_tol:
             return {"stall": fall}
         return {}

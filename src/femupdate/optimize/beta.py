@@ -325,9 +325,7 @@ class BetaSearch(KeepsBest, Restarts):
             self.sigma = min(self.sigma * self.alpha, SIGMA_CAP)
         else:
             self.sigma *= self.alpha_fail
-        if self.steps == 0 or f < self.best_f:
-            self.best_f = f
-            self.best_x = xi.copy()
+        self._keep_best(xs, fs)
         _update_beta(self.mode, self.sigma, self.records, self.anisotropic, self.var,
                      self.a, self.b)
         self._record_trace()
