@@ -2,7 +2,7 @@
 
     python benchmarks/simulate_kernels.py [--repeat N] [--no-opensees] [--json PATH]
 
-The same as ``femupdate bench simulate``: see :mod:`femupdate.benchmarks.simulate` for what is
+The same as ``femupdate bench simulate``: see :mod:`femupdate.bench.simulate` for what is
 timed (the prepared simulator's run, preparation separately, one BLAS thread) and how the
 ratios against OpenSeesPy are taken.
 """
@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from femupdate.benchmarks.simulate import print_simulate_rows, run_simulate_benchmark
+from femupdate.bench.simulate import print_simulate_rows, run_simulate_benchmark
 
 
 def main() -> None:

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.benchmarks import bridge
 from femupdate.case import load_case, parse_case
 from femupdate.experiment import load_experiment
 from femupdate.model.modes import natural_frequencies
+from femupdate.problems import bridge
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 

@@ -115,20 +115,22 @@ def test_bench_bridge_json_has_the_summary_keys_and_the_truth(tmp_path: Path) ->
                                  "--options", '{"restarts": 2, "sigma_min": 0.28}'])
     assert result.exit_code == 0, result.output
     data = json.loads(out.read_text())
-    assert {"runs", "best", "spread", "truth", "noise_floor", "truth_frequencies_hz",
-            "parameter_errors", "frequency_errors", "within_1_5_noise_floor"} <= set(data)
-    assert len(data["runs"]) == len(data["frequency_errors"]) == 2
-    for run, errors, freq_errors in zip(data["runs"], data["parameter_errors"],
-                                        data["frequency_errors"], strict=True):
+    assert {"runs", "best", "spread", "benchmark"} <= set(data)
+    bench = data["benchmark"]
+    assert {"truth", "noise_floor", "truth_frequencies_hz", "parameter_errors",
+            "frequency_errors", "within_1_5_noise_floor"} <= set(bench)
+    assert len(data["runs"]) == len(bench["frequency_errors"]) == 2
+    for run, errors, freq_errors in zip(data["runs"], bench["parameter_errors"],
+                                        bench["frequency_errors"], strict=True):
         assert {"seed", "success", "status", "stop", "phi", "nfev", "params",
                 "at_bounds", "restarts"} <= set(run)
         assert run["nfev"] <= 40
         assert run["restarts"] == 2  # σ falls below 0.28 after a few failures
-        for name, value in data["truth"].items():
+        for name, value in bench["truth"].items():
             assert errors[name] == pytest.approx(run["params"][name] / value - 1.0)
         assert len(freq_errors) == 4
-    assert data["within_1_5_noise_floor"] == sum(r["phi"] <= 1.5 * data["noise_floor"]
-                                                 for r in data["runs"])
+    assert bench["within_1_5_noise_floor"] == sum(r["phi"] <= 1.5 * bench["noise_floor"]
+                                                  for r in data["runs"])
     assert "noise floor" in result.output
     assert ("restarts (searches that converged or stalled): 4 in all, in 2 of 2 runs"
             in result.output)

@@ -8,13 +8,12 @@ tests/data/test_data_signal.py.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from femupdate.benchmarks import minishake
-from femupdate.benchmarks.minishake import find_data
 from femupdate.case import load_case, parse_case
 from femupdate.errors import DataError
 from femupdate.experiment import load_experiment
@@ -23,6 +22,9 @@ from femupdate.workflow import with_data_directory
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "minishake-1story"
+sys.path.insert(0, str(EXAMPLE))  # the study is an example, not part of the package
+import study as minishake  # noqa: E402
+from study import find_data  # noqa: E402
 
 
 def test_find_data_says_where_it_looked(tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from femupdate.errors import ConfigError, DataError
-from femupdate.objective import Objective, nmse
+from femupdate.objective import ErrorFunction, nmse
 from femupdate.simulate.response import Response
 
 T = np.linspace(0.0, 4.6, 461)
@@ -61,13 +61,13 @@ def test_nmse_rejects_bad_input() -> None:
         nmse(y, y, weights=[1.0, -2.0, 1.0])
 
 
-# --------------------------------------------------------------------------- Objective
+# --------------------------------------------------------------------------- ErrorFunction
 
 
 def test_objective_without_constants_is_nmse() -> None:
     y = target()
     pred = y * 0.9 + 0.01
-    obj = Objective(y, T, weights=[1.0, 2.0, 3.0])
+    obj = ErrorFunction(y, T, weights=[1.0, 2.0, 3.0])
     assert obj(pred) == pytest.approx(nmse(pred, y, weights=[1.0, 2.0, 3.0]), rel=1e-14)
     assert obj(y) == 0.0
     np.testing.assert_array_equal(obj.experimental_parameters(pred), np.zeros((3, 2)))
@@ -78,7 +78,7 @@ def test_constants_recovered_exactly() -> None:
     c0 = np.array([0.3, -1.2, 5.0])
     c1 = np.array([-0.05, 0.4, 2.0])
     measured = y - c0 - c1 * T[:, None]  # integration lost c0 + c1 t
-    obj = Objective(measured, T, experimental_parameters=True)
+    obj = ErrorFunction(measured, T, experimental_parameters=True)
     np.testing.assert_allclose(obj.experimental_parameters(y), np.column_stack([c0, c1]),
                                rtol=1e-11, atol=1e-13)
     assert obj(y) < 1e-25
@@ -88,7 +88,7 @@ def test_constants_recovered_exactly() -> None:
 def test_constants_in_sample_units_without_t() -> None:
     y = target(1)[:, 0]
     measured = y - 2.0 - 0.01 * np.arange(T.size)
-    obj = Objective(measured, experimental_parameters=True)
+    obj = ErrorFunction(measured, experimental_parameters=True)
     np.testing.assert_allclose(obj.experimental_parameters(y), [[2.0, 0.01]], rtol=1e-11)
 
 
@@ -96,7 +96,7 @@ def test_constants_are_the_least_squares_fit() -> None:
     rng = np.random.default_rng(11)
     y = target()
     pred = y + 0.05 * rng.standard_normal(y.shape)
-    obj = Objective(y, T, experimental_parameters=True)
+    obj = ErrorFunction(y, T, experimental_parameters=True)
     basis = np.column_stack([np.ones(T.size), T])
     expected = np.linalg.lstsq(basis, pred - y, rcond=None)[0].T
     np.testing.assert_allclose(obj.experimental_parameters(pred), expected, rtol=1e-10)
@@ -116,19 +116,19 @@ def test_phi_invariant_to_a_line_added_to_the_measurement(a: float, b: float, sc
     pred = y * scale + 0.02 * np.cos(7 * T)[:, None]
     shifted = y.copy()
     shifted[:, channel] += a + b * T
-    phi = Objective(y, T, experimental_parameters=True)(pred)
-    phi_shifted = Objective(shifted, T, experimental_parameters=True)(pred)
+    phi = ErrorFunction(y, T, experimental_parameters=True)(pred)
+    phi_shifted = ErrorFunction(shifted, T, experimental_parameters=True)(pred)
     assert phi_shifted == pytest.approx(phi, rel=1e-7, abs=1e-14)
 
 
 def test_zero_prediction_gives_one_with_constants() -> None:
-    obj = Objective(target(), T, experimental_parameters=True)
+    obj = ErrorFunction(target(), T, experimental_parameters=True)
     assert obj(np.zeros((T.size, 3))) == pytest.approx(1.0, rel=1e-13)
 
 
 def test_objective_nonfinite_prediction_is_inf() -> None:
     y = target()
-    obj = Objective(y, T, experimental_parameters=True)
+    obj = ErrorFunction(y, T, experimental_parameters=True)
     pred = y.copy()
     pred[3, 0] = np.nan
     assert obj(pred) == np.inf
@@ -141,15 +141,15 @@ def test_objective_accepts_a_response() -> None:
     y = target(2)
     zeros = np.zeros_like(y)
     resp = Response(T, displacement=y, velocity=zeros, acceleration=2 * y)
-    assert Objective(y, T, experimental_parameters=True)(resp) < 1e-25
-    assert Objective(2 * y, T, kind="acceleration")(resp) == 0.0
+    assert ErrorFunction(y, T, experimental_parameters=True)(resp) < 1e-25
+    assert ErrorFunction(2 * y, T, kind="acceleration")(resp) == 0.0
     diverged = Response(T, displacement=y, velocity=zeros, acceleration=y, diverged=True)
-    assert Objective(y, T)(diverged) == np.inf
+    assert ErrorFunction(y, T)(diverged) == np.inf
 
 
 def test_objective_is_picklable() -> None:
     y = target()
-    obj = Objective(y, T, weights=[1, 2, 3], experimental_parameters=True)
+    obj = ErrorFunction(y, T, weights=[1, 2, 3], experimental_parameters=True)
     pred = 0.8 * y + 0.1
     assert pickle.loads(pickle.dumps(obj))(pred) == obj(pred)
 
@@ -157,14 +157,14 @@ def test_objective_is_picklable() -> None:
 def test_objective_rejects_bad_configuration() -> None:
     y = target()
     with pytest.raises(ConfigError, match="use kind='displacement'"):
-        Objective(y, T, kind="acceleration", experimental_parameters=True)
+        ErrorFunction(y, T, kind="acceleration", experimental_parameters=True)
     with pytest.raises(ConfigError, match="kind must be"):
-        Objective(y, T, kind="velocity")  # type: ignore[arg-type]
+        ErrorFunction(y, T, kind="velocity")  # type: ignore[arg-type]
     with pytest.raises(DataError, match=r"target channels \[1\] are straight lines"):
-        Objective(np.column_stack([y[:, 0], 1 + 2 * T]), T, experimental_parameters=True)
+        ErrorFunction(np.column_stack([y[:, 0], 1 + 2 * T]), T, experimental_parameters=True)
     with pytest.raises(DataError, match="NaN or inf"):
-        Objective(np.full((5, 1), np.nan))
+        ErrorFunction(np.full((5, 1), np.nan))
     with pytest.raises(DataError, match=r"t must be finite with shape \(461,\)"):
-        Objective(y, T[:-1])
+        ErrorFunction(y, T[:-1])
     with pytest.raises(DataError, match=r"prediction has shape \(461, 2\)"):
-        Objective(y, T)(y[:, :2])
+        ErrorFunction(y, T)(y[:, :2])

@@ -18,6 +18,7 @@ import pytest
 from femupdate.case import load_case
 from femupdate.errors import ConfigError, DataError
 from femupdate.model.modes import natural_frequencies
+from femupdate.results import Fit, read_summary
 from femupdate.virtual import virtual_experiment
 from femupdate.workflow import UpdateResult, run_case
 
@@ -122,19 +123,19 @@ def test_virtual_experiment_writes_the_case_files(case_dir: Path) -> None:
 
 
 def test_run_case_recovers_the_truth(result: UpdateResult) -> None:
-    best = result.summary["best"]
-    assert best["phi"] < 1e-8
+    best = result.summary.best
+    assert best.phi < 1e-8
     for name in ("k1", "k2"):
-        assert best["params"][name] == pytest.approx(TRUTH[name], rel=5e-3)
+        assert best.params[name] == pytest.approx(TRUTH[name], rel=5e-3)
     for name in ("c1", "c2"):
-        assert best["params"][name] == pytest.approx(TRUTH[name], rel=2e-2)
+        assert best.params[name] == pytest.approx(TRUTH[name], rel=2e-2)
 
 
 def test_best_frequencies_are_the_truth_s(result: UpdateResult) -> None:
     exact = _closed_form_frequencies(TRUTH["k1"], TRUTH["k2"])
     truth_model, _ = natural_frequencies(result.problem.system(TRUTH))
     assert truth_model == pytest.approx(exact, rel=1e-12)
-    assert result.summary["best"]["frequencies_hz"] == pytest.approx(exact, rel=2e-3)
+    assert result.summary.best.frequencies_hz == pytest.approx(exact, rel=2e-3)
 
 
 def test_summary_json(result: UpdateResult, case_dir: Path) -> None:
@@ -151,7 +152,11 @@ def test_summary_json(result: UpdateResult, case_dir: Path) -> None:
     assert {"phi", "params", "frequencies_hz"} <= set(summary["best"])
     assert summary["best"]["phi"] == min(run["phi"] for run in summary["runs"])
     assert set(summary["spread"]["params"]) == set(TRUTH)
-    assert (case_dir / "out" / "fit.png").is_file()
+    # Read back typed, equal to what the run returned; the best fit is kept beside it.
+    assert read_summary(case_dir / "out" / "summary.json") == result.summary
+    fit = Fit.load(case_dir / "out" / "fit.npz")
+    assert fit.phi == pytest.approx(result.summary.best.phi, rel=1e-12)
+    assert fit.channels == ("F1.ux", "F2.ux")
 
 
 # ----------------------------------------------------------------------------- bad input
@@ -165,7 +170,7 @@ def _broken_copy(case_dir: Path, tmp_path: Path, text: str = CASE) -> Path:
 
 
 def _run(tmp_path: Path) -> None:
-    run_case(load_case(tmp_path / "case.toml"), None, runs=1, max_evals=5, plots=False)
+    run_case(load_case(tmp_path / "case.toml"), None, runs=1, max_evals=5)
 
 
 def _edit_floors(data: Path, row: int, column: int, value: str) -> int:

@@ -4,7 +4,7 @@
 
 DIR is the shared data directory holding ``minishake_1story/`` (default: ``$FEMUPDATE_DATA``,
 else ``../shared/data`` beside the repository). The logic is in
-``femupdate.benchmarks.minishake``; this script parses the options and prints the table.
+``study.py`` beside this script; this script parses the options and prints the table.
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ import os
 import sys
 from pathlib import Path
 
-from femupdate.benchmarks.minishake import DATA_ENV, find_data, format_table, run_minishake
+from study import DATA_ENV, find_data, format_table, run_minishake
+
 from femupdate.errors import FemupdateError
 
 HERE = Path(__file__).resolve().parent

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -12,6 +12,9 @@ from rich.console import Console
 from rich.table import Table
 
 from femupdate.errors import FemupdateError
+
+if TYPE_CHECKING:
+    from femupdate.results import Summary
 
 app = typer.Typer(
     help="Finite element model updating in structural dynamics, in the time domain.",
@@ -60,7 +63,7 @@ def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
 
 def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path | None
                    ) -> list[dict[str, Any]]:
-    from femupdate.benchmarks.dynamic import ALL_METHODS, run_benchmark
+    from femupdate.bench.dynamic import ALL_METHODS, run_benchmark
 
     methods = list(ALL_METHODS) if method == "all" else [method]
     rows = []
@@ -69,10 +72,12 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
             rows.append(run_benchmark(m, runs=runs, seed=seed, workers=workers))
     console.print(_dynamic_table(rows))
     if plots is not None:
+        from femupdate.bench.dynamic import run_with_history
         from femupdate.report.dynamic import dynamic_figures
 
         for m in methods:
-            for path in dynamic_figures(plots, m, seed=seed, options=ALL_METHODS.get(m)):
+            outcome = run_with_history(m, seed=seed)
+            for path in dynamic_figures(outcome, plots, m):
                 console.print(f"figure: {path}")
     return rows
 
@@ -95,50 +100,54 @@ def bench_dynamic(
     _write_json(json_path, rows if method == "all" else rows[0])
 
 
-def _print_bridge(summary: dict[str, Any]) -> None:
+def _print_bridge(summary: Summary) -> None:
     from femupdate.identifiability import strong_correlations
 
     print_update_summary(summary)
+    bench = summary.benchmark
+    if bench is None:
+        return
     freqs = Table(title="natural frequencies [Hz] (paper Tables 7 and 11)")
     for col in ("mode", "truth", "best", "mean ± std (successful)", "best error"):
         freqs.add_column(col, justify="right")
-    spread = summary["spread"]["frequencies_hz"]
-    for i, (ft, fb) in enumerate(zip(summary["truth_frequencies_hz"][:4],
-                                     summary["best"]["frequencies_hz"][:4], strict=True)):
+    spread = summary.spread.frequencies_hz
+    for i, (ft, fb) in enumerate(zip(bench.truth_frequencies_hz[:4],
+                                     summary.best.frequencies_hz[:4], strict=True)):
         s = spread.get(f"f{i + 1}")
         freqs.add_row(str(i + 1), f"{ft:.3f}", f"{fb:.3f}",
                       f"{s['mean']:.3f} ± {s['std']:.3f}" if s else "–",
                       f"{100 * (fb / ft - 1):+.2f} %")
     console.print(freqs)
-    ident = summary["identifiability"]
+    ident = summary.identifiability or {}
     errs = Table(title="best run against the truth; Δφ for a 1 % change of each parameter")
     for col in ("parameter", "truth", "best", "error", "Δφ (1 %)"):
         errs.add_column(col, justify="right")
-    best = summary["best"]["params"]
-    for name, value in summary["truth"].items():
+    best = summary.best.params
+    change = ident.get("phi_change_1pct", {})
+    for name, value in bench.truth.items():
         rel = f"{100 * (best[name] / value - 1):+.3f} %" if value else f"{best[name]:.3g}"
         errs.add_row(name, f"{value:.4g}", f"{best[name]:.4g}", rel,
-                     f"{ident['phi_change_1pct'][name]:.2e}")
+                     f"{change[name]:.2e}" if name in change else "–")
     console.print(errs)
-    floor = summary["noise_floor"]
+    floor = bench.noise_floor
+    within = bench.within_1_5_noise_floor
     console.print(f"noise floor (NMSE of the truth model against the data): {100 * floor:.4g} %"
-                  + (f"; runs within 1.5× of it: {summary['within_1_5_noise_floor']}/"
-                     f"{len(summary['runs'])}" if summary["within_1_5_noise_floor"] is not None
-                     else ""))
-    if summary["within_1_5_noise_floor"]:
-        near = np.array([np.abs(e[:2]) for r, e in zip(summary["runs"],
-                                                       summary["frequency_errors"], strict=True)
-                         if r["phi"] <= 1.5 * floor])
+                  + (f"; runs within 1.5× of it: {within}/{len(summary.runs)}"
+                     if within is not None else ""))
+    if within:
+        near = np.array([np.abs(e[:2]) for r, e in zip(summary.runs, bench.frequency_errors,
+                                                       strict=True) if r.phi <= 1.5 * floor])
         worst = 100 * near.max(axis=0)
         console.print(f"their largest f1, f2 errors against the truth's: {worst[0]:.3f} %, "
                       f"{worst[1]:.3f} %")
-    if ident["undetermined"]:
+    if ident.get("undetermined"):
         console.print(f"parameters the data hardly determine: {', '.join(ident['undetermined'])}")
-    sv = ident["singular_values"]
-    pairs = strong_correlations(ident["names"], ident["correlations"])
-    console.print(f"sensitivity matrix at the best run: condition number {sv[0] / sv[-1]:.3g}"
-                  + ("; strongly correlated (|ρ| > 0.9): " + ", ".join(
-                      f"{a}–{b} {rho:+.3f}" for a, b, rho in pairs) if pairs else ""))
+    sv = ident.get("singular_values")
+    if sv:
+        pairs = strong_correlations(ident["names"], np.asarray(ident["correlations"]))
+        console.print(f"sensitivity matrix at the best run: condition number {sv[0] / sv[-1]:.3g}"
+                      + ("; strongly correlated (|ρ| > 0.9): " + ", ".join(
+                          f"{a}–{b} {rho:+.3f}" for a, b, rho in pairs) if pairs else ""))
 
 
 @bench_app.command("bridge")
@@ -168,7 +177,7 @@ def bench_bridge(
     )] = False,
 ) -> None:
     """Benchmark 2 of the paper: update the 1:50 bridge from a virtual experiment."""
-    from femupdate.benchmarks.bridge import run_bridge_benchmark
+    from femupdate.bench.bridge import run_bridge_benchmark
 
     method_options = _json_object("--options", options)
     work = work_dir or Path("femupdate-bench-bridge")
@@ -181,17 +190,18 @@ def bench_bridge(
                                            resume=resume)
         _print_bridge(summary)
         rows.append(summary)
-    if len(rows) > 1 and all(r["evals_mean"] for r in rows):
+    if len(rows) > 1 and all(r.evals_mean for r in rows):
         base = rows[0]
         for r in rows[1:]:
             console.print(
-                f"to φ ≤ {base['benchmark']['f_target']:.3g}, {r['method']} / {base['method']}: "
+                f"to φ ≤ {base.benchmark.f_target:.3g}, {r.method} / {base.method}: "
                 f"evaluations per success, failed runs included "
-                f"{r['evals_per_success'] / base['evals_per_success']:.2f}; mean evaluations "
-                f"of successful runs {r['evals_mean'] / base['evals_mean']:.2f} (medians "
-                f"{r['evals_median'] / base['evals_median']:.2f}); success "
-                f"{r['successes']}/{r['runs']} against {base['successes']}/{base['runs']}")
-    _write_json(json_path, rows[0] if len(rows) == 1 else rows)
+                f"{r.evals_per_success / base.evals_per_success:.2f}; mean evaluations "
+                f"of successful runs {r.evals_mean / base.evals_mean:.2f} (medians "
+                f"{r.evals_median / base.evals_median:.2f}); success "
+                f"{r.successes}/{len(r.runs)} against {base.successes}/{len(base.runs)}")
+    dumped = [r.model_dump() for r in rows]
+    _write_json(json_path, dumped[0] if len(dumped) == 1 else dumped)
 
 
 @bench_app.command("simulate")
@@ -202,7 +212,7 @@ def bench_simulate(
     json_path: JsonOption = None,
 ) -> None:
     """Time every integrator on the paper-size bridge (and 10× longer), beside OpenSeesPy."""
-    from femupdate.benchmarks.simulate import print_simulate_rows, run_simulate_benchmark
+    from femupdate.bench.simulate import print_simulate_rows, run_simulate_benchmark
 
     with console.status("timing the integrators…"):
         rows = run_simulate_benchmark(repeat, opensees=None if opensees else False)
@@ -213,17 +223,12 @@ def bench_simulate(
 @app.command()
 def report(
     results: Annotated[Path, typer.Argument(help="A results directory (femupdate run --out).")],
-    data: Annotated[Path | None, typer.Option(help="Read the measured records from this "
-                                                   "directory (if they have moved).")] = None,
-    identifiability: Annotated[bool, typer.Option(help="Compute the sensitivities at the best "
-                                                       "solution (2 simulations per "
-                                                       "parameter).")] = True,
 ) -> None:
     """Write a self-contained HTML report (and its PNGs) of a results directory."""
     from femupdate.report.html import write_report
 
     with console.status("writing the report…"):
-        path = write_report(results, data_dir=data, identifiability=identifiability)
+        path = write_report(results)
     console.print(f"report: {path}")
 
 
@@ -260,45 +265,43 @@ def _params_table(title: str, rows: list[tuple[str, str, str]]) -> Table:
     return table
 
 
-def print_update_summary(summary: dict[str, Any]) -> None:
+def print_update_summary(summary: Summary) -> None:
     """The table of runs (as the paper's Tables 5, 6, 9) and the best parameters."""
-    runs = Table(title=f"{summary['case']['case']['name']}: {summary['method']} runs "
-                       f"({summary['success_rule']})")
-    names = list(summary["best"]["params"])
-    restarted = any(r.get("restarts") for r in summary["runs"])
+    runs = Table(title=f"{summary.name}: {summary.method} runs ({summary.success_rule})")
+    names = list(summary.best.params)
+    restarted = any(r.restarts for r in summary.runs)
     for col in ("run", "NMSE %", "evals", "stop", "ok", *(["restarts"] if restarted else []),
                 *names):
         runs.add_column(col, justify="right")
-    for r in summary["runs"]:
-        runs.add_row(str(r["index"]), f"{100 * r['phi']:.4g}", str(r["nfev"]),
-                     ",".join(r["stop"]), "✓" if r["success"] else "✗",
-                     *([str(r.get("restarts", 0))] if restarted else []),
-                     *(f"{r['params'][n]:.4g}" for n in names))
+    for r in summary.runs:
+        runs.add_row(str(r.index), f"{100 * r.phi:.4g}", str(r.nfev), ",".join(r.stop),
+                     "✓" if r.success else "✗", *([str(r.restarts)] if restarted else []),
+                     *(f"{r.params[n]:.4g}" for n in names))
     console.print(runs)
-    spread = summary["spread"]["params"]
+    spread = summary.spread.params
     console.print(_params_table(
-        f"best run {summary['best']['run']}: NMSE {summary['best']['nmse_percent']:.4g} %",
+        f"best run {summary.best.run}: NMSE {summary.best.nmse_percent:.4g} %",
         [(n, f"{v:.6g}", f"{spread[n]['mean']:.4g} ± {spread[n]['std']:.2g}" if n in spread
-          else "–") for n, v in summary["best"]["params"].items()],
+          else "–") for n, v in summary.best.params.items()],
     ))
-    freqs = ", ".join(f"{f:.3f}" for f in summary["best"]["frequencies_hz"])
+    freqs = ", ".join(f"{f:.3f}" for f in summary.best.frequencies_hz)
     console.print(f"natural frequencies of the best model [Hz]: {freqs}")
-    console.print(f"successful runs: {summary['successes']}/{len(summary['runs'])}; "
-                  f"evaluations (successful): mean {_fmt(summary['evals_mean'])}, "
-                  f"median {_fmt(summary['evals_median'])}; per success, failed runs "
-                  f"included: {_fmt(summary['evals_per_success'])}; "
-                  f"wall {summary['wall_s']:.1f} s")
+    console.print(f"successful runs: {summary.successes}/{len(summary.runs)}; "
+                  f"evaluations (successful): mean {_fmt(summary.evals_mean)}, "
+                  f"median {_fmt(summary.evals_median)}; per success, failed runs "
+                  f"included: {_fmt(summary.evals_per_success)}; "
+                  f"wall {summary.wall_s:.1f} s")
     if restarted:
-        counts = [int(r.get("restarts", 0)) for r in summary["runs"]]
+        counts = [r.restarts for r in summary.runs]
         console.print(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
                       f"{sum(c > 0 for c in counts)} of {len(counts)} runs")
-    failed = [r for r in summary["runs"] if not r["success"]]
-    improper = [r for r in failed if r.get("at_bounds")]
+    failed = [r for r in summary.runs if not r.success]
+    improper = [r for r in failed if r.at_bounds]
     if failed:
         console.print(f"unsuccessful runs: {len(failed)}, of which {len(improper)} end with a "
                       "parameter at a bound (improper minima): " + "; ".join(
-                          f"run {r['index']}: " + ", ".join(f"{n} {side}" for n, side
-                                                              in r["at_bounds"].items())
+                          f"run {r.index}: " + ", ".join(f"{n} {side}" for n, side
+                                                           in r.at_bounds.items())
                           for r in improper))
 
 
@@ -321,7 +324,9 @@ def run(
     quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
     log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
                                                        "run event) to this file.")] = None,
-    workers: WorkersOption = 2,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
+        "workers).")] = None,
     json_path: JsonOption = None,
 ) -> None:
     """Update the model of a case from its measured data: repeated runs, summary, plots.
@@ -329,16 +334,20 @@ def run(
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
     so an interrupted or killed run continues with --resume.
     """
+    from femupdate.report.figures import write_run_plots
+    from femupdate.runs import Execution
     from femupdate.workflow import run_case, with_data_directory
 
     case = _load(case_file)
     if data is not None:
         case = with_data_directory(case, data)
+    execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
     result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals, workers=workers,
-                      resume=resume, scheduler=scheduler, quiet=quiet, log_json=log_json)
+                      resume=resume, execution=execution, keep_history=True)
+    write_run_plots(result, out)
     print_update_summary(result.summary)
     console.print(f"results in {out.resolve()}")
-    _write_json(json_path, result.summary)
+    _write_json(json_path, result.summary.model_dump())
 
 
 def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
@@ -379,13 +388,12 @@ def modes(
     json_path: JsonOption = None,
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes of a case's model."""
-    from femupdate.case import build_structure
+    from femupdate.case import CaseModel
     from femupdate.model.modes import damped_modes, natural_frequencies
 
     case = _load(case_file)
     values = _read_params(params) or case.nominal()
-    structure = build_structure(case.model)
-    system = structure.assemble(values, direction=case.model.excitation_direction)
+    system = CaseModel(case).system(values)
     freqs, shapes = natural_frequencies(system)
     damped = damped_modes(system)
     table = Table(title=f"{case.label}: natural frequencies"

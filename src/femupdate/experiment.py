@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import ACCELERATION_UNITS, TIME_UNITS, Case, format_value
+from femupdate.case import Case, format_value
 from femupdate.data import io, signal
 from femupdate.errors import ConfigError, DataError
+from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
 
 __all__ = ["Experiment", "apply_delays", "load_experiment", "process", "read_measurement"]
 

@@ -20,7 +20,7 @@ import numpy as np
 from femupdate.errors import ConfigError, DataError
 from femupdate.simulate.response import Response
 
-__all__ = ["Objective", "nmse"]
+__all__ = ["ErrorFunction", "nmse"]
 
 
 def _sum_squares(y: np.ndarray) -> np.ndarray:
@@ -82,8 +82,9 @@ def nmse(prediction: np.ndarray, target: np.ndarray,
     return float(w @ per_channel / w.sum())
 
 
-class Objective:
-    """φ(prediction) against a fixed measured target, configured once (picklable).
+class ErrorFunction:
+    """The error function φ(prediction) against a fixed measured target, configured once
+    (picklable).
 
     Parameters
     ----------
@@ -215,3 +216,13 @@ class Objective:
         c = self.experimental_parameters(prediction)
         out = self.target + c[:, 0] + self.t[:, None] * c[:, 1]
         return out[:, 0] if self._squeeze else out
+
+
+def __getattr__(name: str) -> type:
+    if name == "Objective":  # renamed: three different things were called Objective
+        import warnings
+
+        warnings.warn("femupdate.objective.Objective is now ErrorFunction; the old name will be "
+                      "removed", DeprecationWarning, stacklevel=2)
+        return ErrorFunction
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,13 +11,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from femupdate.case import Case, build_structure
+from femupdate.case import Case, CaseModel
 from femupdate.data import signal
 from femupdate.errors import SimulationError
 from femupdate.experiment import Experiment
 from femupdate.model.system import System
-from femupdate.objective import Objective
-from femupdate.simulate import prepare
+from femupdate.objective import ErrorFunction
 from femupdate.simulate.response import Response
 
 
@@ -35,22 +34,14 @@ class UpdateProblem:
     def __init__(self, case: Case, experiment: Experiment) -> None:
         self.case = case
         self.experiment = experiment
-        self.structure = build_structure(case.model)
-        self.direction = case.model.excitation_direction
-        self.method = case.simulation_method
-        self.substeps = 1 if self.method == "exact" else case.preprocess.substeps
+        self.model = CaseModel(case)
         self.integrate = (experiment.quantity == "displacement"
                           and case.objective.integrate_prediction)
         # A nonlinear model is driven by the record as measured and its prediction filtered as
         # the data were: the high-pass does not commute with it (Case.filters_prediction).
         self.filter = case.filters_prediction and experiment.ag_unfiltered is not None
         self._ag = experiment.ag_unfiltered if self.filter else experiment.ag
-        assert case.data is not None  # an Experiment exists only for cases with data
-        self.outputs = np.array(
-            [self.structure.dof_index(c.node, c.dof) for c in case.data.outputs], dtype=np.int64
-        )
-        self._r_out = self.structure.influence_vector(self.direction)[self.outputs]
-        self.objective = Objective(
+        self.objective = ErrorFunction(
             experiment.target,
             t=experiment.t,
             weights=experiment.weights,
@@ -73,14 +64,14 @@ class UpdateProblem:
 
     def system(self, x: np.ndarray | Mapping[str, float]) -> System:
         """The assembled model at search point ``x`` (or at physical values, a mapping)."""
-        values = x if isinstance(x, Mapping) else self.values(np.asarray(x, dtype=float))
-        return self.structure.assemble(values, direction=self.direction)
+        return self.model.system(self._physical(x))
 
     def simulate(self, x: np.ndarray | Mapping[str, float]) -> Response:
         """Response of the model at ``x`` to the measured base motion, at the output DOFs."""
-        sim = prepare(self.system(x), self.experiment.dt, method=self.method,
-                      outputs=self.outputs, substeps=self.substeps)
-        return sim.run(self._ag)
+        return self.model.simulate(self._physical(x), self._ag, self.experiment.dt)
+
+    def _physical(self, x: np.ndarray | Mapping[str, float]) -> Mapping[str, float]:
+        return x if isinstance(x, Mapping) else self.values(np.asarray(x, dtype=float))
 
     def _highpass(self, x: np.ndarray) -> np.ndarray:
         """The measured data's high-pass, applied to a prediction when ``self.filter``."""
@@ -99,7 +90,7 @@ class UpdateProblem:
         accelerations. High-passed first when the model's input was not (``self.filter``).
         """
         if self.integrate:
-            relative = response.acceleration - np.outer(self._ag, self._r_out)
+            relative = response.acceleration - np.outer(self._ag, self.model.influence)
             return signal.integrate_twice(self._highpass(relative), self.experiment.dt)
         if self.experiment.quantity == "displacement":
             return self._highpass(response.displacement)

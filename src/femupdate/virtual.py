@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import ACCELERATION_UNITS, Case, build_structure
+from femupdate.case import Case, CaseModel
 from femupdate.data import io, synth
 from femupdate.errors import ConfigError
-from femupdate.simulate import prepare
+from femupdate.units import ACCELERATION_UNITS, STANDARD_GRAVITY
 
 
 @dataclass(frozen=True)
@@ -40,7 +40,7 @@ def ec8_motion(rng: np.random.Generator, *, rate: float, duration: float, pga_g:
     """
     root = np.sqrt(length_scale)
     dt_proto = 1.0 / rate / root
-    target = synth.EC8Spectrum(ag=pga_g * 9.80665, ground=ground)
+    target = synth.EC8Spectrum(ag=pga_g * STANDARD_GRAVITY, ground=ground)
     acc = synth.artificial_accelerogram(target, duration / root, dt_proto, rng,
                                         period_range=(max(0.05, 3 * dt_proto), 4.0))
     return Motion(acc.acceleration, 1.0 / rate,
@@ -68,13 +68,7 @@ def simulate_truth(case: Case, truth: dict[str, float], motion: Motion) -> np.nd
     if missing or extra:
         raise ConfigError(f"truth values: missing {missing}, unknown {extra} (allowed: exactly "
                           f"the case's parameters {list(case.parameter_names)})")
-    structure = build_structure(case.model)
-    system = structure.assemble(truth, direction=case.model.excitation_direction)
-    outputs = [structure.dof_index(c.node, c.dof) for c in case.data.outputs]
-    method = case.simulation_method
-    sim = prepare(system, motion.dt, method=method, outputs=outputs,
-                  substeps=1 if method == "exact" else case.preprocess.substeps)
-    response = sim.run(motion.ag)
+    response = CaseModel(case).simulate(truth, motion.ag, motion.dt)
     if response.diverged:
         raise ConfigError("the truth model diverged under this motion: check the truth values "
                           "and [preprocess] substeps")

@@ -1,11 +1,14 @@
-"""A model-updating job end to end: case → repeated runs → summary.json, plots, table.
+"""A model-updating job end to end: case → repeated runs → typed results on disk.
 
-This is what ``femupdate run`` does; the bridge benchmark calls it too.
+This is what ``femupdate run`` does (the bridge benchmark calls it too): load and process the
+data, run the searches (with a results store that survives crashes), summarise them
+(:class:`~femupdate.results.Summary`), and keep the best model's fit beside the measurement.
+It draws nothing: :mod:`femupdate.report` renders what it returns or writes.
 """
 
 from __future__ import annotations
 
-import json
+import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -15,9 +18,11 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
+from femupdate.errors import FemupdateError
 from femupdate.experiment import Experiment, load_experiment
 from femupdate.model.modes import natural_frequencies
-from femupdate.runs.runner import RunOutcome, run_all
+from femupdate.results import Best, Fit, RunRecord, Spread, Summary, write_summary
+from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.update import UpdateProblem
 
@@ -36,11 +41,12 @@ def with_data_directory(case: Case, directory: Path) -> Case:
 
 @dataclass
 class UpdateResult:
-    """What a job produced: the summary (as written to summary.json) and the run outcomes."""
+    """What a job produced: the summary, the run outcomes, the problem and the best fit."""
 
-    summary: dict[str, Any]
+    summary: Summary
     outcomes: list[RunOutcome]
     problem: UpdateProblem
+    fit: Fit
 
 
 def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
@@ -49,11 +55,13 @@ def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
 
 
 def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: float,
-              f_target: float | None, settings: dict[str, Any] | None = None) -> dict[str, Any]:
-    """summary.json: every run, the best, and the spread over successful runs.
+              f_target: float | None, settings: dict[str, Any] | None = None,
+              sensitivities: bool = False) -> Summary:
+    """Every run, the best, and the spread over successful runs.
 
     The case is saved with its data directory made absolute, so that the results can be
-    re-simulated (``femupdate report``) from anywhere.
+    traced back to their records from anywhere. ``sensitivities``: add the identifiability
+    analysis at the best run (2 simulations per parameter).
     """
     case = problem.case
     case_dict = case.to_dict()
@@ -68,71 +76,64 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     else:
         success = [bool(o.fun <= NEAR_BEST * best.fun) for o in outcomes]
         rule = f"φ within {NEAR_BEST:g} × the best run's φ (no f_target given)"
-    runs = []
-    for o, ok in zip(outcomes, success, strict=True):
-        row = o.to_dict(names)
-        row["params"] = problem.values(o.x)
-        row["success"] = ok
-        row["at_bounds"] = at_bounds(o.x, problem.bounds, names)
-        runs.append(row)
+    runs = [RunRecord(**{**o.to_dict(), "params": problem.values(o.x), "success": ok,
+                         "at_bounds": at_bounds(o.x, problem.bounds, names)})
+            for o, ok in zip(outcomes, success, strict=True)]
     good = [o for o, ok in zip(outcomes, success, strict=True) if ok]
-    values = np.array([[r["params"][n] for n in names] for r, ok in zip(runs, success,
-                                                                       strict=True) if ok])
+    values = np.array([[r.params[n] for n in names] for r, ok in zip(runs, success,
+                                                                    strict=True) if ok])
     freqs = np.array([_frequencies(problem, o.x) for o in good])
     # With experimental parameters, each channel's NMSE is against the measurement corrected
     # by its fitted integration constants, as φ itself.
     prediction = problem.prediction(problem.simulate(best.x))
     per_channel = dict(zip(problem.experiment.channels,
                            problem.objective.per_channel(prediction).tolist(), strict=True))
-    return {
-        "case": case_dict,
-        "case_file": str(case.source) if case.source is not None else None,
-        "settings": settings or {},
-        "delays_s": dict(problem.experiment.delays),
-        "fingerprint": case.fingerprint(),
-        "method": case.search.method,
-        **evaluation_stats([o.nfev for o in outcomes], success),
-        "success_rule": rule,
-        "wall_s": wall_s,
-        "runs": runs,
-        "best": {
-            "run": best.index,
-            "phi": best.fun,
-            "nmse_percent": 100.0 * best.fun,
-            "params": problem.values(best.x),
-            "frequencies_hz": _frequencies(problem, best.x),
-            "nmse_per_channel": per_channel,
-        },
-        "spread": {
-            "params": spread(values, names) if len(good) else {},
-            "frequencies_hz": (spread(freqs, [f"f{i + 1}" for i in range(freqs.shape[1])])
-                               if len(good) else {}),
-        },
-    }
+    stats = evaluation_stats([o.nfev for o in outcomes], success)
+    stats.pop("runs")
+    ident = None
+    if sensitivities:
+        from femupdate.identifiability import identifiability
+
+        try:
+            ident = identifiability(problem, best.x).to_dict()
+        except FemupdateError as exc:
+            ident = {"error": str(exc)}
+    return Summary(
+        case=case_dict,
+        case_file=str(case.source) if case.source is not None else None,
+        settings=settings or {},
+        delays_s=dict(problem.experiment.delays),
+        fingerprint=case.fingerprint(),
+        method=case.search.method,
+        **stats,
+        success_rule=rule,
+        wall_s=wall_s,
+        runs=runs,
+        best=Best(run=best.index, phi=best.fun, nmse_percent=100.0 * best.fun,
+                  params=problem.values(best.x), frequencies_hz=_frequencies(problem, best.x),
+                  nmse_per_channel=per_channel),
+        spread=Spread(
+            params=spread(values, names) if len(good) else {},
+            frequencies_hz=(spread(freqs, [f"f{i + 1}" for i in range(freqs.shape[1])])
+                            if len(good) else {}),
+        ),
+        identifiability=ident,
+    )
 
 
-def write_plots(result: UpdateResult, out_dir: Path) -> list[Path]:
-    """Each channel's fit, φ against evaluations (all runs), the best run's parameters."""
-    from femupdate.report.figures import plot_fit, plot_parameters, plot_phi
-
-    problem = result.problem
-    best_index = result.summary["best"]["run"]
-    best = next(o for o in result.outcomes if o.index == best_index)
+def best_fit(problem: UpdateProblem, x: np.ndarray) -> Fit:
+    """The model at ``x`` beside the measurement, as φ compares them, and their accelerations
+    relative to the table (for spectra)."""
     exp = problem.experiment
-    prediction = problem.prediction(problem.simulate(best.x))
-    measured = problem.objective.corrected_target(prediction).reshape(prediction.shape)
-    unit = "m" if exp.quantity == "displacement" else "m/s²"
-    paths = [plot_fit(exp.t, measured, prediction, out_dir / "fit.png",
-                      labels=[f"{c} [{unit}]" for c in exp.channels])]
-    histories = [o.history for o in result.outcomes if o.history is not None]
-    if histories:
-        paths.append(plot_phi(histories, out_dir / "phi.png",
-                              title=f"{problem.case.label}: φ_m against evaluations"))
-    if best.history is not None:
-        hist = dict(best.history)
-        hist["x"] = np.array([list(problem.values(x).values()) for x in hist["x"]])
-        paths.append(plot_parameters(hist, problem.names, out_dir / "parameters.png"))
-    return paths
+    response = problem.simulate(x)
+    predicted = problem.prediction(response)
+    measured = np.asarray(problem.objective.corrected_target(predicted)).reshape(predicted.shape)
+    table = np.outer(exp.ag, problem.model.influence)  # the table's share of each output
+    return Fit(t=exp.t, measured=measured, predicted=predicted,
+               measured_acc=exp.accelerations - table,
+               predicted_acc=response.acceleration - table, channels=exp.channels,
+               unit="m" if exp.quantity == "displacement" else "m/s²",
+               phi=float(problem.objective(predicted)))
 
 
 def optimizer_options(case: Case) -> dict[str, Any]:
@@ -151,59 +152,66 @@ def run_case(
     out_dir: Path | None = None,
     *,
     runs: int | None = None,
-    workers: int = 1,
-    plots: bool = True,
     seed: int | None = None,
     max_evals: int | None = None,
+    workers: int | None = None,
     resume: bool = False,
-    scheduler: str | None = None,
-    quiet: bool = True,
-    log_json: Path | None = None,
+    execution: Execution | None = None,
+    keep_history: bool = False,
+    sensitivities: bool = True,
     experiment: Experiment | None = None,
 ) -> UpdateResult:
     """Update the model of ``case`` from its data; write the results to ``out_dir``.
 
-    ``out_dir`` receives the results store (``results.sqlite``: every evaluation and the
-    optimizer checkpoints, written as they happen), ``summary.json`` and the plots; without it
-    the store is kept in memory and nothing is written. ``runs``, ``seed`` and ``max_evals``
-    override the case's ``[search]``. ``resume`` continues the unfinished runs of a store in
-    ``out_dir`` (refused for a store of another case or other settings); ``scheduler`` runs on
-    a Dask cluster; ``quiet=False`` shows a progress bar; ``log_json`` appends JSON lines.
-    ``experiment`` is the case's processed data when the caller has already loaded it.
+    Parameters
+    ----------
+    case : Case
+        The validated case.
+    out_dir : Path or None
+        Receives the results store (every evaluation and the optimizer checkpoints, written as
+        they happen), ``summary.json`` and ``fit.npz``; None: the store is kept in memory and
+        nothing is written.
+    runs, seed, max_evals, workers : int or None
+        Override the case's ``[search]`` (None: the case's).
+    resume : bool
+        Continue the unfinished runs of the store in ``out_dir`` (refused for a store of
+        another case or other settings).
+    execution : Execution or None
+        Scheduler, progress bar, log, chunks (:class:`femupdate.runs.Execution`); its
+        ``workers`` is replaced by ``workers`` or the case's.
+    keep_history : bool
+        Give each outcome its history (for plots).
+    sensitivities : bool
+        Add the identifiability analysis at the best run to the summary.
+    experiment : Experiment or None
+        The case's processed data when the caller has already loaded it.
     """
     problem = UpdateProblem(case, experiment or load_experiment(case))
     search = case.search
+    workers = search.workers if workers is None else workers
+    execution = dataclasses.replace(execution or Execution(label=case.label), workers=workers)
+    runs = runs or search.runs
+    seed = search.seed if seed is None else seed
+    max_evals = max_evals or search.max_evals
     start = time.perf_counter()
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
     outcomes = run_all(
         problem, problem.bounds, search.method,
-        runs=runs or search.runs,
-        seed=search.seed if seed is None else seed,
-        max_evals=max_evals or search.max_evals,
-        f_target=search.f_target,
+        runs=runs, seed=seed, max_evals=max_evals, f_target=search.f_target,
         options=optimizer_options(case),
-        store_dir=out_dir,
-        resume=resume,
-        workers=workers,
-        scheduler=scheduler,
-        quiet=quiet,
-        log_json=log_json,
-        case_dict=case.to_dict(),
-        fingerprint=case.fingerprint(),
-        names=problem.names,
-        label=case.label,
-        keep_history=plots,
+        store_dir=out_dir, resume=resume,
+        identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names),
+        execution=execution,
+        keep_history=keep_history,
     )
-    settings = {"runs": runs or search.runs, "seed": search.seed if seed is None else seed,
-                "max_evals": max_evals or search.max_evals, "f_target": search.f_target,
+    settings = {"runs": runs, "seed": seed, "max_evals": max_evals, "f_target": search.f_target,
                 "method": search.method, "options": optimizer_options(case),
-                "workers": workers, "scheduler": scheduler}
+                "workers": workers, "scheduler": execution.scheduler}
     summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target,
-                        settings)
-    result = UpdateResult(summary, outcomes, problem)
+                        settings, sensitivities=sensitivities)
+    fit = best_fit(problem, outcomes[[o.index for o in outcomes].index(summary.best.run)].x)
     if out_dir is not None:
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        if plots:
-            write_plots(result, out_dir)
-    return result
+        write_summary(summary, out_dir)
+        fit.save(out_dir)
+    return UpdateResult(summary, outcomes, problem, fit)

@@ -120,7 +120,7 @@ def test_trace_per_step() -> None:
         xs = opt.ask()
         f.append(float(np.sum((xs - 0.3) ** 2)))
         opt.tell(xs, np.array(f[-1:]))
-    tr = opt.trace()
+    tr = opt.trace_since(0)
     assert tr["a"].shape == tr["b"].shape == tr["mode"].shape == (100, 3)
     assert tr["sigma"].shape == tr["f_best"].shape == (100,)
     np.testing.assert_array_equal(tr["f_best"], np.minimum.accumulate(f))

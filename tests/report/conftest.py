@@ -48,7 +48,7 @@ def results_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     virtual_experiment(case, TRUTH, data, seed=0, duration=3.0, rate=200.0, snr=0.0,
                        offset=0.0, drift=0.0)
     out = root / "out"
-    run_case(case, out, runs=3, max_evals=300, workers=1, plots=False)
+    run_case(case, out, runs=3, max_evals=300, workers=1)
     return out
 
 

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from grouped import run_all
 
-from femupdate.benchmarks.dynamic import DynamicProblem
 from femupdate.errors import FemupdateError
-from femupdate.runs.runner import run_all
+from femupdate.problems.dynamic import DynamicProblem
 
 distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
 

@@ -13,23 +13,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.benchmarks.dynamic import DynamicProblem
-from femupdate.runs.runner import run_all
+from femupdate.problems.dynamic import DynamicProblem
+from femupdate.runs import Execution, run_all
 from femupdate.runs.store import FILENAME, ResultsStore
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 
 # No target and no σ criterion: every run makes exactly max_evals evaluations.
-SETTINGS = dict(runs=4, seed=21, max_evals=6000, options={"sigma_min": 0.0}, chunk_evals=100,
-                workers=2)
+SETTINGS = dict(runs=4, seed=21, max_evals=6000, options={"sigma_min": 0.0})
+EXECUTION = dict(chunk_evals=100, workers=2)
 TOTAL = SETTINGS["runs"] * SETTINGS["max_evals"]
 
 # The killed set evaluates the same φ slowed down (same values), so that it is still running
 # when the poller sees its first checkpoints, however loaded the machine is.
 CHILD = f"""
 import sys, time
-from femupdate.benchmarks.dynamic import DynamicProblem
-from femupdate.runs.runner import run_all
+from femupdate.problems.dynamic import DynamicProblem
+from femupdate.runs import Execution, run_all
 
 class Slow(DynamicProblem):
     def __call__(self, x):
@@ -37,7 +37,8 @@ class Slow(DynamicProblem):
         return super().__call__(x)
 
 p = Slow()
-run_all(p, p.bounds, "ab", store_dir=sys.argv[1], **{SETTINGS!r})
+run_all(p, p.bounds, "ab", store_dir=sys.argv[1], execution=Execution(**{EXECUTION!r}),
+        **{SETTINGS!r})
 """
 
 
@@ -88,8 +89,10 @@ def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path) 
             np.testing.assert_array_equal(idx, np.arange(expected[row.status]))
 
     p = DynamicProblem()
-    resumed = run_all(p, p.bounds, "ab", store_dir=tmp_path / "killed", resume=True, **SETTINGS)
-    reference = run_all(p, p.bounds, "ab", store_dir=tmp_path / "whole", **SETTINGS)
+    resumed = run_all(p, p.bounds, "ab", store_dir=tmp_path / "killed", resume=True,
+                      execution=Execution(**EXECUTION), **SETTINGS)
+    reference = run_all(p, p.bounds, "ab", store_dir=tmp_path / "whole",
+                        execution=Execution(**EXECUTION), **SETTINGS)
     for a, b in zip(resumed, reference, strict=True):
         np.testing.assert_array_equal(a.x, b.x)
         assert (a.fun, a.nfev, a.nit, a.stop) == (b.fun, b.nfev, b.nit, b.stop)

@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from grouped import run_all
 
-from femupdate.benchmarks.dynamic import PARAMETER_NAMES, DynamicProblem
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
-from femupdate.runs.runner import run_all, run_seeds
+from femupdate.problems.dynamic import PARAMETER_NAMES, DynamicProblem
+from femupdate.runs import run_seeds
 from femupdate.runs.store import FILENAME, ResultsStore, StoreError
 
 PROBLEM = DynamicProblem()

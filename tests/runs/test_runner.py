@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.benchmarks.dynamic import DynamicProblem
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
-from femupdate.runs.runner import RunOutcome, repeat, run_seeds
+from femupdate.problems.dynamic import DynamicProblem
+from femupdate.runs import RunOutcome, repeat, run_seeds
 from femupdate.runs.stats import BOUND_TOL, at_bounds, evaluation_stats, spread
 
 

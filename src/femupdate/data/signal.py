@@ -124,7 +124,7 @@ def integrate_twice(acceleration: np.ndarray, dt: float) -> np.ndarray:
     """Displacement from acceleration by two trapezoidal integrations, zero initial values.
 
     The unknown initial displacement and velocity are the two "experimental parameters"
-    that the objective fits (`femupdate.objective.Objective`).
+    that the objective fits (`femupdate.objective.ErrorFunction`).
     """
     return integrate(integrate(acceleration, dt), dt)
 

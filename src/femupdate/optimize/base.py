@@ -22,34 +22,76 @@ from femupdate.errors import ConfigError
 class Optimizer(Protocol):
     """What ``minimize`` needs from an optimizer (all in the unit cube).
 
-    Optimizers are picklable unless their docstring says otherwise (``de`` and ``ga`` are not:
-    their runs restart instead of resuming).
+    The checkpoint protocol: an optimizer's state is its attributes, pickled between chunks of
+    a long run (``femupdate.runs``). Its per-step plot data live in a :class:`StepTrace`, which
+    a pickle leaves out (the run's store keeps them, read with :meth:`trace_since` before each
+    checkpoint), so a checkpoint does not grow with the run. Optimizers are picklable unless
+    their docstring says otherwise (``de`` and ``ga`` are not: their runs restart instead of
+    resuming).
     """
 
     def ask(self) -> np.ndarray:
         """The next candidates, shape (k, n), inside [0, 1]^n."""
         ...
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
-        """Values ``fs`` (k,) of the candidates ``xs`` (k, n); NaN or inf is a failed one."""
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
+        """Values ``fs`` (k,) of the candidates ``xs`` (k, n); NaN or inf is a failed one.
+        ``rs`` (k, m): their residual vectors when the function gives them (φ = ‖r‖²)."""
         ...
 
     def stop(self) -> dict[str, object]:
         """The internal criteria that fired, with their values; empty: go on."""
         ...
 
-    @property
-    def result(self) -> tuple[np.ndarray, float]:
-        """The best point so far (unit cube) and its value."""
-        ...
-
-    def trace(self) -> dict[str, np.ndarray]:
-        """Per-step arrays for plots (may be empty)."""
+    def trace_since(self, step: int) -> dict[str, np.ndarray]:
+        """Per-step arrays for plots, rows of steps ``step`` … still held (may be empty)."""
         ...
 
     def close(self) -> None:
         """Release resources (threads); the optimizer is unusable afterwards."""
         ...
+
+
+class StepTrace:
+    """Rows an optimizer records once per step for plots: σ, a, b, the mode, the best φ, ….
+
+    They are not part of the search state: pickling (a checkpoint) drops the rows held and
+    keeps their count, so that a checkpoint does not grow with the run; a long run stores the
+    rows of each chunk (:meth:`since`) before it checkpoints.
+    """
+
+    def __init__(self) -> None:
+        self.first = 0  # step of the first row held
+        self.count = 0  # rows held
+        self._columns: dict[str, np.ndarray] = {}
+
+    @property
+    def steps(self) -> int:
+        """Steps recorded since the optimizer started (held or not)."""
+        return self.first + self.count
+
+    def append(self, **row: float | np.ndarray) -> None:
+        """Record one step's values (the same names at every step)."""
+        k = self.count
+        for name, value in row.items():
+            column = self._columns.get(name)
+            if column is None:
+                column = np.empty((64, *np.shape(value)))
+                self._columns[name] = column
+            elif k == column.shape[0]:  # grow geometrically
+                grown = np.empty((2 * k, *column.shape[1:]))
+                grown[:k] = column
+                self._columns[name] = column = grown
+            column[k] = value
+        self.count = k + 1
+
+    def since(self, step: int) -> dict[str, np.ndarray]:
+        """Copies of the rows of steps ``step`` … that are held."""
+        start = min(max(step - self.first, 0), self.count)
+        return {name: column[start:self.count].copy() for name, column in self._columns.items()}
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"first": self.first + self.count, "count": 0, "_columns": {}}
 
 
 class KeepsBest:
@@ -65,10 +107,6 @@ class KeepsBest:
             self.best_f = float(fs[i])
             self.best_x = xs[i].copy()
 
-    @property
-    def result(self) -> tuple[np.ndarray, float]:
-        return self.best_x.copy(), self.best_f
-
 
 class Restarts:
     """Stagnation, and restarts from scratch when a search has converged or stalled.
@@ -83,10 +121,10 @@ class Restarts:
     A search has *stalled* when its best φ fell by less than the fraction ``stall_tol`` (of
     |φ|) over its last ``stall_window`` evaluations. On the noise-free viscous bridge (AB,
     window 1,000, tolerance 1 %) searches creeping into an improper minimum (a parameter at a
-    bound, METHOD.md §2) stalled after 1,500–1,800 evaluations, long before σ reached σ_s, and
-    none of the 17 that went on to φ < 1e-6 stalled on the way. With ``restarts`` left, a
-    converged or stalled search gives way to a fresh one; the best point over all of them is
-    the result. ``stop()`` reports the criteria once no restart is left.
+    bound) stalled after 1,500–1,800 evaluations, long before σ reached σ_s, and none of the 17
+    that went on to φ < 1e-6 stalled on the way. With ``restarts`` left, a converged or stalled
+    search gives way to a fresh one; the best point over all of them is the result. ``stop()``
+    reports the criteria once no restart is left.
     """
 
     restarts: int = 0

@@ -1,4 +1,6 @@
-"""The paper's bounded adaptive Beta sampling: isotropic (IB) and anisotropic (AB) (METHOD.md §3–5).
+"""The paper's bounded adaptive Beta sampling: isotropic (IB) and anisotropic (AB).
+
+Zapico-Valle et al. (2010), §2.2 (docs/method.md states it in this project's words).
 
 Each parameter ξ_i of the unit cube is drawn from Beta(a_i, b_i) whose mode is the best point
 so far and whose variance shrinks or grows with the success of the steps (after Kern et al.):
@@ -22,6 +24,7 @@ from femupdate.errors import ConfigError
 from femupdate.optimize.base import (
     KeepsBest,
     Restarts,
+    StepTrace,
     check_batch,
     check_option_names,
     real_option,
@@ -278,13 +281,7 @@ class BetaSearch(KeepsBest, Restarts):
         self.alpha_fail = self.alpha ** -0.25
         self.best_x = np.full(n, 0.5)  # over all restarts; replaced at the first step
         self._new_search()
-        self.steps = 0
-        self._trace_mode = np.empty((64, n))
-        self._trace_a = np.empty((64, n))
-        self._trace_b = np.empty((64, n))
-        self._trace_sigma = np.empty(64)
-        self._trace_f = np.empty(64)
-        self._trace_restarts = np.empty(64)
+        self.trace = StepTrace()
 
     def _restart(self) -> None:
         """Step 1: uniform samples (a = b = 1), σ = sigma0, records 1, φ_m = ∞."""
@@ -306,8 +303,9 @@ class BetaSearch(KeepsBest, Restarts):
         """One sample ξ_i ~ Beta(a_i, b_i), shape (1, n)."""
         return self.rng.beta(self.a, self.b).reshape(1, self.n)
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
-        """Update mode, σ, records and (a, b) from one evaluated sample (Steps 3–4)."""
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
+        """Update mode, σ, records and (a, b) from one evaluated sample (Steps 3–4); the
+        residuals ``rs`` are not used."""
         xs, fs = check_batch(xs, fs, self.n)
         if xs.shape[0] != 1:
             raise ConfigError(f"IB/AB take one sample per step, got {xs.shape[0]}")
@@ -328,8 +326,8 @@ class BetaSearch(KeepsBest, Restarts):
         self._keep_best(xs, fs)
         _update_beta(self.mode, self.sigma, self.records, self.anisotropic, self.var,
                      self.a, self.b)
-        self._record_trace()
-        self.steps += 1
+        self.trace.append(mode=self.mode, sigma=self.sigma, a=self.a, b=self.b,
+                          f_best=self.best_f, restarts=self.restarts_done)
         self._track(fs)
         self._restart_if_converged()
 
@@ -342,45 +340,13 @@ class BetaSearch(KeepsBest, Restarts):
             fired["f_change_min"] = self.last_change
         return fired
 
-    def trace(self) -> dict[str, np.ndarray]:
+    def trace_since(self, step: int) -> dict[str, np.ndarray]:
         """Per step, after its update: ``mode``, ``sigma``, ``a``, ``b`` (steps, n), ``f_best``
         (the best φ so far, over all restarts) and ``restarts`` (how many so far)."""
-        k = self.steps
-        return {
-            "mode": self._trace_mode[:k].copy(),
-            "sigma": self._trace_sigma[:k].copy(),
-            "a": self._trace_a[:k].copy(),
-            "b": self._trace_b[:k].copy(),
-            "f_best": self._trace_f[:k].copy(),
-            "restarts": self._trace_restarts[:k].copy(),
-        }
+        return self.trace.since(step)
 
     def close(self) -> None:
         """Nothing to release."""
-
-    # -- internals ---------------------------------------------------------------------------
-
-    def _record_trace(self) -> None:
-        k = self.steps
-        if k == self._trace_f.shape[0]:  # grow geometrically
-            self._trace_mode = _grown(self._trace_mode)
-            self._trace_a = _grown(self._trace_a)
-            self._trace_b = _grown(self._trace_b)
-            self._trace_sigma = _grown(self._trace_sigma)
-            self._trace_f = _grown(self._trace_f)
-            self._trace_restarts = _grown(self._trace_restarts)
-        self._trace_mode[k] = self.mode
-        self._trace_a[k] = self.a
-        self._trace_b[k] = self.b
-        self._trace_sigma[k] = self.sigma
-        self._trace_f[k] = self.best_f
-        self._trace_restarts[k] = self.restarts_done
-
-
-def _grown(arr: np.ndarray) -> np.ndarray:
-    out = np.empty((2 * arr.shape[0], *arr.shape[1:]), dtype=arr.dtype)
-    out[: arr.shape[0]] = arr
-    return out
 
 
 _BETA_OPTIONS = ("sigma_min", "f_change_min", "sigma0", "stall_window", "stall_tol", "restarts")

@@ -1,4 +1,5 @@
-"""CMA-ES as the paper ran it (METHOD.md §6): pycma through ask/tell on the unit cube.
+"""CMA-ES as the paper ran it (Zapico-Valle et al. 2010, §3): pycma through ask/tell on the unit
+cube.
 
 The initial mean is uniform at random in the box, σ0 = 0.5 (half the box), λ = 5 by default,
 pycma's default strategy otherwise (without mirrored sampling). Bounds by resampling: each
@@ -17,6 +18,7 @@ import numpy as np
 from femupdate.optimize.base import (
     KeepsBest,
     Restarts,
+    StepTrace,
     check_batch,
     check_option_names,
     int_option,
@@ -110,9 +112,7 @@ class CMAES(KeepsBest, Restarts):
         self._new_search()
         self.best_x = self.es.mean.copy()
         self.resamples = 0
-        self._trace_sigma: list[float] = []
-        self._trace_f: list[float] = []
-        self._trace_restarts: list[float] = []
+        self.trace = StepTrace()
 
     def _restart(self) -> None:
         """A new strategy: mean uniform at random in the box, σ = sigma0."""
@@ -145,8 +145,8 @@ class CMAES(KeepsBest, Restarts):
             self.resamples += tries
         return xs
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
-        """Pass the values to pycma (failures ranked last)."""
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
+        """Pass the values to pycma (failures ranked last; residuals not used)."""
         xs, fs = check_batch(xs, fs, self.n)
         self._keep_best(xs, fs)
         finite = np.isfinite(fs)
@@ -154,9 +154,8 @@ class CMAES(KeepsBest, Restarts):
             worst = float(fs[finite].max()) if finite.any() else 0.0
             fs = np.where(finite, fs, worst + 1.0 + abs(worst))
         self.es.tell(list(xs), fs.tolist())
-        self._trace_sigma.append(float(self.es.sigma))
-        self._trace_f.append(self.best_f)
-        self._trace_restarts.append(self.restarts_done)
+        self.trace.append(sigma=float(self.es.sigma), f_best=self.best_f,
+                          restarts=self.restarts_done)
         self._track(fs)
         self._restart_if_converged()
 
@@ -164,10 +163,9 @@ class CMAES(KeepsBest, Restarts):
         """pycma's termination criteria that fired, and ``stall``."""
         return {**self.es.stop(), **self._stall()}
 
-    def trace(self) -> dict[str, np.ndarray]:
+    def trace_since(self, step: int) -> dict[str, np.ndarray]:
         """Per step: pycma's global ``sigma``, ``f_best`` and ``restarts`` (how many so far)."""
-        return {"sigma": np.array(self._trace_sigma), "f_best": np.array(self._trace_f),
-                "restarts": np.array(self._trace_restarts, dtype=float)}
+        return self.trace.since(step)
 
     def close(self) -> None:
         """Nothing to release."""

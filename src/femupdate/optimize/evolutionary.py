@@ -141,7 +141,7 @@ class DifferentialEvolution(KeepsBest):
             raise FemupdateError(f"the 'de' solver has ended ({kind}); nothing more to ask")
         return payload.copy()
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
         """The values of the population from the last :meth:`ask` (failures as inf)."""
         xs, fs = check_batch(xs, fs, self.n)
         kind, payload = self._next_message()
@@ -156,7 +156,8 @@ class DifferentialEvolution(KeepsBest):
         kind, _ = self._next_message()  # waits until the solver asks again or ends
         return {"de_tol": self.tol} if kind == "done" else {}
 
-    def trace(self) -> dict[str, np.ndarray]:
+    def trace_since(self, step: int) -> dict[str, np.ndarray]:
+        """No per-step trace."""
         return {}
 
     def close(self) -> None:
@@ -238,7 +239,7 @@ class GeneticAlgorithm(KeepsBest):
         self._pop = self.algorithm.ask()
         return np.array(self._pop.get("X"), dtype=float)
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
         """Values of the last asked candidates (failures as inf)."""
         from pymoo.core.evaluator import Evaluator
         from pymoo.problems.static import StaticProblem
@@ -255,7 +256,8 @@ class GeneticAlgorithm(KeepsBest):
         """The GA has no criterion of its own here."""
         return {}
 
-    def trace(self) -> dict[str, np.ndarray]:
+    def trace_since(self, step: int) -> dict[str, np.ndarray]:
+        """No per-step trace."""
         return {}
 
     def close(self) -> None:

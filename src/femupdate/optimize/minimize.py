@@ -9,13 +9,18 @@ budget (``max_evals``) and the target (``f_target``). The loop state lives in on
 from __future__ import annotations
 
 import builtins
+import inspect
 import math
+import numbers
+import time
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
 from scipy.optimize import Bounds, OptimizeResult
 
+from femupdate._parallel import PoolMap, default_workers
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.optimize.base import Factory, Optimizer
 from femupdate.optimize.beta import make_ab, make_ib
@@ -24,6 +29,7 @@ from femupdate.optimize.evolutionary import make_de, make_ga
 from femupdate.optimize.termination import (
     check_f_target,
     check_max_evals,
+    is_success,
     loop_criteria,
     status_and_message,
 )
@@ -37,8 +43,10 @@ METHODS: dict[str, Factory] = {
     "ga": make_ga,
 }
 
-Objective = Callable[[np.ndarray], float]
-MapLike = Callable[[Objective, Iterable[np.ndarray]], Iterable[Any]]
+#: φ(x) of a point in original units.
+ScalarFunction = Callable[[np.ndarray], float]
+#: ``map(fun, rows)``: evaluates the rows lazily, in order.
+MapLike = Callable[[ScalarFunction, Iterable[np.ndarray]], Iterable[Any]]
 
 
 def parse_bounds(bounds: Sequence[tuple[float, float]] | Bounds) -> tuple[np.ndarray, np.ndarray]:
@@ -82,6 +90,11 @@ def parse_bounds(bounds: Sequence[tuple[float, float]] | Bounds) -> tuple[np.nda
 class MinimizeState:
     """Everything the loop carries from one step to the next (picklable if the optimizer is).
 
+    A pickle of the state is a checkpoint: it leaves out the history of evaluations (a long
+    run keeps it in its store, read with :meth:`evaluations_since` before each checkpoint)
+    and, through the optimizer's :class:`~femupdate.optimize.base.StepTrace`, its per-step
+    trace, so that it does not grow with the run.
+
     Parameters
     ----------
     optimizer : Optimizer
@@ -94,10 +107,12 @@ class MinimizeState:
         Budget of evaluations.
     f_target : float or None
         Stop (successfully) once φ ≤ f_target.
+    record_times : bool
+        Keep the wall-clock time (``time.perf_counter``) of every evaluation.
     """
 
     def __init__(self, optimizer: Optimizer, method: str, low: np.ndarray, high: np.ndarray,
-                 max_evals: int, f_target: float | None) -> None:
+                 max_evals: int, f_target: float | None, record_times: bool = False) -> None:
         self.optimizer = optimizer
         self.method = method
         self.low = low
@@ -105,22 +120,55 @@ class MinimizeState:
         self.span = high - low
         self.max_evals = max_evals
         self.f_target = f_target
+        self.record_times = record_times
         self.nfev = 0
         self.nit = 0
         self.best_x = low + 0.5 * self.span  # replaced by the first evaluation
         self.best_f = math.inf
         self.stopped: dict[str, object] = {}
-        cap = min(max_evals, 1024)
-        self._hist_x = np.empty((cap, low.size))
+        self._new_history(room=min(max_evals, 1024))
+
+    # -- checkpoints ---------------------------------------------------------------------------
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for name in ("_hist_x", "_hist_f", "_hist_t"):
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._new_history(room=1024)
+
+    def _new_history(self, room: int) -> None:
+        """Empty history buffers for evaluations ``nfev`` … (rows before are not held)."""
+        self._hist_first = self.nfev
+        cap = max(1, min(room, self.max_evals - self.nfev))
+        self._hist_x = np.empty((cap, self.low.size))
         self._hist_f = np.empty(cap)
+        self._hist_t = np.empty(cap if self.record_times else 0)
+
+    def evaluations_since(self, nfev: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Copies of ``x`` (k, n), φ (k,) and wall times (k,; empty without ``record_times``)
+        of evaluations ``nfev`` … that are held."""
+        i = min(max(nfev - self._hist_first, 0), self.nfev - self._hist_first)
+        j = self.nfev - self._hist_first
+        times = self._hist_t[i:j].copy() if self.record_times else np.empty(0)
+        return self._hist_x[i:j].copy(), self._hist_f[i:j].copy(), times
+
+    def trace_since(self, step: int) -> dict[str, np.ndarray]:
+        """The optimizer's per-step trace from step ``step`` on (rows held)."""
+        return self.optimizer.trace_since(step)
+
+    # -- the loop ------------------------------------------------------------------------------
 
     @property
     def done(self) -> bool:
         """Whether a stopping criterion fired."""
         return bool(self.stopped)
 
-    def step(self, fun: Objective, map: MapLike = builtins.map,
-             callback: Callable[[np.ndarray, float], Any] | None = None) -> None:
+    def step(self, fun: ScalarFunction, map: MapLike = builtins.map,
+             on_evaluation: Callable[[np.ndarray, float], Any] | None = None) -> None:
         """One ask, the evaluations in order (stopping at once on target or budget), one tell."""
         xi = self.optimizer.ask()
         x = np.clip(self.low + self.span * xi, self.low, self.high)
@@ -134,8 +182,8 @@ class MinimizeState:
             for i in range(k):
                 fs[i] = f = self._evaluate_next(results, x[i])
                 evaluated += 1
-                if callback is not None:
-                    callback(x[i], f)
+                if on_evaluation is not None:
+                    on_evaluation(x[i], f)
                 fired = loop_criteria(f, self.nfev, self.f_target, self.max_evals)
                 if fired:
                     self.stopped.update(fired)
@@ -152,38 +200,44 @@ class MinimizeState:
     def _evaluate_next(self, results: Iterator[Any], x: np.ndarray) -> float:
         try:
             value = next(results)
-            f = float(value)
         except StopIteration:
             raise ConfigError("map(fun, rows) returned fewer results than rows") from None
         except Exception as exc:
             exc.add_note(f"femupdate.minimize: raised while evaluating fun(x) at x = {x.tolist()}")
             raise
-        if not math.isfinite(f):
-            f = math.inf  # a failed evaluation
-        n = self.nfev
+        f = _as_value(value, x)
+        n = self.nfev - self._hist_first
         if n == self._hist_f.shape[0]:
             self._grow_history()
         self._hist_x[n] = x
         self._hist_f[n] = f
-        self.nfev = n + 1
-        if f < self.best_f or n == 0:
+        if self.record_times:
+            self._hist_t[n] = time.perf_counter()
+        self.nfev += 1
+        if f < self.best_f or self.nfev == 1:
             self.best_f = f
             self.best_x = x.copy()
         return f
 
     def _grow_history(self) -> None:
-        cap = min(2 * self._hist_f.shape[0], self.max_evals)
-        hist_x = np.empty((cap, self._hist_x.shape[1]))
-        hist_f = np.empty(cap)
-        hist_x[: self.nfev] = self._hist_x[: self.nfev]
-        hist_f[: self.nfev] = self._hist_f[: self.nfev]
-        self._hist_x, self._hist_f = hist_x, hist_f
+        held = self.nfev - self._hist_first
+        cap = max(1, min(2 * held, self.max_evals - self._hist_first))
+        for name in ("_hist_x", "_hist_f") + (("_hist_t",) if self.record_times else ()):
+            old = getattr(self, name)
+            new = np.empty((cap, *old.shape[1:]))
+            new[:held] = old[:held]
+            setattr(self, name, new)
 
     def history(self) -> dict[str, np.ndarray]:
-        """``x`` (nfev, n) in original units, ``fun`` (nfev,), and the optimizer's trace."""
-        out = {"x": self._hist_x[: self.nfev].copy(), "fun": self._hist_f[: self.nfev].copy()}
-        out.update(self.optimizer.trace())
-        return out
+        """``x`` (nfev, n) in original units, ``fun`` (nfev,), and the optimizer's trace (the
+        rows held: all of them unless the state was restored from a checkpoint)."""
+        x, f, _ = self.evaluations_since(0)
+        return {"x": x, "fun": f, **self.trace_since(0)}
+
+    def intermediate_result(self) -> OptimizeResult:
+        """What a callback receives after each step: ``x``, ``fun``, ``nfev``, ``nit``."""
+        return OptimizeResult(x=self.best_x.copy(), fun=self.best_f, nfev=self.nfev,
+                              nit=self.nit)
 
     def result(self) -> OptimizeResult:
         """The ``OptimizeResult`` of the run so far."""
@@ -197,7 +251,7 @@ class MinimizeState:
             fun=self.best_f,
             nfev=self.nfev,
             nit=self.nit,
-            success="f_target" in stop,
+            success=is_success(stop, self.f_target),
             status=int(status),
             message=message,
             stop=stop,
@@ -207,8 +261,24 @@ class MinimizeState:
         )
 
 
-def start(fun: Objective, bounds: Sequence[tuple[float, float]] | Bounds, method: str = "ab", *,
-          seed: Any = None, max_evals: int = 50_000, f_target: float | None = None,
+def _as_value(value: Any, x: np.ndarray) -> float:
+    """``fun``'s value as a float; NaN and ±inf are a failed evaluation (+inf).
+
+    Only real numbers are accepted (a numpy scalar or a one-element array too): a string or a
+    bool is a mistake in ``fun``, not a value to minimise.
+    """
+    if isinstance(value, np.ndarray) and value.size == 1:
+        value = value.reshape(()).item()
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise ConfigError(f"fun(x) must return a real number, got {value!r} (of type "
+                          f"{type(value).__name__}) at x = {x.tolist()}")
+    f = float(value)
+    return f if math.isfinite(f) else math.inf
+
+
+def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
+          method: str = "ab", *, seed: Any = None, max_evals: int = 50_000,
+          f_target: float | None = None, record_times: bool = False,
           **options: Any) -> MinimizeState:
     """Validate the arguments and build the loop state of a run (see :func:`minimize`)."""
     if not callable(fun):
@@ -225,18 +295,50 @@ def start(fun: Objective, bounds: Sequence[tuple[float, float]] | Bounds, method
             f"seed must be None, an int, a SeedSequence or a Generator, got {seed!r}"
         ) from exc
     optimizer = METHODS[method](low.size, rng, **options)
-    return MinimizeState(optimizer, method, low, high, max_evals, f_target)
+    return MinimizeState(optimizer, method, low, high, max_evals, f_target, record_times)
+
+
+def _callback_kind(callback: Callable[..., Any]) -> str:
+    """``"result"``: scipy's ``callback(intermediate_result)``, once per step; ``"legacy"``:
+    femupdate's former ``callback(x, f)``, once per evaluation (deprecated)."""
+    try:
+        params = list(inspect.signature(callback).parameters.values())
+    except (TypeError, ValueError):  # a builtin without a signature: take scipy's form
+        return "result"
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    required = [p for p in positional if p.default is p.empty]
+    varargs = any(p.kind is p.VAR_POSITIONAL for p in params)
+    if len(required) >= 2 or (len(positional) >= 2 and not required) or (
+            varargs and not positional):
+        return "legacy"
+    return "result"
+
+
+def _workers_map(workers: Any) -> tuple[MapLike, Callable[[], None]]:
+    """The map-like of ``workers`` (scipy's convention) and what closes it."""
+    if callable(workers):
+        return workers, lambda: None
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers == 0 \
+            or workers < -1:
+        raise ConfigError(f"workers must be an int >= 1, -1 (all CPUs) or a map-like callable "
+                          f"map(fun, rows), got {workers!r}")
+    count = default_workers() if workers == -1 else int(workers)
+    if count == 1:
+        return builtins.map, lambda: None
+    pool = PoolMap(count)
+    return pool, pool.close
 
 
 def minimize(
-    fun: Objective,
+    fun: ScalarFunction,
     bounds: Sequence[tuple[float, float]] | Bounds,
     method: str = "ab",
     *,
     seed: Any = None,
     max_evals: int = 50_000,
     f_target: float | None = None,
-    callback: Callable[[np.ndarray, float], Any] | None = None,
+    callback: Callable[..., Any] | None = None,
+    workers: int | MapLike = 1,
     map: MapLike | None = None,
     **options: Any,
 ) -> OptimizeResult:
@@ -246,7 +348,8 @@ def minimize(
     ----------
     fun : callable
         φ(x) -> float, x of shape (n,) in original units. A NaN or infinite value is a failed
-        evaluation: counted, treated as +inf. An exception propagates, with a note giving x.
+        evaluation: counted, treated as +inf. Anything but a real number (a string, a bool)
+        is a ConfigError; an exception propagates, with a note giving x.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter.
     method : {"ab", "ib", "cmaes", "de", "ga"}
@@ -256,19 +359,28 @@ def minimize(
     max_evals : int
         Budget of evaluations of ``fun`` (≥ 1).
     f_target : float or None
-        Stop at once when φ ≤ f_target (then ``success`` is True).
+        Stop at once when φ ≤ f_target.
     callback : callable or None
-        ``callback(x, f)`` after each evaluation (original units; failures as inf).
+        As scipy's: ``callback(intermediate_result)`` after each step (an ask/tell iteration)
+        with an ``OptimizeResult`` holding ``x`` and ``fun`` (the best so far), ``nfev`` and
+        ``nit``; raising ``StopIteration`` ends the run (status ``CALLBACK``). A callable of two
+        arguments ``callback(x, f)``, called after every evaluation, is still accepted
+        (deprecated: femupdate's former convention).
+    workers : int or map-like callable
+        As scipy's: 1 (default) evaluates in this process; ``N > 1`` spreads each step's
+        candidates over ``N`` worker processes (``fun`` must be picklable); -1 uses every CPU;
+        a map-like ``workers(fun, rows)`` (e.g. an executor's ``map``) evaluates the rows in
+        order. Only population methods (cmaes, de, ga) ask several candidates per step.
     map : callable or None
-        ``map(fun, rows)`` evaluating the rows lazily, in order (default: builtin ``map``);
-        e.g. an executor's ``map`` to evaluate a population in parallel.
+        Deprecated name of a map-like ``workers``.
     **options
         Options of the method (unknown names or values out of range: ConfigError).
 
     Returns
     -------
     scipy.optimize.OptimizeResult
-        ``x, fun, nfev, nit`` (ask/tell steps), ``success`` (f_target given and reached),
+        ``x, fun, nfev, nit`` (ask/tell steps), ``success`` (as scipy: the search ended by its
+        own convergence criteria, not the budget; with an ``f_target``: it was reached),
         ``status`` (:class:`~femupdate.optimize.termination.Status`), ``message``, ``stop``
         (every criterion that fired, with its value), ``method``, ``restarts`` (how many times
         the optimizer started afresh: its option ``restarts``), ``history`` (``x`` (nfev, n),
@@ -276,14 +388,30 @@ def minimize(
     """
     if callback is not None and not callable(callback):
         raise ConfigError(f"callback must be callable or None, got {callback!r}")
-    if map is not None and not callable(map):
-        raise ConfigError(f"map must be callable or None, got {map!r}")
+    if map is not None:
+        if not callable(map):
+            raise ConfigError(f"map must be callable or None, got {map!r}")
+        warnings.warn("minimize(map=...) is deprecated: pass the map-like as workers=... "
+                      "(scipy's convention)", DeprecationWarning, stacklevel=2)
+        workers = map
+    kind = None if callback is None else _callback_kind(callback)
+    if kind == "legacy":
+        warnings.warn("callback(x, f) after every evaluation is deprecated: use scipy's "
+                      "callback(intermediate_result), called after every step",
+                      DeprecationWarning, stacklevel=2)
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
                   **options)
-    map_fn = builtins.map if map is None else map
+    map_fn, close_map = _workers_map(workers)
+    per_evaluation = callback if kind == "legacy" else None
     try:
         while not state.done:
-            state.step(fun, map_fn, callback)
+            state.step(fun, map_fn, per_evaluation)
+            if kind == "result":
+                try:
+                    callback(state.intermediate_result())  # type: ignore[misc]
+                except StopIteration:
+                    state.stopped["callback"] = True
     finally:
+        close_map()
         state.optimizer.close()
     return state.result()

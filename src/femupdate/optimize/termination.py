@@ -17,9 +17,22 @@ from femupdate.errors import ConfigError
 class Status(IntEnum):
     """``OptimizeResult.status``: why the run ended (the first that applies, in this order)."""
 
-    F_TARGET = 0  #: φ ≤ f_target (the only success)
+    F_TARGET = 0  #: φ ≤ f_target
     MAX_EVALS = 1  #: the evaluation budget was used up
-    OPTIMIZER = 2  #: one of the optimizer's own criteria fired
+    OPTIMIZER = 2  #: one of the optimizer's own criteria fired (it converged or stalled)
+    CALLBACK = 3  #: the callback raised StopIteration
+
+
+def is_success(stop: dict[str, object], f_target: float | None) -> bool:
+    """scipy's meaning of ``success``: the search ended by converging, not by running out.
+
+    With an ``f_target`` the user has said what success is: reaching it. Without one, a run
+    succeeds when the optimizer's own criteria ended it (σ_s, Δφ_s, pycma's tolerances, DE's
+    tol), not the budget or the callback.
+    """
+    if f_target is not None:
+        return "f_target" in stop
+    return bool(stop) and not ({"max_evals", "callback"} & set(stop))
 
 
 def check_max_evals(max_evals: Any) -> int:
@@ -57,5 +70,7 @@ def status_and_message(stop: dict[str, object]) -> tuple[Status, str]:
         return Status.F_TARGET, f"f_target reached: f = {stop['f_target']:.6g}"
     if "max_evals" in stop:
         return Status.MAX_EVALS, f"max_evals reached: {stop['max_evals']} evaluations"
+    if "callback" in stop:
+        return Status.CALLBACK, "the callback raised StopIteration"
     fired = ", ".join(f"{k} = {v!r}" for k, v in stop.items())
     return Status.OPTIMIZER, f"the optimizer's criteria fired: {fired}"

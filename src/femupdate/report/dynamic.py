@@ -6,37 +6,17 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.benchmarks.dynamic import (
-    F_TARGET,
-    MAX_EVALS,
-    PARAMETER_NAMES,
-    TRUTH,
-    DynamicProblem,
-    two_mode_response,
-)
+from femupdate.problems.dynamic import PARAMETER_NAMES, TRUTH, DynamicProblem, two_mode_response
 from femupdate.report.figures import plot_beta, plot_fit, plot_parameters, plot_phi
-from femupdate.runs.runner import RunTask, run_seeds
+from femupdate.runs.outcome import RunOutcome
 
 
-def dynamic_figures(
-    out_dir: Path,
-    method: str = "ab",
-    *,
-    seed: int | None = 0,
-    run_index: int = 0,
-    options: dict[str, object] | None = None,
-    max_evals: int = MAX_EVALS,
-) -> list[Path]:
-    """Repeat run ``run_index`` of a benchmark with its history and draw Figs. 2–5 as PNG.
-
-    The run is the same one (same child seed) as run ``run_index`` of ``run_benchmark``.
-    """
-    problem = DynamicProblem()
-    child = run_seeds(seed, run_index + 1)[run_index]
-    outcome = RunTask(problem, problem.bounds, method, run_index, child, max_evals, F_TARGET,
-                      dict(options or {}), keep_history=True)()
+def dynamic_figures(outcome: RunOutcome, out_dir: Path, method: str) -> list[Path]:
+    """Draw Figs. 2–5 of a run of the two-mode benchmark (its ``history`` kept) as PNG."""
     hist = outcome.history
-    assert hist is not None  # keep_history=True
+    if hist is None:
+        raise ValueError("dynamic_figures needs the run's history (keep_history=True)")
+    problem = DynamicProblem()
     out_dir = Path(out_dir)
     paths = [plot_phi([hist], out_dir / f"fig2_phi_{method}.png",
                       title=f"{method}: φ_m against evaluations")]

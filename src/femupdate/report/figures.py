@@ -4,8 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from femupdate.workflow import UpdateResult
 
 
 def _pyplot():
@@ -122,3 +126,26 @@ def plot_fit(
     axes[0, 0].legend(fontsize=8)
     axes[-1, 0].set_xlabel("time [s]")
     return _save(fig, path)
+
+
+def write_run_plots(result: UpdateResult, out_dir: Path) -> list[Path]:
+    """The plots ``femupdate run`` writes: each channel's fit (``fit.png``), φ against
+    evaluations of every run (``phi.png``) and the best run's parameters (``parameters.png``).
+
+    ``result`` is a :class:`femupdate.workflow.UpdateResult` (its outcomes with histories
+    for the last two).
+    """
+    summary, fit = result.summary, result.fit
+    case = result.problem.case
+    paths = [plot_fit(fit.t, fit.measured, fit.predicted, out_dir / "fit.png",
+                      labels=[f"{c} [{fit.unit}]" for c in fit.channels])]
+    histories = [o.history for o in result.outcomes if o.history is not None]
+    if histories:
+        paths.append(plot_phi(histories, out_dir / "phi.png",
+                              title=f"{summary.name}: φ_m against evaluations"))
+    best = next(o for o in result.outcomes if o.index == summary.best.run)
+    if best.history is not None:
+        hist = dict(best.history)
+        hist["x"] = np.array([list(case.to_physical(x).values()) for x in hist["x"]])
+        paths.append(plot_parameters(hist, case.parameter_names, out_dir / "parameters.png"))
+    return paths

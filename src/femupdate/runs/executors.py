@@ -8,7 +8,6 @@ knows how many tasks it runs at once (``capacity``), how to send a large object 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any
@@ -16,26 +15,11 @@ from typing import Any
 import numpy as np
 
 from femupdate._optional import require
+from femupdate._parallel import limit_blas_threads
 from femupdate.errors import ConfigError, FemupdateError
 
 #: Seconds to wait for a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
-
-
-def limit_blas_threads() -> None:
-    """Initializer of worker processes: one BLAS thread each (pitfalls.md §1).
-
-    Small dense linear algebra is many times slower with several BLAS threads per process, and
-    the processes already use the cores. Called only in workers, never in the caller.
-    """
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(1)
-
-
-def default_workers() -> int:
-    """The number of CPUs (at least 1)."""
-    return max(1, os.cpu_count() or 1)
 
 
 class InlineExecutor(Executor):

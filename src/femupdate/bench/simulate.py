@@ -1,6 +1,6 @@
 """``femupdate bench simulate``: the speed of every integrator on the paper's bridge.
 
-The real bridge of :mod:`femupdate.benchmarks.bridge` (10 DOF), linear with viscous dampers
+The real bridge of :mod:`femupdate.problems.bridge` (10 DOF), linear with viscous dampers
 (viscous truth) and with elasto-slip dampers (friction values), is shaken by an artificial
 Eurocode-8 accelerogram at the paper's sampling: 4,768 samples at 1035 Hz, central differences
 and the friction integrator with 10 substeps (47,680 steps), and by a record ten times longer
@@ -11,7 +11,7 @@ runs with one BLAS thread (``threadpoolctl.threadpool_limits(1)``): small dense 
 fastest that way (pitfalls.md §1).
 
 When OpenSeesPy is installed, the same models run in it side by side
-(:class:`femupdate.benchmarks.opensees.OpenSeesPeer`: Newmark at the sample rate and central
+(:class:`femupdate.bench.opensees.OpenSeesPeer`: Newmark at the sample rate and central
 differences at the substep for the viscous bridge, central differences with ``ElasticPP`` for
 the friction bridge). ``ratio_vs_opensees`` is OpenSees's median over ours (> 1: femupdate is
 faster); ``compared_to`` says against which row:
@@ -32,10 +32,10 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from femupdate.benchmarks import bridge
 from femupdate.case import Model, build_structure
 from femupdate.errors import ConfigError, MissingDependencyError
 from femupdate.model.system import System
+from femupdate.problems import bridge
 from femupdate.simulate import prepare
 
 __all__ = [
@@ -155,7 +155,7 @@ def _opensees_module(opensees: bool | None) -> Any:
     """The OpenSees module, or None when it is not wanted or (for ``None``) not installed."""
     if opensees is False:
         return None
-    from femupdate.benchmarks.opensees import import_opensees
+    from femupdate.bench.opensees import import_opensees
 
     try:
         return import_opensees()
@@ -262,7 +262,7 @@ def run_simulate_benchmark(
                     rows.append(_row("femupdate", name, method, ag.size, sub, run, prep, repeat))
             if ops is None:
                 continue
-            from femupdate.benchmarks.opensees import OpenSeesPeer
+            from femupdate.bench.opensees import OpenSeesPeer
 
             peer = OpenSeesPeer(model, values, ops=ops)
             prep = _timed(peer.build, os_repeat)[0]

@@ -1,4 +1,5 @@
-"""Benchmark 2 of the paper: the 1:50 four-span bridge on a shaking table (METHOD.md §8).
+"""Benchmark 2 of the paper: the 1:50 four-span bridge on a shaking table (Zapico-Valle et al.
+2010, §5), defined once: model, parameters, bands, truth, and the case of updating it.
 
 The measured data of the paper are not available, so the case is rebuilt as a virtual
 experiment: a known "truth" model of the same form, shaken by an artificial Eurocode-8
@@ -12,12 +13,14 @@ measured: 11.60, 13.60, 25.75, 35.00 Hz).
 
 Nodes A1, P1, P2, P3, A2 with DOFs (uy, rz): transverse translation and rotation about the
 vertical axis, so P1–P3 translations are the paper's DOFs 3, 5 and 7.
+
+The example case files (examples/bridge/*.toml) hold :func:`bridge_case`'s cases with comments
+for the reader; a test checks that their content equals this definition.
 """
 
 from __future__ import annotations
 
 import json
-import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -204,11 +207,11 @@ def viscous_problem(work_dir: Path | None = None, *, seed: int = 0, snr: float =
     work = work_dir or Path(tempfile.gettempdir()) / f"femupdate-bridge-viscous-{seed}-{snr:g}"
     case = parse_case(bridge_case("viscous", "narrow", directory=str(work)),
                       source=work / "viscous-narrow.toml")
-    _ensure_records(case, truth("viscous"), work, seed=seed, snr=snr)
+    ensure_records(case, truth("viscous"), work, seed=seed, snr=snr)
     return UpdateProblem(case, load_experiment(case))
 
 
-def _ensure_records(case: Any, truth_values: dict[str, float], data_dir: Path, *, seed: int,
+def ensure_records(case: Any, truth_values: dict[str, float], data_dir: Path, *, seed: int,
                     snr: float) -> None:
     """Write the virtual experiment to ``data_dir`` unless the records there are of this truth
     and noise (records of another truth or noise are overwritten, never reused)."""
@@ -222,96 +225,3 @@ def _ensure_records(case: Any, truth_values: dict[str, float], data_dir: Path, *
     virtual_experiment(case, truth_values, data_dir, seed=seed, duration=DURATION,
                        rate=SAMPLE_RATE, snr=snr, offset=0.05 if snr else 0.0,
                        drift=0.01 if snr else 0.0)
-
-
-def run_bridge_benchmark(
-    model: str = "viscous",
-    band: str = "narrow",
-    method: str = "ab",
-    *,
-    runs: int = 25,
-    seed: int = 0,
-    snr: float = 0.02,
-    workers: int = 2,
-    max_evals: int | None = None,
-    f_target: float | None = None,
-    options: dict[str, Any] | None = None,
-    work_dir: Path | None = None,
-    plots: bool = False,
-    resume: bool = False,
-) -> dict[str, Any]:
-    """Tables 5–6 and 9 (runs) and 7 and 11 (frequencies) of the bridge, in form.
-
-    A virtual experiment of the truth (seed ``seed``, noise ``snr``) is written to
-    ``work_dir/data-<model>-<snr>``, then ``runs`` updates of the ``model`` case with ``band``
-    bounds. ``f_target`` defaults to the case's (1e-6 for the viscous model) when the data are
-    noise-free, and to 1.05 × the noise floor (the NMSE of the truth model against the noisy
-    data) otherwise, so that "success" means the same thing for every method. The results go
-    to ``work_dir/out-<model>-<band>-<method>``, replaced unless ``resume``: then the runs of an
-    interrupted benchmark with the same settings continue where they stopped.
-
-    Returns
-    -------
-    dict
-        The keys of summary.json plus ``truth``, ``noise_floor``, ``truth_frequencies_hz``,
-        ``parameter_errors`` and ``frequency_errors`` (per run, of the first four natural
-        frequencies, relative to the truth), ``within_1_5_noise_floor``,
-        ``identifiability`` (at the best run) and ``benchmark`` (the settings).
-    """
-    from femupdate.case import parse_case
-    from femupdate.experiment import load_experiment
-    from femupdate.identifiability import identifiability
-    from femupdate.model.modes import natural_frequencies
-    from femupdate.update import UpdateProblem
-    from femupdate.workflow import run_case
-
-    work = Path(work_dir) if work_dir is not None else Path(tempfile.mkdtemp(prefix="bridge-"))
-    data_dir = work / f"data-{model}-snr{snr:g}-seed{seed}"
-    spec = bridge_case(model, band, directory=str(data_dir.resolve()))
-    spec["search"]["method"] = method
-    spec["search"].pop("f_target", None)
-    if method == "cmaes":
-        spec["search"]["options"] = {"popsize": 5}
-    spec["search"]["options"] = {**spec["search"].get("options", {}), **(options or {})}
-    if max_evals is not None:
-        spec["search"]["max_evals"] = max_evals
-    case = parse_case(spec, source=work / f"{model}-{band}.toml")
-    truth_values = truth(model)
-    _ensure_records(case, truth_values, data_dir, seed=seed, snr=snr)
-    problem = UpdateProblem(case, load_experiment(case))
-    noise_floor = problem(case.to_search(truth_values))
-    if f_target is None:
-        f_target = 1e-6 if snr == 0 and model == "viscous" else (
-            1.05 * noise_floor if snr > 0 else None)
-    if f_target is not None:
-        spec["search"]["f_target"] = f_target
-        case = parse_case(spec, source=case.source)
-    out = work / f"out-{model}-{band}-{method}"
-    if not resume:
-        shutil.rmtree(out, ignore_errors=True)  # a benchmark starts afresh
-    result = run_case(case, out, runs=runs, workers=workers, plots=plots, resume=resume,
-                      experiment=problem.experiment)
-    summary = dict(result.summary)
-    truth_sys = problem.system(truth_values)
-    errors = [{n: (r["params"][n] / truth_values[n] - 1.0) for n in truth_values}
-              for r in summary["runs"]]
-    truth_freqs = natural_frequencies(truth_sys)[0][:6]
-    freq_errors = [(natural_frequencies(problem.system(r["params"]))[0][:4]
-                    / truth_freqs[:4] - 1.0).tolist() for r in summary["runs"]]
-    best_x = case.to_search(summary["best"]["params"])
-    summary.update({
-        "truth": truth_values,
-        "noise_floor": noise_floor,
-        "truth_frequencies_hz": truth_freqs.tolist(),
-        "parameter_errors": errors,
-        "frequency_errors": freq_errors,
-        "within_1_5_noise_floor": int(sum(r["phi"] <= 1.5 * noise_floor
-                                          for r in summary["runs"])) if snr > 0 else None,
-        "identifiability": identifiability(result.problem, best_x).to_dict(),
-        "benchmark": {"model": model, "band": band, "method": method, "runs": runs,
-                      "seed": seed, "snr": snr, "f_target": f_target, "data": str(data_dir),
-                      "results": str(out)},
-    })
-    # The benchmark's extras (truth, noise floor, …) go into summary.json for the report.
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    return summary

@@ -190,8 +190,8 @@ def run_minishake(
 
     ec_exp = load_experiment(ec_case)
     ec = _fit(ec_case, ec_exp, out_dir, "elcentro", opts)
-    best = ec.summary["best"]
-    params = best["params"]
+    best = ec.summary.best
+    params = best.params
     freq, zeta = _modal(ec.problem, params)
     ec_peak = spectral_peak(ec_exp)
 
@@ -205,18 +205,18 @@ def run_minishake(
         "fit": {
             "case": ec_case.case.name,
             "case_file": ec_case.label,
-            "phi": best["phi"],
-            "nmse_percent": 100.0 * best["phi"],
+            "phi": best.phi,
+            "nmse_percent": 100.0 * best.phi,
             "params": params,
             "frequency_hz": freq,
             "damping_ratio": zeta,
             "delay_s": ec_exp.delays,
             "peak_hz": ec_peak,
             "frequency_error_percent": 100.0 * (freq / ec_peak - 1.0),
-            "runs": len(ec.summary["runs"]),
-            "successes": ec.summary["successes"],
-            "nfev": [r["nfev"] for r in ec.summary["runs"]],
-            "wall_s": ec.summary["wall_s"],
+            "runs": len(ec.summary.runs),
+            "successes": ec.summary.successes,
+            "nfev": [r.nfev for r in ec.summary.runs],
+            "wall_s": ec.summary.wall_s,
         },
         "validation": {
             "case": sine_case.case.name,
@@ -232,11 +232,11 @@ def run_minishake(
     }
     if refit_sine:
         ref = _fit(sine_case, sine_exp, out_dir, "sine", opts)
-        ref_params = ref.summary["best"]["params"]
+        ref_params = ref.summary.best.params
         ref_freq, ref_zeta = _modal(ref.problem, ref_params)
         result["sine_refit"] = {
-            "phi": ref.summary["best"]["phi"],
-            "nmse_percent": 100.0 * ref.summary["best"]["phi"],
+            "phi": ref.summary.best.phi,
+            "nmse_percent": 100.0 * ref.summary.best.phi,
             "params": ref_params,
             "frequency_hz": ref_freq,
             "damping_ratio": ref_zeta,

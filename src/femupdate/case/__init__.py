@@ -1,0 +1,74 @@
+"""Case files: one model-updating job described in TOML, validated once, at the edge.
+
+A case file names the structural model, the parameters to update and their bounds, the measured
+data, the signal processing, the error function, the integrator and the search. The package is
+laid out by job:
+
+- ``fields``: the field types (numbers with ranges and units, names, columns, delays);
+- ``schema``: the sections as pydantic models, ``Case`` the whole file;
+- ``checks`` and ``issues``: what one field cannot check alone, and its wording;
+- ``load``: ``load_case`` (TOML) and ``parse_case`` (a mapping), with messages that name file,
+  field and allowed values;
+- ``build``: the one adapter from a case to its structure, output DOFs and prepared simulator.
+
+``docs/case-files.md`` documents every field. Numbers of the model may name a parameter declared
+in ``[[parameters]]`` (``k = "kp2"``); the built structure substitutes them at every evaluation.
+"""
+
+from femupdate.case.build import CaseModel, build_structure
+from femupdate.case.fields import DOF_NAMES, format_value
+from femupdate.case.load import load_case, parse_case
+from femupdate.case.schema import (
+    Beam,
+    Case,
+    CaseInfo,
+    Channel,
+    Damper,
+    Data,
+    Friction,
+    Mass,
+    Model,
+    Node,
+    ObjectiveOptions,
+    OutputChannel,
+    Parameter,
+    Preprocess,
+    Rayleigh,
+    Search,
+    ShearBuilding,
+    Simulation,
+    Spring,
+    Support,
+)
+from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
+
+__all__ = [
+    "ACCELERATION_UNITS",
+    "DOF_NAMES",
+    "TIME_UNITS",
+    "Beam",
+    "Case",
+    "CaseInfo",
+    "CaseModel",
+    "Channel",
+    "Damper",
+    "Data",
+    "Friction",
+    "Mass",
+    "Model",
+    "Node",
+    "ObjectiveOptions",
+    "OutputChannel",
+    "Parameter",
+    "Preprocess",
+    "Rayleigh",
+    "Search",
+    "ShearBuilding",
+    "Simulation",
+    "Spring",
+    "Support",
+    "build_structure",
+    "format_value",
+    "load_case",
+    "parse_case",
+]

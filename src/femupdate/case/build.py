@@ -1,0 +1,157 @@
+"""The one adapter from a case to its model: structure, output DOFs and prepared simulator.
+
+``CaseModel(case)`` builds the structure of ``[model]`` once (its topology and DOF map) and
+knows the case's integrator, substeps, excitation direction and output DOFs; per evaluation it
+assembles the system at parameter values and simulates it under a base motion. The update
+problem, virtual experiments, ``femupdate modes`` and the report all go through it.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import typing
+from collections.abc import Mapping
+
+import numpy as np
+
+from femupdate.case.schema import Case, Model
+from femupdate.errors import ConfigError
+
+if typing.TYPE_CHECKING:
+    from femupdate.model.structure import Structure
+    from femupdate.model.system import System
+    from femupdate.simulate import Simulator
+    from femupdate.simulate.response import Response
+
+
+def build_structure(model: Model) -> Structure:
+    """The ``femupdate.model.Structure`` described by ``[model]``.
+
+    Numbers that name a parameter stay names: ``structure.assemble(values,
+    direction=model.excitation_direction)`` substitutes them. Elements without a ``name`` are
+    named by their place in the case file (``"model.springs[2]"``), so the model's own error
+    messages point into the file.
+
+    Parameters
+    ----------
+    model : Model
+        ``case.model`` of a validated case.
+
+    Returns
+    -------
+    Structure
+        With its topology built (DOF map checked).
+    """
+    from femupdate.model.structure import Structure, shear_building
+
+    if model.shear_building is not None:
+        sb = model.shear_building
+        structure = shear_building(sb.masses, sb.stiffnesses, sb.dampers)
+    else:
+        structure = Structure(dofs_per_node=model.dofs_per_node)
+        for node in model.nodes:
+            structure.add_node(node.name, x=node.x, y=node.y)
+        for i, beam in enumerate(model.beams):
+            structure.add_beam(
+                beam.nodes[0], beam.nodes[1], E=beam.E, A=beam.A, I=beam.I, rho=beam.rho,
+                G=beam.G, nu=beam.nu, kappa=beam.kappa, mass_per_length=beam.mass_per_length,
+                rotary_inertia=beam.rotary_inertia, name=beam.name or f"model.beams[{i}]")
+        for i, spring in enumerate(model.springs):
+            structure.add_spring(spring.node, spring.dof, spring.k, node2=spring.node2,
+                                 dof2=spring.dof2, name=spring.name or f"model.springs[{i}]")
+        for i, damper in enumerate(model.dampers):
+            structure.add_damper(damper.node, damper.dof, damper.c, node2=damper.node2,
+                                 dof2=damper.dof2, name=damper.name or f"model.dampers[{i}]")
+        for i, fr in enumerate(model.frictions):
+            structure.add_friction(fr.node, fr.dof, fr.k_r, fr.f_u, node2=fr.node2,
+                                   dof2=fr.dof2, name=fr.name or f"model.frictions[{i}]")
+        for i, mass in enumerate(model.masses):
+            structure.add_mass(mass.node, m=mass.m, J=mass.J, name=f"model.masses[{i}]")
+        for support in model.supports:
+            structure.fix(support.node, *support.dofs)
+    if model.rayleigh is not None:
+        structure.set_rayleigh(alpha=model.rayleigh.alpha, beta=model.rayleigh.beta)
+    structure.influence_vector(model.excitation_direction)  # builds and checks the topology
+    return structure
+
+
+class CaseModel:
+    """The structure of a case with its integrator and outputs (picklable).
+
+    Parameters
+    ----------
+    case : Case
+        A validated case; its ``[data]`` outputs (if any) are the output DOFs.
+
+    Attributes
+    ----------
+    structure : Structure
+    direction : str
+        Direction of the base motion.
+    method : str
+        Integrator (``case.simulation_method``).
+    substeps : int
+        Integration steps per sample (1 for the exact method, which needs none).
+    outputs : ndarray of int64
+        Free-DOF indices of the case's output channels (empty without ``[data]``).
+    influence : ndarray
+        The influence vector at the outputs: what a unit base motion moves them by.
+    """
+
+    def __init__(self, case: Case) -> None:
+        self.structure = build_structure(case.model)
+        self.direction = case.model.excitation_direction
+        self.method = case.simulation_method
+        self.substeps = 1 if self.method == "exact" else case.preprocess.substeps
+        channels = case.data.outputs if case.data is not None else []
+        self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
+                                dtype=np.int64)
+        self.influence = self.structure.influence_vector(self.direction)[self.outputs]
+        self._label = case.label
+
+    def system(self, values: Mapping[str, float]) -> System:
+        """The assembled equations of motion at physical parameter ``values``."""
+        return self.structure.assemble(values, direction=self.direction)
+
+    def simulator(self, values: Mapping[str, float], dt: float) -> Simulator:
+        """The case's integrator prepared for the system at ``values`` and sample interval
+        ``dt``, with the output DOFs."""
+        from femupdate.simulate import prepare
+
+        if self.outputs.size == 0:
+            raise ConfigError(f"{self._label}: the case has no [data] outputs: nothing to "
+                              "simulate at")
+        return prepare(self.system(values), dt, method=self.method, outputs=self.outputs,
+                       substeps=self.substeps)
+
+    def simulate(self, values: Mapping[str, float], ag: np.ndarray, dt: float) -> Response:
+        """Response at the output DOFs to the base acceleration ``ag`` sampled every ``dt``."""
+        return self.simulator(values, dt).run(ag)
+
+
+def check_parameter_values(values: object, names: tuple[str, ...],
+                           what: str = "parameter values") -> dict[str, float]:
+    """``values`` as {name: float} for exactly the parameters ``names``; ConfigError otherwise.
+
+    For values a user passes (JSON on the command line, a truth file): says which names are
+    missing or unknown and which values are not finite numbers.
+    """
+    if not isinstance(values, Mapping):
+        raise ConfigError(f"{what}: expected an object of parameter values {{name: number}}, "
+                          f"got {type(values).__name__} (allowed: the parameters "
+                          f"{list(names)})")
+    missing = [n for n in names if n not in values]
+    unknown = [str(n) for n in values if n not in names]
+    if missing or unknown:
+        raise ConfigError(f"{what}: missing {missing}, unknown {unknown} (allowed: exactly the "
+                          f"parameters {list(names)})")
+    out = {}
+    for name in names:
+        value = values[name]
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
+                float(value)):
+            raise ConfigError(f"{what}: {name} = {value!r} is not a finite number (allowed: a "
+                              "finite number)")
+        out[name] = float(value)
+    return out

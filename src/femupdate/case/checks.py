@@ -1,0 +1,205 @@
+"""Cross-field checks of a case: what one field cannot check alone.
+
+References to nodes, DOFs and parameters, duplicates, supports, bounds against the ranges of
+the properties that use them, outputs on fixed DOFs, filter and delay bands against the
+sampling rate. The sections of ``schema`` call these from their ``model_validator``.
+"""
+
+from __future__ import annotations
+
+import math
+import typing
+from collections.abc import Iterator
+
+from pydantic import BaseModel
+
+from femupdate.case.fields import DOF_NAMES, Range, field_range, find_range, format_value
+from femupdate.case.issues import Issue, did_you_mean, duplicates, join_path
+
+if typing.TYPE_CHECKING:
+    from femupdate.case.schema import Case, Data, Model
+
+#: The element lists of ``[model]``, in the order of the case file.
+ELEMENT_LISTS = ("nodes", "beams", "springs", "dampers", "frictions", "masses", "supports")
+
+
+def model_issues(model: Model) -> list[Issue]:
+    issues: list[Issue] = []
+    used = [key for key in ELEMENT_LISTS if getattr(model, key)]
+    if model.shear_building is not None:
+        if used:
+            issues.append((
+                "shear_building", "given together with model." + ", model.".join(used),
+                "either [model.shear_building] or nodes and elements, not both"))
+        if model.dofs_per_node != 2 or model.direction not in (None, "x"):
+            issues.append(("shear_building", f"dofs_per_node = {model.dofs_per_node} and "
+                           f"direction = {format_value(model.direction)} do not apply",
+                           "leave dofs_per_node and direction out: each floor has one "
+                           "translation 'ux' along the shaking"))
+        return issues
+    if not model.nodes:
+        return [("nodes", "no nodes defined",
+                 "[[model.nodes]] with elements, or [model.shear_building]")]
+    if model.dofs_per_node == 2 and model.direction not in (None, "y"):
+        issues.append(("direction", f"got {model.direction!r} with dofs_per_node = 2",
+                       "'y' (the transverse direction of a 2-DOF/node model)"))
+    issues += duplicates([(f"nodes[{i}].name", n.name) for i, n in enumerate(model.nodes)],
+                          "node name", "model")
+    named = [(f"{key}[{i}].name", e.name) for key in ELEMENT_LISTS[1:5]
+             for i, e in enumerate(getattr(model, key)) if e.name is not None]
+    issues += duplicates(named, "element name", "model")
+
+    coordinates = {n.name: (n.x, n.y) for n in model.nodes}
+    defined = ", ".join(repr(n) for n in coordinates) or "none"
+    dofs = DOF_NAMES[model.dofs_per_node]
+
+    def node_issue(path: str, node: str | None) -> None:
+        if node is not None and node not in coordinates:
+            hint = did_you_mean(node, list(coordinates))
+            issues.append((path, f"unknown node {node!r}{hint}",
+                           f"a node of [[model.nodes]]: {defined}"))
+
+    def dof_issue(path: str, dof: str | None) -> None:
+        if dof is not None and dof not in dofs:
+            issues.append((path, f"got {dof!r}: not a DOF of a model with dofs_per_node = "
+                           f"{model.dofs_per_node}", ", ".join(repr(d) for d in dofs)))
+
+    for i, beam in enumerate(model.beams):
+        for j, node in enumerate(beam.nodes):
+            node_issue(f"beams[{i}].nodes[{j}]", node)
+        ends = [coordinates.get(node) for node in beam.nodes]
+        if None not in ends and beam.nodes[0] != beam.nodes[1] and ends[0] == ends[1]:
+            issues.append((f"beams[{i}].nodes", f"nodes {beam.nodes[0]!r} and "
+                           f"{beam.nodes[1]!r} are at the same point {ends[0]}",
+                           "two nodes at different points (a beam of length > 0)"))
+        if (model.dofs_per_node == 2 and None not in ends
+                and abs(ends[1][1] - ends[0][1]) > 1e-9 * math.dist(ends[0], ends[1])):
+            issues.append((f"beams[{i}].nodes", "with dofs_per_node = 2 beams lie along x; "
+                           f"nodes {beam.nodes[0]!r} and {beam.nodes[1]!r} have different y",
+                           "nodes with equal y, or dofs_per_node = 3 for a plane frame"))
+    for key in ("springs", "dampers", "frictions"):
+        for i, link in enumerate(getattr(model, key)):
+            node_issue(f"{key}[{i}].node", link.node)
+            node_issue(f"{key}[{i}].node2", link.node2)
+            dof_issue(f"{key}[{i}].dof", link.dof)
+            dof_issue(f"{key}[{i}].dof2", link.dof2)
+    for i, mass in enumerate(model.masses):
+        node_issue(f"masses[{i}].node", mass.node)
+    fixed: dict[tuple[str, str], str] = {}
+    for i, support in enumerate(model.supports):
+        node_issue(f"supports[{i}].node", support.node)
+        for j, dof in enumerate(support.dofs):
+            dof_issue(f"supports[{i}].dofs[{j}]", dof)
+            if (support.node, dof) in fixed:
+                issues.append((f"supports[{i}].dofs[{j}]",
+                               f"{support.node}.{dof} is already fixed by "
+                               f"{fixed[support.node, dof]}", "each DOF fixed once"))
+            fixed.setdefault((support.node, dof), f"model.supports[{i}]")
+    for key in ("springs", "dampers", "frictions"):
+        for i, link in enumerate(getattr(model, key)):
+            ends = [(link.node, link.dof)]
+            if link.node2 is not None:
+                ends.append((link.node2, link.second_dof))
+            if all(end in fixed for end in ends) and link.node2 is not None:
+                issues.append((f"{key}[{i}]", "connects two fixed DOFs ("
+                               + " and ".join(f"{n}.{d} by {fixed[n, d]}" for n, d in ends)
+                               + "): it would have no effect",
+                               "at least one free DOF; remove the element or free the DOF"))
+            elif all(end in fixed for end in ends):
+                issues.append((f"{key}[{i}]", f"acts on {link.node}.{link.dof}, fixed by "
+                               f"{fixed[link.node, link.dof]}: it would have no effect",
+                               "a free DOF; remove the element or free the DOF"))
+    return issues
+
+
+def quantities(obj: BaseModel, path: str) -> Iterator[tuple[str, float | str, Range]]:
+    """Every model property checked by a ``Range``: (path, value, range), recursively."""
+    for key, info in type(obj).model_fields.items():
+        value = getattr(obj, key)
+        if value is None:
+            continue
+        here = join_path(path, key)
+        if isinstance(value, BaseModel):
+            yield from quantities(value, here)
+        elif isinstance(value, list):
+            inner = find_range(info.annotation, into_lists=True)
+            for i, item in enumerate(value):
+                if isinstance(item, BaseModel):
+                    yield from quantities(item, f"{here}[{i}]")
+                elif inner is not None:
+                    yield f"{here}[{i}]", item, inner
+        else:
+            rng = field_range(info)
+            if rng is not None:
+                yield here, value, rng
+
+
+def case_issues(case: Case) -> list[Issue]:
+    issues = duplicates([(f"parameters[{i}].name", p.name)
+                          for i, p in enumerate(case.parameters)], "parameter name")
+    declared = {p.name: (i, p) for i, p in enumerate(case.parameters)}
+    names = ", ".join(repr(n) for n in declared) or "none declared"
+    used: set[str] = set()
+    out_of_range: set[str] = set()
+    for path, value, rng in quantities(case.model, "model"):
+        if not isinstance(value, str):
+            continue
+        used.add(value)
+        if value not in declared:
+            hint = did_you_mean(value, list(declared))
+            issues.append((path, f"parameter {value!r} is not declared in [[parameters]]{hint}",
+                           f"a number, or a declared parameter: {names}"))
+            continue
+        i, p = declared[value]
+        if not rng.contains_closed(p.lower, p.upper) and value not in out_of_range:
+            out_of_range.add(value)  # once per parameter: its first use names the range
+            side = "upper" if rng.contains_closed(p.lower, p.lower) else "lower"
+            issues.append((f"parameters[{i}].{side}", f"parameter {value!r} has bounds "
+                           f"[{format_value(p.lower)}, {format_value(p.upper)}] but is used "
+                           f"at {path}", f"bounds {rng.interval()}"))
+    for name, (i, _) in declared.items():
+        if name not in used:
+            issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
+                           "model never uses it", f'use it in [model] (e.g. k = "{name}") '
+                           "or remove it"))
+    if case.model.has_friction and case.simulation.method not in (None, "nonlinear"):
+        issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
+                       "has friction elements", "'nonlinear' (or leave it out)"))
+    if case.data is not None:
+        issues += output_issues(case.model, case.data)
+        rate = case.preprocess.resample_hz or case.data.rate
+        if rate is not None and case.preprocess.highpass_hz >= rate / 2:
+            cutoff = format_value(case.preprocess.highpass_hz)
+            issues.append(("preprocess.highpass_hz", f"got {cutoff} for data at "
+                           f"{format_value(rate)} Hz",
+                           f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
+        band = case.preprocess.delay_band_hz
+        auto = any(out.delay == "auto" for out in case.data.outputs)
+        if auto and rate is not None and band[0] < band[1] and band[1] >= rate / 2:
+            issues.append(("preprocess.delay_band_hz", f"got {format_value(band)} for data at "
+                           f"{format_value(rate)} Hz (used by delay = \"auto\")",
+                           f"0 < low < high < the Nyquist frequency {format_value(rate / 2)} "
+                           "Hz, well below the first resonance"))
+    return issues
+
+
+def output_issues(model: Model, data: Data) -> list[Issue]:
+    issues: list[Issue] = []
+    nodes = model.node_names()
+    dofs = model.dof_names()
+    fixed = model.fixed_dofs()
+    for i, out in enumerate(data.outputs):
+        path = f"data.outputs[{i}]"
+        if out.node not in nodes:
+            hint = did_you_mean(out.node, list(nodes))
+            shown = ", ".join(repr(n) for n in nodes[:20]) + (", ..." if len(nodes) > 20 else "")
+            issues.append((f"{path}.node", f"unknown node {out.node!r}{hint}",
+                           f"a node of the model: {shown}"))
+        if out.dof not in dofs:
+            issues.append((f"{path}.dof", f"got {out.dof!r}: not a DOF of this model",
+                           ", ".join(repr(d) for d in dofs)))
+        elif (out.node, out.dof) in fixed:
+            issues.append((f"{path}.dof", f"{out.node}.{out.dof} is fixed by "
+                           f"{fixed[out.node, out.dof]}: it moves with the table",
+                           "a free DOF of the model"))
+    return issues
