@@ -23,5 +23,17 @@ def test_minimize_signature() -> None:
     params = inspect.signature(femupdate.minimize).parameters
     assert list(params)[:3] == ["fun", "bounds", "method"]
     assert params["method"].default == "ab"
-    for keyword in ("seed", "max_evals", "f_target", "callback"):
+    for keyword in ("seed", "max_evals", "f_target", "callback", "workers"):
         assert params[keyword].kind is inspect.Parameter.KEYWORD_ONLY
+
+
+def test_renamed_names_warn_and_still_work() -> None:
+    import warnings
+
+    from femupdate.objective import ErrorFunction
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        old = femupdate.Objective
+    assert old is ErrorFunction
+    assert any(issubclass(w.category, DeprecationWarning) for w in caught)

@@ -389,3 +389,35 @@ def test_delay_errors_name_the_case(late_records: Path) -> None:
     assert str(path) in message and "preprocess.delay_band_hz" in message
     assert "[1, 120]" in message and "200 Hz" in message
     assert "Nyquist frequency 100 Hz" in message
+
+
+# ----------------------------------------------------------------------------- [search] workers
+
+
+def _workers_case(case_dir: Path, tmp_path: Path, workers: int) -> Path:
+    text = CASE.replace("runs = 3", "runs = 2").replace("max_evals = 3000", "max_evals = 40")
+    _broken_copy(case_dir, tmp_path, text + f"workers = {workers}\n")
+    return tmp_path / "case.toml"
+
+
+def test_search_workers_takes_effect(case_dir: Path, tmp_path: Path) -> None:
+    case = load_case(_workers_case(case_dir, tmp_path, 2))
+    two = run_case(case, None, sensitivities=False)
+    assert two.summary.settings["workers"] == 2
+    one = run_case(case, None, workers=1, sensitivities=False)  # an explicit override wins
+    assert one.summary.settings["workers"] == 1
+    assert [r.phi for r in one.summary.runs] == [r.phi for r in two.summary.runs]
+
+
+def test_cli_workers_override_the_case_only_when_given(case_dir: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    path = _workers_case(case_dir, tmp_path, 2)
+    for extra, expected in (([], 2), (["--workers", "1"], 1)):
+        out = tmp_path / f"out{expected}"
+        result = CliRunner().invoke(app, ["run", str(path), "--out", str(out), "--quiet",
+                                          *extra])
+        assert result.exit_code == 0, result.output
+        assert read_summary(out / "summary.json").settings["workers"] == expected

@@ -3,12 +3,19 @@
 The public API, re-exported here (heavier parts are imported on first use):
 
 - :func:`minimize`: bounded minimisation by IB/AB (the paper's adaptive Beta sampling), CMA-ES,
-  DE or GA, returning a :class:`scipy.optimize.OptimizeResult`.
+  DE or GA, returning a :class:`scipy.optimize.OptimizeResult` (scipy's conventions: ``success``,
+  ``callback(intermediate_result)``, ``workers``).
 - :class:`Structure`, :func:`shear_building`, :class:`System`: the structural model.
 - :func:`simulate`: linear (exact, central differences, Newmark) and friction time stepping.
 - :func:`natural_frequencies`, :func:`damped_modes`.
 - :func:`load_case`, :class:`Case`: validated case files.
-- :func:`nmse`, :class:`Objective`: the error function of the paper (Eq. 1).
+- :func:`nmse`, :class:`ErrorFunction`: the error function of the paper (Eq. 1).
+- :func:`run_case`: a case file's update end to end; :func:`load_results`, :class:`Summary`:
+  its results read back.
+
+Renamed, still accepted with a DeprecationWarning: ``Objective`` (now ``ErrorFunction``),
+``minimize(map=...)`` (now ``workers=``), ``callback(x, f)`` (now scipy's
+``callback(intermediate_result)``).
 """
 
 from __future__ import annotations
@@ -38,33 +45,44 @@ _LAZY = {
     "System": "femupdate.model.system",
     "FrictionElements": "femupdate.model.system",
     "natural_frequencies": "femupdate.model.modes",
+    "NaturalModes": "femupdate.model.modes",
     "damped_modes": "femupdate.model.modes",
+    "DampedModes": "femupdate.model.modes",
     "Response": "femupdate.simulate.response",
     "load_case": "femupdate.case",
     "Case": "femupdate.case",
     "nmse": "femupdate.objective",
-    "Objective": "femupdate.objective",
+    "ErrorFunction": "femupdate.objective",
+    "Objective": "femupdate.objective",  # deprecated name of ErrorFunction (not in __all__)
+    "run_case": "femupdate.workflow",
+    "load_results": "femupdate.results",
+    "Summary": "femupdate.results",
 }
 
 __all__ = [
     "Case",
     "ConfigError",
+    "DampedModes",
     "DataError",
+    "ErrorFunction",
     "FemupdateError",
     "FrictionElements",
     "MissingDependencyError",
     "ModelError",
-    "Objective",
+    "NaturalModes",
     "Response",
     "SimulationError",
     "Structure",
+    "Summary",
     "System",
     "__version__",
     "damped_modes",
     "load_case",
+    "load_results",
     "minimize",
     "natural_frequencies",
     "nmse",
+    "run_case",
     "shear_building",
     "simulate",
 ]

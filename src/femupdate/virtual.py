@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from femupdate.case import Case, CaseModel
-from femupdate.data import io, synth
+from femupdate.data import datasets, io, synth
 from femupdate.errors import ConfigError
 from femupdate.units import ACCELERATION_UNITS, STANDARD_GRAVITY
 
@@ -51,7 +51,7 @@ def ec8_motion(rng: np.random.Generator, *, rate: float, duration: float, pga_g:
 
 def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50) -> Motion:
     """A recorded ground motion (El Centro formats) time-scaled by √λ and resampled."""
-    t, ag = io.read_elcentro(path)
+    t, ag = datasets.read_elcentro(path)
     t_model = synth.scale_time(t, length_scale)
     _, resampled = io.resample(t_model, ag, rate)
     return Motion(resampled, 1.0 / rate,

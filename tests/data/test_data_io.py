@@ -9,24 +9,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from femupdate.data.datasets import read_elcentro, read_xsens_dot
 from femupdate.data.io import (
-    G,
-    Measurement,
-    align,
-    combine,
-    fill_gaps,
     read,
     read_csv,
-    read_elcentro,
     read_npz,
     read_uff58,
-    read_xsens_dot,
-    resample,
     write_csv,
     write_npz,
     write_uff58,
 )
+from femupdate.data.measurement import Measurement, align, combine, fill_gaps, resample
 from femupdate.errors import ConfigError, DataError, MissingDependencyError
+from femupdate.units import STANDARD_GRAVITY as G
 
 
 def shared_data() -> Path:

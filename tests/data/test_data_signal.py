@@ -11,7 +11,8 @@ import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from femupdate.data.io import align, read_xsens_dot
+from femupdate.data.datasets import read_xsens_dot
+from femupdate.data.measurement import align
 from femupdate.data.signal import (
     advance,
     detrend,
@@ -128,7 +129,7 @@ def test_detrend_and_polynomial_removal() -> None:
 def test_fourier_amplitude_of_a_sine() -> None:
     dt, n, f0, amp = 0.01, 1000, 5.0, 2.0  # an integer number of cycles
     t = np.arange(n) * dt
-    f, spec = fourier_amplitude(amp * np.sin(2 * np.pi * f0 * t), dt)
+    f, spec = fourier_amplitude(amp * np.sin(2 * np.pi * f0 * t), fs=1.0 / dt)
     k = int(np.argmax(spec))
     assert f[k] == pytest.approx(f0)
     assert spec[k] == pytest.approx(amp * n * dt / 2)

@@ -133,7 +133,8 @@ def test_fun_raising_propagates_with_x() -> None:
 def test_history_and_result_consistent(method: str) -> None:
     seen = []
     res = minimize(sphere, BOX, method, seed=3, max_evals=137,
-                   callback=lambda x, f: seen.append((x.copy(), f)), **SMALL[method])
+                   callback=lambda intermediate_result: seen.append(intermediate_result),
+                   **SMALL[method])
     h = res.history
     assert res.nfev == 137 and h["x"].shape == (137, 4) and h["fun"].shape == (137,)
     assert res.status == Status.MAX_EVALS and not res.success
@@ -141,8 +142,11 @@ def test_history_and_result_consistent(method: str) -> None:
     low, high = np.array(BOX).T
     assert np.all((h["x"] >= low) & (h["x"] <= high))
     np.testing.assert_array_equal(h["fun"], [sphere(x) for x in h["x"]])
-    np.testing.assert_array_equal(h["x"], [x for x, _ in seen])
-    np.testing.assert_array_equal(h["fun"], [f for _, f in seen])
+    # scipy's callback: once per completed step, with the best so far.
+    assert [r.nit for r in seen] == list(range(1, res.nit + 1))
+    for r in seen:
+        assert r.fun == h["fun"][: r.nfev].min()
+        np.testing.assert_array_equal(r.x, h["x"][: r.nfev][np.argmin(h["fun"][: r.nfev])])
     best = int(np.argmin(h["fun"]))
     assert res.fun == h["fun"][best]
     np.testing.assert_array_equal(res.x, h["x"][best])
@@ -287,7 +291,7 @@ def test_custom_map(method: str) -> None:
         return [fun(r) for r in rows]
 
     a = minimize(sphere, BOX, method, seed=2, max_evals=100, **SMALL[method])
-    b = minimize(sphere, BOX, method, seed=2, max_evals=100, map=my_map, **SMALL[method])
+    b = minimize(sphere, BOX, method, seed=2, max_evals=100, workers=my_map, **SMALL[method])
     np.testing.assert_array_equal(a.history["x"], b.history["x"])
     assert batches[0] == (1 if method == "ab" else 10)
 
@@ -336,7 +340,48 @@ def test_executor_map() -> None:
 
     a = minimize(sphere, BOX, "cmaes", seed=4, max_evals=53, popsize=6)
     with ThreadPoolExecutor(2) as pool:
-        b = minimize(sphere, BOX, "cmaes", seed=4, max_evals=53, popsize=6, map=pool.map)
+        b = minimize(sphere, BOX, "cmaes", seed=4, max_evals=53, popsize=6, workers=pool.map)
     assert b.nfev == 53
     for key in a.history:
         np.testing.assert_array_equal(a.history[key], b.history[key])
+
+
+def test_workers_as_processes_give_the_same_run() -> None:
+    a = minimize(sphere, BOX, "cmaes", seed=4, max_evals=60, popsize=6)
+    b = minimize(sphere, BOX, "cmaes", seed=4, max_evals=60, popsize=6, workers=2)
+    for key in a.history:
+        np.testing.assert_array_equal(a.history[key], b.history[key])
+    with pytest.raises(ConfigError, match="workers must be"):
+        minimize(sphere, BOX, workers=0)
+
+
+def test_deprecated_map_and_two_argument_callback_still_work() -> None:
+    seen = []
+    with pytest.warns(DeprecationWarning, match="map"):
+        a = minimize(sphere, BOX, "ab", seed=1, max_evals=30, map=map)
+    with pytest.warns(DeprecationWarning, match=r"callback\(x, f\)"):
+        b = minimize(sphere, BOX, "ab", seed=1, max_evals=30,
+                     callback=lambda x, f: seen.append(f))
+    np.testing.assert_array_equal(a.history["fun"], b.history["fun"])
+    np.testing.assert_array_equal(seen, b.history["fun"])  # once per evaluation
+
+
+def test_callback_stop_iteration_ends_the_run() -> None:
+    def stop_at_20(intermediate_result):
+        if intermediate_result.nfev >= 20:
+            raise StopIteration
+
+    res = minimize(sphere, BOX, "ab", seed=1, max_evals=1000, callback=stop_at_20)
+    assert res.nfev == 20 and res.status == Status.CALLBACK and not res.success
+    assert res.stop == {"callback": True} and "StopIteration" in res.message
+
+
+@pytest.mark.parametrize("value", ["1.0", True, None, [1.0, 2.0]])
+def test_a_function_value_that_is_not_a_number_is_an_error(value: object) -> None:
+    with pytest.raises(ConfigError, match="fun\\(x\\) must return a real number"):
+        minimize(lambda x: value, BOX, seed=0, max_evals=5)
+
+
+def test_a_one_element_array_is_a_number() -> None:
+    res = minimize(lambda x: np.array([sphere(x)]), BOX, seed=0, max_evals=5)
+    assert res.nfev == 5 and np.isfinite(res.fun)

@@ -1,26 +1,23 @@
 """Measured data: reading and writing records, signal processing, virtual experiments.
 
-- `femupdate.data.io`: `Measurement`, readers/writers (CSV, NPZ, UFF58), `align`, `resample`.
+- `femupdate.data.measurement`: `Measurement`, `align`, `resample`, `combine`, `fill_gaps`.
+- `femupdate.data.io`: readers and writers (CSV, NPZ, UFF58).
+- `femupdate.data.datasets`: readers of the El Centro 1940 files and Xsens DOT exports.
 - `femupdate.data.signal`: filters, relative accelerations, integration, substeps, spectra.
 - `femupdate.data.synth`: EC8 spectra, artificial accelerograms, sensor imperfections.
 """
 
+from femupdate.data.datasets import read_elcentro, read_xsens_dot
 from femupdate.data.io import (
-    Measurement,
-    align,
-    combine,
-    fill_gaps,
     read,
     read_csv,
-    read_elcentro,
     read_npz,
     read_uff58,
-    read_xsens_dot,
-    resample,
     write_csv,
     write_npz,
     write_uff58,
 )
+from femupdate.data.measurement import Measurement, align, combine, fill_gaps, resample
 from femupdate.data.signal import (
     detrend,
     fourier_amplitude,

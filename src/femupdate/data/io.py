@@ -1,13 +1,9 @@
-"""Measured data: the `Measurement` container, readers and writers (CSV, NPZ, UFF58).
+"""Reading and writing records: CSV, NPZ and UFF58, each writer with its reader.
 
-A `Measurement` holds sampled channels on one uniform time base. It is validated when built:
-finite values, equal lengths, a strictly increasing uniform time vector. Readers report bad
-input with the file, the line and the column; missing samples (NaN or empty fields) are
-refused with their count and first position, or filled by linear interpolation over short
-gaps on request (``on_nan="interpolate"``).
-
-Writers produce what a user would bring (virtual experiments write CSV, NPZ or UFF58), and
-every writer has a reader that returns the same `Measurement`.
+Readers report bad input with the file, the line and the column. Writers produce what a user
+would bring (virtual experiments write CSV, NPZ or UFF58), and every writer has a reader that
+returns the same `Measurement`. Readers of particular published records are in
+:mod:`femupdate.data.datasets`.
 """
 
 from __future__ import annotations
@@ -15,283 +11,51 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from fractions import Fraction
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
-import scipy.signal
 
 from femupdate._optional import require
+from femupdate.data.measurement import (
+    TIME_RTOL,
+    Measurement,
+    NanPolicy,
+    align,
+    apply_nan_policy,
+    check_nan_policy,
+    check_uniform,
+    combine,
+    fill_gaps,
+    resample,
+    units_for,
+)
 from femupdate.errors import ConfigError, DataError
 
 __all__ = [
+    "ColumnSpec",
     "Measurement",
     "align",
     "combine",
     "fill_gaps",
     "read",
     "read_csv",
-    "read_elcentro",
     "read_npz",
     "read_uff58",
-    "read_xsens_dot",
     "resample",
     "write_csv",
     "write_npz",
     "write_uff58",
 ]
 
-G = 9.80665  # standard gravity, m/s², to convert records given in g
-TIME_RTOL = 1e-3  # allowed relative deviation of a time step from the median step
-NanPolicy = Literal["raise", "interpolate"]
 ColumnSpec = Sequence[str | int] | Mapping[str, str | int] | None
-
-
-# --------------------------------------------------------------------------- the container
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """Channels sampled on one uniform time base.
-
-    Attributes
-    ----------
-    t : ndarray, shape (n,)
-        Sample times in seconds, strictly increasing and uniform within ``time_rtol``.
-    channels : dict of str to ndarray, shape (n,)
-        The measured signals, finite floats.
-    units : dict of str to str
-        Unit of each channel (``""`` when unknown).
-    source : str
-        Where the data came from (a file path), used in messages.
-    time_rtol : float
-        Allowed relative deviation of any time step from the median step.
-    """
-
-    t: np.ndarray
-    channels: dict[str, np.ndarray]
-    units: dict[str, str] = field(default_factory=dict)
-    source: str = "<memory>"
-    time_rtol: float = TIME_RTOL
-
-    def __post_init__(self) -> None:
-        t = np.array(self.t, dtype=float)
-        if t.ndim != 1 or t.size < 2:
-            raise DataError(f"{self.source}: time vector must be 1-D with at least 2 samples, "
-                            f"got shape {t.shape}")
-        _check_finite(t, "time", self.source)
-        _check_uniform(t, self.source, self.time_rtol)
-        if not self.channels:
-            raise DataError(f"{self.source}: no channels")
-        channels: dict[str, np.ndarray] = {}
-        for name, values in self.channels.items():
-            y = np.array(values, dtype=float)
-            if y.shape != t.shape:
-                raise DataError(
-                    f"{self.source}: channel {name!r} has shape {y.shape} but the time vector "
-                    f"has {t.shape}: all channels must have one sample per time")
-            _check_finite(y, f"channel {name!r}", self.source)
-            channels[str(name)] = y
-        unknown = set(self.units) - set(channels)
-        if unknown:
-            raise DataError(f"{self.source}: units given for unknown channels {sorted(unknown)}; "
-                            f"channels are {list(channels)}")
-        units = {name: str(self.units.get(name, "")) for name in channels}
-        object.__setattr__(self, "t", t)
-        object.__setattr__(self, "channels", channels)
-        object.__setattr__(self, "units", units)
-
-    @classmethod
-    def from_array(cls, t: np.ndarray, data: np.ndarray, names: Sequence[str],
-                   units: Mapping[str, str] | str | None = None,
-                   source: str = "<memory>") -> Measurement:
-        """Build from a 2-D array ``data`` (n_samples, n_channels) and its channel names."""
-        data = np.asarray(data, dtype=float)
-        if data.ndim == 1:
-            data = data[:, None]
-        if data.ndim != 2 or data.shape[1] != len(names):
-            raise DataError(f"{source}: data of shape {data.shape} does not match "
-                            f"{len(names)} channel names {list(names)}")
-        if len(set(names)) != len(names):
-            raise DataError(f"{source}: duplicate channel names in {list(names)}")
-        return cls(t, {n: data[:, j] for j, n in enumerate(names)},
-                   _units_for(list(names), units), source)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(self.channels)
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.t.size)
-
-    @property
-    def dt(self) -> float:
-        """Mean sample interval, s."""
-        return float((self.t[-1] - self.t[0]) / (self.t.size - 1))
-
-    @property
-    def rate(self) -> float:
-        """Sampling rate, Hz."""
-        return 1.0 / self.dt
-
-    def array(self, names: Sequence[str] | None = None) -> np.ndarray:
-        """Channels as one array (n_samples, n_channels), in the order of ``names``."""
-        names = self.names if names is None else names
-        return np.column_stack([self[name] for name in names])
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        try:
-            return self.channels[name]
-        except KeyError:
-            raise DataError(f"{self.source}: no channel {name!r}; available: "
-                            f"{list(self.channels)}") from None
-
-    def select(self, names: Sequence[str]) -> Measurement:
-        """The given channels only."""
-        return Measurement(self.t, {n: self[n] for n in names},
-                           {n: self.units[n] for n in names}, self.source, self.time_rtol)
-
-    def rename(self, mapping: Mapping[str, str]) -> Measurement:
-        """Channels renamed by ``mapping`` (old → new); others keep their names."""
-        unknown = [old for old in mapping if old not in self.channels]
-        if unknown:
-            raise DataError(f"{self.source}: cannot rename {unknown}: no such channels; "
-                            f"available: {list(self.channels)}")
-        new = [mapping.get(n, n) for n in self.names]
-        if len(set(new)) != len(new):
-            raise DataError(f"{self.source}: renaming gives duplicate channel names {new}")
-        return Measurement(self.t, {mapping.get(n, n): y for n, y in self.channels.items()},
-                           {mapping.get(n, n): u for n, u in self.units.items()},
-                           self.source, self.time_rtol)
-
-    def slice(self, start: int = 0, stop: int | None = None) -> Measurement:
-        """Samples ``start:stop`` (indices)."""
-        idx = slice(start, stop)
-        return Measurement(self.t[idx], {n: y[idx] for n, y in self.channels.items()},
-                           self.units, self.source, self.time_rtol)
-
-    def window(self, t_start: float, t_end: float) -> Measurement:
-        """Samples with ``t_start <= t <= t_end``."""
-        keep = np.flatnonzero((self.t >= t_start) & (self.t <= t_end))
-        if keep.size < 2:
-            raise DataError(f"{self.source}: window [{t_start}, {t_end}] s holds {keep.size} "
-                            f"samples; the record spans [{self.t[0]}, {self.t[-1]}] s")
-        return self.slice(int(keep[0]), int(keep[-1]) + 1)
-
-    def shifted(self, t0: float = 0.0) -> Measurement:
-        """The same samples with the time axis moved so that it starts at ``t0``."""
-        return Measurement(self.t - self.t[0] + t0, self.channels, self.units, self.source,
-                           self.time_rtol)
-
-
-def _units_for(names: list[str], units: Mapping[str, str] | str | None) -> dict[str, str]:
-    if units is None:
-        return {}
-    if isinstance(units, str):
-        return dict.fromkeys(names, units)
-    return dict(units)
-
-
-def _check_finite(y: np.ndarray, what: str, source: str) -> None:
-    bad = ~np.isfinite(y)
-    if bad.any():
-        first = int(np.flatnonzero(bad)[0])
-        raise DataError(f"{source}: {what} has {int(bad.sum())} non-finite samples (NaN or "
-                        f"inf), the first at sample {first}; fill them with fill_gaps() or read "
-                        f"with on_nan='interpolate'")
-
-
-def _check_uniform(t: np.ndarray, source: str, rtol: float,
-                   lines: np.ndarray | None = None) -> None:
-    step = np.diff(t)
-    where = "sample {i}" if lines is None else "line {line}"
-    if (step <= 0).any():
-        i = int(np.flatnonzero(step <= 0)[0]) + 1
-        at = where.format(i=i, line=None if lines is None else lines[i])
-        raise DataError(f"{source}: time is not strictly increasing at {at} "
-                        f"(t = {t[i - 1]!r} then {t[i]!r})")
-    typical = np.median(step)  # robust: a gap does not shift it
-    dev = np.abs(step - typical) / typical
-    if (dev > rtol).any():
-        i = int(np.argmax(dev > rtol)) + 1
-        at = where.format(i=i, line=None if lines is None else lines[i])
-        raise DataError(f"{source}: time vector is not uniform: the step ending at {at} is "
-                        f"{step[i - 1]:.6g} s, the median step is {typical:.6g} s (allowed "
-                        f"relative "
-                        f"deviation {rtol:g}); a gap or jitter in the record: resample it or "
-                        f"raise time_rtol")
-
-
-# --------------------------------------------------------------------------- missing samples
-
-
-def fill_gaps(y: np.ndarray, max_gap: int, *, name: str = "signal",
-              source: str = "<memory>") -> np.ndarray:
-    """Fill runs of at most ``max_gap`` NaN samples by linear interpolation.
-
-    Parameters
-    ----------
-    y : ndarray, shape (n,)
-        Signal with missing samples marked NaN.
-    max_gap : int
-        Longest run of consecutive NaN samples to fill, ≥ 1.
-    name, source : str
-        Channel and file, for messages.
-
-    Raises
-    ------
-    DataError
-        A gap longer than ``max_gap``, or a gap at either end (nothing to interpolate from).
-    """
-    if max_gap < 1:
-        raise ConfigError(f"max_gap must be >= 1 sample, got {max_gap}")
-    y = np.array(y, dtype=float)
-    bad = np.isnan(y)
-    if not bad.any():
-        return y
-    edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    for a, b in zip(starts, stops, strict=True):
-        if a == 0 or b == y.size:
-            raise DataError(f"{source}: {name} has missing samples at the "
-                            f"{'start' if a == 0 else 'end'} (samples {a}..{b - 1}) that cannot "
-                            f"be interpolated; trim the record")
-        if b - a > max_gap:
-            raise DataError(f"{source}: {name} has a gap of {b - a} missing samples at samples "
-                            f"{a}..{b - 1}, longer than max_gap={max_gap}")
-    idx = np.arange(y.size)
-    y[bad] = np.interp(idx[bad], idx[~bad], y[~bad])
-    return y
-
-
-def _apply_nan_policy(y: np.ndarray, on_nan: NanPolicy, max_gap: int, name: str, source: str,
-                      lines: np.ndarray) -> np.ndarray:
-    bad = np.isnan(y)
-    if not bad.any():
-        return y
-    if on_nan == "interpolate":
-        return fill_gaps(y, max_gap, name=f"column {name!r}", source=source)
-    first = int(np.flatnonzero(bad)[0])
-    raise DataError(f"{source}: column {name!r} has {int(bad.sum())} missing samples (empty or "
-                    f"NaN), the first at line {lines[first]}; read with on_nan='interpolate' to "
-                    f"fill gaps of up to max_gap={max_gap} samples")
-
-
-def _check_nan_policy(on_nan: str, max_gap: int) -> None:
-    if on_nan not in ("raise", "interpolate"):
-        raise ConfigError(f"on_nan must be 'raise' or 'interpolate', got {on_nan!r}")
-    if max_gap < 1:
-        raise ConfigError(f"max_gap must be >= 1 sample, got {max_gap}")
 
 
 # --------------------------------------------------------------------------- CSV
 
 
 @dataclass(frozen=True)
-class _Table:
+class Table:
     """Text table split into fields: column names (or None) and data rows with line numbers."""
 
     names: list[str] | None
@@ -299,7 +63,7 @@ class _Table:
     lines: np.ndarray  # 1-based file line of each row
 
 
-def _read_lines(path: Path) -> list[str]:
+def read_lines(path: Path) -> list[str]:
     if not path.is_file():
         raise DataError(f"{path}: file not found")
     try:
@@ -332,9 +96,9 @@ def _sniff(line: str) -> str | None:
     return best if best_n else ""
 
 
-def _parse_table(path: Path, delimiter: str | None, skip_lines: int | None,
-                 header: bool | None, comments: str) -> _Table:
-    lines = _read_lines(path)
+def parse_table(path: Path, delimiter: str | None, skip_lines: int | None,
+                 header: bool | None, comments: str) -> Table:
+    lines = read_lines(path)
     start = 0
     if lines and lines[0].lower().startswith("sep=") and len(lines[0]) >= 5:
         # Excel's delimiter hint, as in Xsens DOT exports
@@ -375,10 +139,10 @@ def _parse_table(path: Path, delimiter: str | None, skip_lines: int | None,
     names = _split(body[first - 1][1], delimiter) if has_names else None
     data = body[first:]
     rows = [_split(s, delimiter) for _, s in data]
-    return _Table(names, rows, np.array([i + 1 for i, _ in data], dtype=int))
+    return Table(names, rows, np.array([i + 1 for i, _ in data], dtype=int))
 
 
-def _resolve(table: _Table, spec: str | int, path: Path) -> tuple[int, str]:
+def _resolve(table: Table, spec: str | int, path: Path) -> tuple[int, str]:
     n_cols = len(table.rows[0])
     if isinstance(spec, str):
         if table.names is None:
@@ -393,7 +157,7 @@ def _resolve(table: _Table, spec: str | int, path: Path) -> tuple[int, str]:
     return spec, table.names[spec] if table.names else f"col{spec}"
 
 
-def _column(table: _Table, j: int, name: str, path: Path) -> np.ndarray:
+def column_values(table: Table, j: int, name: str, path: Path) -> np.ndarray:
     out = np.empty(len(table.rows))
     n_cols = len(table.rows[0])
     for k, row in enumerate(table.rows):
@@ -409,7 +173,7 @@ def _column(table: _Table, j: int, name: str, path: Path) -> np.ndarray:
     return out
 
 
-def _column_list(spec: ColumnSpec, table: _Table, exclude: int | None,
+def column_list(spec: ColumnSpec, table: Table, exclude: int | None,
                  path: Path) -> list[tuple[str, int]]:
     """(channel name, column index) pairs for a column specification."""
     if spec is None:
@@ -463,7 +227,7 @@ def read_csv(path: str | Path, columns: ColumnSpec = None, *, time: str | int | 
         Allowed relative deviation of a time step from the median step.
     """
     path = Path(path)
-    _check_nan_policy(on_nan, max_gap)
+    check_nan_policy(on_nan, max_gap)
     if (time is None) == (rate is None):
         raise ConfigError(f"{path}: give exactly one of time= (a column) and rate= (Hz); got "
                           f"time={time!r}, rate={rate!r}")
@@ -471,15 +235,15 @@ def read_csv(path: str | Path, columns: ColumnSpec = None, *, time: str | int | 
         raise ConfigError(f"rate must be a positive sampling rate in Hz, got {rate!r}")
     if skip_rows < 0:
         raise ConfigError(f"skip_rows must be >= 0, got {skip_rows}")
-    table = _parse_table(path, delimiter, skip_lines, header, comments)
-    table = _Table(table.names, table.rows[skip_rows:], table.lines[skip_rows:])
+    table = parse_table(path, delimiter, skip_lines, header, comments)
+    table = Table(table.names, table.rows[skip_rows:], table.lines[skip_rows:])
     if len(table.rows) < 2:
         raise DataError(f"{path}: fewer than 2 data rows")
     lines = table.lines
     time_col = None
     if time is not None:
         time_col, time_name = _resolve(table, time, path)
-        t = _column(table, time_col, time_name, path)
+        t = column_values(table, time_col, time_name, path)
         bad = ~np.isfinite(t)
         if bad.any():
             raise DataError(f"{path}: time column {time_name!r} has {int(bad.sum())} missing "
@@ -488,12 +252,12 @@ def read_csv(path: str | Path, columns: ColumnSpec = None, *, time: str | int | 
         t = t * time_scale
     else:
         t = np.arange(len(table.rows)) / float(rate)
-    _check_uniform(t, str(path), time_rtol, lines)
+    check_uniform(t, str(path), time_rtol, lines)
     chans = {}
-    for name, j in _column_list(columns, table, time_col, path):
-        y = _column(table, j, name, path)
-        chans[name] = _apply_nan_policy(y, on_nan, max_gap, name, str(path), lines)
-    return Measurement(t, chans, _units_for(list(chans), units), str(path), time_rtol)
+    for name, j in column_list(columns, table, time_col, path):
+        y = column_values(table, j, name, path)
+        chans[name] = apply_nan_policy(y, on_nan, max_gap, name, str(path), lines)
+    return Measurement(t, chans, units_for(list(chans), units), str(path), time_rtol)
 
 
 def write_csv(path: str | Path, m: Measurement, *, delimiter: str = ",",
@@ -693,220 +457,3 @@ def read(path: str | Path, **options: object) -> Measurement:
         return m
     raise DataError(f"{path}: unknown file type {ext!r}; expected .csv, .txt, .dat, .tsv, "
                     f".npz, .uff or .unv")
-
-
-# --------------------------------------------------------------------------- specific formats
-
-
-def read_elcentro(path: str | Path, *, units: str | None = None,
-                  dt: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Read an El Centro 1940 record in the formats of ``shared/data/elcentro1940``.
-
-    Values are whitespace-separated, several per line. A ``#`` header (the "Peknold version")
-    states the number of points, the spacing and the units; its last line is padded with
-    zeros, which are dropped. A file without a header is taken as the S00E corrected record:
-    cm/s² at 0.02 s, unless ``units``/``dt`` say otherwise.
-
-    Parameters
-    ----------
-    units : {"g", "cm/s2", "m/s2"}, optional
-        Overrides the units stated in (or assumed for) the file.
-    dt : float, optional
-        Overrides the sample interval, s.
-
-    Returns
-    -------
-    t : ndarray
-        Times, s, the first sample at t = 0.
-    ag : ndarray
-        Ground acceleration, m/s².
-    """
-    path = Path(path)
-    lines = _read_lines(path)
-    head = " ".join(s for s in lines if s.lstrip().startswith("#")).lower()
-    n_points = re.search(r"(\d+)\s+points", head)
-    spacing = re.search(r"spacing of\s+([0-9.eE+-]+)\s*sec", head)
-    head_units = re.search(r"units are\s*\(?\s*([a-z/0-9^*]+)", head)
-    values = []
-    for i, s in enumerate(lines):
-        if s.lstrip().startswith("#") or not s.strip():
-            continue
-        for f in s.split():
-            try:
-                values.append(float(f))
-            except ValueError:
-                raise DataError(f"{path}: non-numeric value {f!r} at line {i + 1}") from None
-    ag = np.array(values)
-    if n_points:
-        count = int(n_points.group(1))
-        if count > ag.size:
-            raise DataError(f"{path}: header states {count} points but the file holds "
-                            f"{ag.size} values")
-        ag = ag[:count]
-    dt = dt if dt is not None else float(spacing.group(1)) if spacing else 0.02
-    unit = (units or (head_units.group(1) if head_units else "cm/s2")).replace("^", "")
-    scale = {"g": G, "cm/s2": 0.01, "m/s2": 1.0}.get(unit)
-    if scale is None:
-        raise ConfigError(f"{path}: unknown acceleration units {unit!r}; allowed: 'g', "
-                          f"'cm/s2', 'm/s2'")
-    if not dt > 0:
-        raise ConfigError(f"dt must be positive, got {dt!r}")
-    _check_finite(ag, "acceleration", str(path))
-    return np.arange(ag.size) * dt, ag * scale
-
-
-_XSENS_UNITS = {"Acc": "m/s^2", "Euler": "deg", "Gyr": "deg/s", "FreeAcc": "m/s^2"}
-
-
-def read_xsens_dot(path: str | Path, columns: ColumnSpec = ("Acc_X",), *,
-                   drop_placeholder: bool = True, time_rtol: float = TIME_RTOL) -> Measurement:
-    """Read a Movella/Xsens DOT CSV export (as in ``shared/data/minishake_1story``).
-
-    Times come from ``SampleTimeFine`` (µs, a 32-bit counter: wrap-arounds are undone), so
-    two synchronised sensors can be aligned with `align`. The first row of an export is a
-    placeholder with all accelerations 0; it is dropped when ``drop_placeholder``.
-    Units follow the column prefix (Acc: m/s², Euler: deg, Gyr: deg/s).
-    """
-    path = Path(path)
-    table = _parse_table(path, None, None, None, "#")
-    if table.names is None or "SampleTimeFine" not in table.names:
-        raise DataError(f"{path}: not an Xsens DOT export: no 'SampleTimeFine' column "
-                        f"(columns: {table.names})")
-    ticks = _column(table, table.names.index("SampleTimeFine"), "SampleTimeFine", path)
-    wraps = np.concatenate(([0.0], np.cumsum(np.diff(ticks) < -2.0**31)))
-    t = (ticks + wraps * 2.0**32) * 1e-6
-    start = 0
-    if drop_placeholder:
-        acc = [c for c in ("Acc_X", "Acc_Y", "Acc_Z") if c in table.names]
-        if acc and all(float(table.rows[0][table.names.index(c)]) == 0.0 for c in acc):
-            start = 1
-    sub = _Table(table.names, table.rows[start:], table.lines[start:])
-    t = t[start:]
-    _check_uniform(t, str(path), time_rtol, sub.lines)
-    chans, units = {}, {}
-    for name, j in _column_list(columns, sub, None, path):
-        y = _column(sub, j, name, path)
-        chans[name] = _apply_nan_policy(y, "raise", 1, name, str(path), sub.lines)
-        units[name] = _XSENS_UNITS.get(table.names[j].split("_")[0], "")
-    return Measurement(t, chans, units, str(path), time_rtol)
-
-
-# --------------------------------------------------------------------------- time bases
-
-
-def resample(t: np.ndarray, y: np.ndarray, rate: float, *,
-             max_denominator: int = 1000) -> tuple[np.ndarray, np.ndarray]:
-    """Resample a uniformly sampled signal to ``rate`` Hz (polyphase FIR, `resample_poly`).
-
-    The rate ratio is approximated by a fraction with denominator ≤ ``max_denominator``;
-    the ratio actually used is exact, and the returned time vector follows it.
-
-    Parameters
-    ----------
-    t : ndarray, shape (n,)
-        Uniform sample times.
-    y : ndarray, shape (n,) or (n, k)
-        Samples on axis 0.
-    rate : float
-        New sampling rate, Hz.
-
-    Returns
-    -------
-    t_new, y_new : ndarray
-        Times starting at ``t[0]`` and the resampled signal.
-    """
-    t = np.asarray(t, dtype=float)
-    y = np.asarray(y, dtype=float)
-    if not (np.isfinite(rate) and rate > 0):
-        raise ConfigError(f"rate must be a positive sampling rate in Hz, got {rate!r}")
-    if y.shape[0] != t.size:
-        raise DataError(f"y has {y.shape[0]} samples on axis 0 but t has {t.size}")
-    _check_uniform(t, "resample", TIME_RTOL)
-    old = (t.size - 1) / (t[-1] - t[0])
-    ratio = Fraction(rate / old).limit_denominator(max_denominator)
-    if ratio == 0 or abs(float(ratio) * old - rate) > 1e-9 * rate:
-        raise ConfigError(f"cannot resample from {old:.9g} Hz to {rate:.9g} Hz with a "
-                          f"fraction of denominator <= {max_denominator}; raise max_denominator")
-    if ratio == 1:
-        return t.copy(), y.copy()
-    out = scipy.signal.resample_poly(y, ratio.numerator, ratio.denominator, axis=0,
-                                     padtype="line")
-    return t[0] + np.arange(out.shape[0]) / rate, out
-
-
-def align(*measurements: Measurement, rate: float | None = None,
-          method: Literal["nearest", "linear"] = "nearest",
-          zero: bool = True) -> tuple[Measurement, ...]:
-    """Put measurements on one time base: their overlap, sampled alike.
-
-    Parameters
-    ----------
-    *measurements : Measurement
-        Records with synchronised clocks (their ``t`` on one time axis).
-    rate : float, optional
-        Common sampling rate, Hz. Without it all rates must agree (to 1e-6); with it each
-        record is first resampled (`resample`).
-    method : {"nearest", "linear"}
-        "nearest" keeps the samples and shifts each record by a whole number of samples, so
-        that sample times agree within half an interval. "linear" interpolates every record
-        onto the grid of the one that starts last; linear interpolation attenuates high
-        frequencies (gain cos(π f / fs) at a half-sample shift: 0.87 at 20 Hz for 120 Hz).
-    zero : bool
-        Start the common time axis at 0.
-    """
-    if not measurements:
-        raise ConfigError("align needs at least one measurement")
-    if method not in ("nearest", "linear"):
-        raise ConfigError(f"method must be 'nearest' or 'linear', got {method!r}")
-    ms = list(measurements)
-    if rate is not None:
-        ms = [_resampled(m, rate) for m in ms]
-    rates = [m.rate for m in ms]
-    if max(rates) - min(rates) > 1e-6 * max(rates):
-        listing = ", ".join(f"{m.source}: {r:.6g} Hz" for m, r in zip(ms, rates, strict=True))
-        raise DataError(f"cannot align records sampled at different rates ({listing}); pass "
-                        f"rate= to resample them to a common rate")
-    start = max(m.t[0] for m in ms)
-    end = min(m.t[-1] for m in ms)
-    if end <= start:
-        raise DataError("records do not overlap in time: "
-                        + ", ".join(f"{m.source}: [{m.t[0]:.6g}, {m.t[-1]:.6g}] s" for m in ms))
-    ref = next(m for m in ms if m.t[0] == start)
-    if method == "nearest":
-        offsets = [round((start - m.t[0]) / m.dt) for m in ms]
-        n = min(m.n_samples - k for m, k in zip(ms, offsets, strict=True))
-        t = ref.t[:n]
-        out = [Measurement(t, {c: y[k:k + n] for c, y in m.channels.items()}, m.units,
-                           m.source, m.time_rtol) for m, k in zip(ms, offsets, strict=True)]
-    else:
-        t = ref.t[ref.t <= end]
-        out = [Measurement(t, {c: np.interp(t, m.t, y) for c, y in m.channels.items()},
-                           m.units, m.source, m.time_rtol) for m in ms]
-    return tuple(o.shifted(0.0) if zero else o for o in out)
-
-
-def _resampled(m: Measurement, rate: float) -> Measurement:
-    t, y = resample(m.t, m.array(), rate)
-    return Measurement.from_array(t, y, m.names, m.units, m.source)
-
-
-def combine(*measurements: Measurement, source: str | None = None) -> Measurement:
-    """Merge aligned measurements (same time vector) into one; channel names must differ."""
-    if not measurements:
-        raise ConfigError("combine needs at least one measurement")
-    first = measurements[0]
-    chans: dict[str, np.ndarray] = {}
-    units: dict[str, str] = {}
-    for m in measurements:
-        if m.t.shape != first.t.shape or not np.allclose(m.t, first.t, rtol=0,
-                                                          atol=1e-9 * first.dt):
-            raise DataError(f"{m.source} and {first.source} have different time vectors; "
-                            f"align() them first")
-        clash = set(m.channels) & set(chans)
-        if clash:
-            raise DataError(f"channel names {sorted(clash)} occur in more than one record "
-                            f"({m.source}); rename() them first")
-        chans.update(m.channels)
-        units.update(m.units)
-    src = source or " + ".join(m.source for m in measurements)
-    return Measurement(first.t, chans, units, src, first.time_rtol)

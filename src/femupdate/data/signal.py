@@ -5,20 +5,27 @@ Samples are on axis 0 throughout: a signal is (n,) or (n, n_channels).
 The paper's chain, absolute accelerations to relative displacements::
 
     a_rel = relative(acc, table)                       # channel minus table
-    a_f   = highpass(a_rel, rate, cutoff=5.0, order=4) # removes drifting offsets
+    a_f   = highpass(a_rel, fs, cutoff=5.0, order=4) # removes drifting offsets
     d     = integrate_twice(a_f, dt)                   # trapezoidal, zero initial values
     d_fine = substeps(d, 10)                           # each interval in 10 substeps
 
+The sampling is given as scipy gives it: ``fs`` (Hz) to the frequency-domain functions
+(filters, spectra, transfer functions, delays), as ``scipy.signal``; ``dt`` (s) to the
+time-domain integration, as ``scipy.integrate``'s ``dx``. (``rate=`` is the former name of
+``fs``: still accepted, deprecated.)
+
 A channel recorded late (a sensor's latency) is realigned before that chain::
 
-    tau = estimate_delay(table, roof, rate, band=(1.0, 10.0))  # phase slope, below resonance
-    roof = advance(roof, tau, rate)                            # band-limited fractional shift
+    tau = estimate_delay(table, roof, fs, band=(1.0, 10.0))  # phase slope, below resonance
+    roof = advance(roof, tau, fs)                            # band-limited fractional shift
 """
 
 from __future__ import annotations
 
 import functools
 import math
+import warnings
+from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
@@ -44,6 +51,20 @@ __all__ = [
 ]
 
 
+def _rate_renamed(fn: Callable[..., object]) -> Callable[..., object]:
+    """Accept ``rate=``, the former name of ``fs`` (with a DeprecationWarning)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: object, **kwargs: object) -> object:
+        if "rate" in kwargs:
+            warnings.warn(f"{fn.__name__}(rate=...) is deprecated: the sampling rate is fs=, "
+                          "as in scipy.signal", DeprecationWarning, stacklevel=2)
+            kwargs["fs"] = kwargs.pop("rate")
+        return fn(*args, **kwargs)
+
+    return wrapper
+
+
 def _as_signal(y: np.ndarray, name: str = "y") -> np.ndarray:
     y = np.asarray(y, dtype=float)
     if y.ndim not in (1, 2) or y.shape[0] < 2:
@@ -52,9 +73,9 @@ def _as_signal(y: np.ndarray, name: str = "y") -> np.ndarray:
     return y
 
 
-def _check_rate(rate: float) -> None:
-    if not (np.isfinite(rate) and rate > 0):
-        raise ConfigError(f"rate must be a positive sampling rate in Hz, got {rate!r}")
+def _check_rate(fs: float) -> None:
+    if not (np.isfinite(fs) and fs > 0):
+        raise ConfigError(f"fs must be a positive sampling rate in Hz, got {fs!r}")
 
 
 def _check_dt(dt: float) -> None:
@@ -63,13 +84,14 @@ def _check_dt(dt: float) -> None:
 
 
 @functools.lru_cache(maxsize=16)
-def _butter_highpass(order: int, cutoff: float, rate: float) -> np.ndarray:
+def _butter_highpass(order: int, cutoff: float, fs: float) -> np.ndarray:
     """Second-order sections of a Butterworth high-pass (cached: a model's prediction is
     filtered at every evaluation)."""
-    return scipy.signal.butter(order, cutoff, btype="highpass", fs=rate, output="sos")
+    return scipy.signal.butter(order, cutoff, btype="highpass", fs=fs, output="sos")
 
 
-def highpass(y: np.ndarray, rate: float, cutoff: float, *, order: int = 4,
+@_rate_renamed
+def highpass(y: np.ndarray, fs: float, cutoff: float, *, order: int = 4,
              zero_phase: bool = True) -> np.ndarray:
     """Butterworth high-pass filter along axis 0.
 
@@ -77,10 +99,10 @@ def highpass(y: np.ndarray, rate: float, cutoff: float, *, order: int = 4,
     ----------
     y : ndarray, shape (n,) or (n, k)
         Signal.
-    rate : float
+    fs : float
         Sampling rate, Hz.
     cutoff : float
-        -3 dB frequency of the designed filter, Hz, in (0, rate/2).
+        -3 dB frequency of the designed filter, Hz, in (0, fs/2).
     order : int
         Filter order, 1–20.
     zero_phase : bool
@@ -88,13 +110,13 @@ def highpass(y: np.ndarray, rate: float, cutoff: float, *, order: int = 4,
         (gain 0.5 at ``cutoff``, effective order doubled). False: causal `sosfilt`.
     """
     y = _as_signal(y)
-    _check_rate(rate)
-    if not 0 < cutoff < rate / 2:
-        raise ConfigError(f"cutoff must be in (0, {rate / 2:g}) Hz (below Nyquist), "
+    _check_rate(fs)
+    if not 0 < cutoff < fs / 2:
+        raise ConfigError(f"cutoff must be in (0, {fs / 2:g}) Hz (below Nyquist), "
                           f"got {cutoff!r}")
     if not 1 <= order <= 20:
         raise ConfigError(f"order must be an integer in 1..20, got {order!r}")
-    sos = _butter_highpass(order, float(cutoff), float(rate))
+    sos = _butter_highpass(order, float(cutoff), float(fs))
     if zero_phase:
         return scipy.signal.sosfiltfilt(sos, y, axis=0)
     return scipy.signal.sosfilt(sos, y, axis=0)
@@ -178,17 +200,27 @@ def remove_polynomial(y: np.ndarray, order: int, *, fit: slice | None = None) ->
     return y - basis @ coef
 
 
-def fourier_amplitude(y: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Fourier amplitude spectrum ``|Y(f)| = |dt · Σ y_k e^{-2πi f k dt}|`` (units·s).
+def fourier_amplitude(y: np.ndarray, dt: float | None = None, *,
+                      fs: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Fourier amplitude spectrum ``|Y(f)| = |Σ y_k e^{-2πi f k/fs}| / fs`` (units·s).
 
     Returns the frequencies 0..Nyquist, Hz, and the amplitudes (same trailing shape as y).
+    The sampling rate is ``fs`` (Hz); a sample interval ``dt`` in its place is deprecated.
     """
     y = _as_signal(y)
-    _check_dt(dt)
-    return np.fft.rfftfreq(y.shape[0], dt), np.abs(np.fft.rfft(y, axis=0)) * dt
+    if dt is not None:
+        warnings.warn("fourier_amplitude(y, dt) is deprecated: give the sampling rate, "
+                      "fourier_amplitude(y, fs=1/dt)", DeprecationWarning, stacklevel=2)
+        _check_dt(dt)
+        fs = 1.0 / dt
+    if fs is None:
+        raise ConfigError("fourier_amplitude needs the sampling rate fs (Hz)")
+    _check_rate(fs)
+    return np.fft.rfftfreq(y.shape[0], 1.0 / fs), np.abs(np.fft.rfft(y, axis=0)) / fs
 
 
-def transfer_function(x: np.ndarray, y: np.ndarray, rate: float, *,
+@_rate_renamed
+def transfer_function(x: np.ndarray, y: np.ndarray, fs: float, *,
                       nperseg: int | None = None,
                       window: str = "hann") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """H1 estimate of the transfer function from input ``x`` to output(s) ``y``.
@@ -202,7 +234,7 @@ def transfer_function(x: np.ndarray, y: np.ndarray, rate: float, *,
         Input, e.g. the table acceleration.
     y : ndarray, shape (n,) or (n, k)
         Output(s), e.g. absolute accelerations of the structure.
-    rate : float
+    fs : float
         Sampling rate, Hz.
     nperseg : int, optional
         Welch segment length; default n // 8 (at least 16 samples, at most n).
@@ -215,7 +247,7 @@ def transfer_function(x: np.ndarray, y: np.ndarray, rate: float, *,
     """
     x = _as_signal(x, "x")
     y = _as_signal(y, "y")
-    _check_rate(rate)
+    _check_rate(fs)
     if x.ndim != 1 or y.shape[0] != x.shape[0]:
         raise DataError(f"x must be (n,) and y (n,) or (n, k) with the same n; got {x.shape} "
                         f"and {y.shape}")
@@ -224,9 +256,9 @@ def transfer_function(x: np.ndarray, y: np.ndarray, rate: float, *,
     if not 2 <= seg <= n:
         raise ConfigError(f"nperseg must be in 2..{n} (the signal length), got {seg}")
     yy = y if y.ndim == 2 else y[:, None]
-    f, sxx = scipy.signal.welch(x, fs=rate, window=window, nperseg=seg)
-    _, sxy = scipy.signal.csd(x[:, None], yy, fs=rate, window=window, nperseg=seg, axis=0)
-    _, syy = scipy.signal.welch(yy, fs=rate, window=window, nperseg=seg, axis=0)
+    f, sxx = scipy.signal.welch(x, fs=fs, window=window, nperseg=seg)
+    _, sxy = scipy.signal.csd(x[:, None], yy, fs=fs, window=window, nperseg=seg, axis=0)
+    _, syy = scipy.signal.welch(yy, fs=fs, window=window, nperseg=seg, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         h = sxy / sxx[:, None]
         coh = np.abs(sxy) ** 2 / (sxx[:, None] * syy)
@@ -265,13 +297,14 @@ def peak_frequency(f: np.ndarray, h: np.ndarray,
     return float(out[0]) if mag.ndim == 1 else out
 
 
-def _delay_nperseg(rate: float, band: tuple[float, float], n: int) -> int:
+def _delay_nperseg(fs: float, band: tuple[float, float], n: int) -> int:
     """Welch segment for `estimate_delay`: bins of at most 1/16 of the band, at most ``n``."""
-    target = 16.0 * rate / (band[1] - band[0])
+    target = 16.0 * fs / (band[1] - band[0])
     return int(min(n, 2 ** math.ceil(math.log2(max(target, 16.0)))))
 
 
-def estimate_delay(x: np.ndarray, y: np.ndarray, rate: float, *,
+@_rate_renamed
+def estimate_delay(x: np.ndarray, y: np.ndarray, fs: float, *,
                    band: tuple[float, float] = (1.0, 10.0),
                    nperseg: int | None = None) -> float:
     """Delay of ``y`` behind ``x`` (s) from the phase slope of their transfer function.
@@ -290,10 +323,10 @@ def estimate_delay(x: np.ndarray, y: np.ndarray, rate: float, *,
     ----------
     x, y : ndarray, shape (n,)
         Input and output records, same sampling.
-    rate : float
+    fs : float
         Sampling rate, Hz.
     band : (float, float)
-        Frequencies used, Hz, ``0 < low < high < rate/2``.
+        Frequencies used, Hz, ``0 < low < high < fs/2``.
     nperseg : int, optional
         Welch segment length; default: the power of 2 that makes the frequency bins at most
         1/16 of the band (256 samples for 1–10 Hz at 120 Hz), at most ``n``.
@@ -312,15 +345,15 @@ def estimate_delay(x: np.ndarray, y: np.ndarray, rate: float, *,
     """
     x = _as_signal(x, "x")
     y = _as_signal(y, "y")
-    _check_rate(rate)
+    _check_rate(fs)
     lo, hi = (float(b) for b in band)
-    if not 0.0 < lo < hi < rate / 2:
-        raise ConfigError(f"band = [{lo:g}, {hi:g}] Hz: need 0 < low < high < {rate / 2:g} Hz "
+    if not 0.0 < lo < hi < fs / 2:
+        raise ConfigError(f"band = [{lo:g}, {hi:g}] Hz: need 0 < low < high < {fs / 2:g} Hz "
                           "(the Nyquist frequency)")
     if x.ndim != 1 or y.shape != x.shape:
         raise DataError(f"x and y must both have shape (n,), got {x.shape} and {y.shape}")
-    seg = _delay_nperseg(rate, (lo, hi), x.size) if nperseg is None else nperseg
-    f, h, coh = transfer_function(x, y, rate, nperseg=seg)
+    seg = _delay_nperseg(fs, (lo, hi), x.size) if nperseg is None else nperseg
+    f, h, coh = transfer_function(x, y, fs, nperseg=seg)
     inside = (f >= lo) & (f <= hi)
     if np.count_nonzero(inside) < 2:
         raise ConfigError(f"band = [{lo:g}, {hi:g}] Hz holds {np.count_nonzero(inside)} "
@@ -336,14 +369,15 @@ def estimate_delay(x: np.ndarray, y: np.ndarray, rate: float, *,
     return float(-np.sum(w * omega * phase) / np.sum(w * omega * omega))
 
 
-def advance(y: np.ndarray, delay: float, rate: float) -> np.ndarray:
+@_rate_renamed
+def advance(y: np.ndarray, delay: float, fs: float) -> np.ndarray:
     """``y(t + delay)``: the record shifted earlier by ``delay`` s (later for ``delay < 0``).
 
     A band-limited (Fourier) fractional shift along axis 0, exact for signals below the
     Nyquist frequency. The least-squares line through each channel is removed first and added
     back at the shifted times, and the record is extended by its mirror image (a continuous
     periodic extension), so that the ends do not ring as a jump would make them. The last
-    (first, for a negative delay) ``ceil(|delay| · rate)`` samples lie beyond the record and
+    (first, for a negative delay) ``ceil(|delay| · fs)`` samples lie beyond the record and
     the few next to them, at both ends, are approximate: trim them.
 
     Parameters
@@ -352,21 +386,21 @@ def advance(y: np.ndarray, delay: float, rate: float) -> np.ndarray:
         Record(s), uniformly sampled.
     delay : float
         Shift, s: how late ``y`` was recorded.
-    rate : float
+    fs : float
         Sampling rate, Hz.
     """
     y = _as_signal(y)
-    _check_rate(rate)
+    _check_rate(fs)
     if not math.isfinite(delay):
         raise ConfigError(f"delay must be a finite number of seconds, got {delay!r}")
     if delay == 0.0:
         return y.copy()
     n = y.shape[0]
-    t = np.arange(n) / rate
+    t = np.arange(n) / fs
     slope, intercept = np.polyfit(t, y, 1)
     rest = y - (np.multiply.outer(t, slope) + intercept)
     even = np.concatenate([rest, rest[::-1]], axis=0)
-    f = np.fft.rfftfreq(even.shape[0], 1.0 / rate)
+    f = np.fft.rfftfreq(even.shape[0], 1.0 / fs)
     phasor = np.exp(2j * np.pi * f * delay)
     spectrum = np.fft.rfft(even, axis=0) * (phasor if y.ndim == 1 else phasor[:, None])
     shifted = np.fft.irfft(spectrum, even.shape[0], axis=0)[:n]

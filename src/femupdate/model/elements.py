@@ -225,7 +225,6 @@ def beam_mass(
     )
 
 
-_AXIAL = (0, 3)
 _BENDING = (1, 2, 4, 5)
 
 

@@ -62,9 +62,18 @@ def _sign_normalised(shapes: np.ndarray) -> np.ndarray:
     return shapes * signs
 
 
+class NaturalModes(NamedTuple):
+    """Undamped natural frequencies and mode shapes (unpacks as ``freqs, shapes``)."""
+
+    freqs_hz: np.ndarray
+    """Ascending, Hz, shape (n_modes,)."""
+    shapes: np.ndarray
+    """Mass-normalised mode shapes, shape (n_dof, n_modes)."""
+
+
 def natural_frequencies(
     system: System, n_modes: int | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+) -> NaturalModes:
     """Undamped natural frequencies and mass-normalised mode shapes.
 
     Solves ``K φ = ω² M φ`` (``scipy.linalg.eigh``); friction elements count with their stuck
@@ -79,10 +88,10 @@ def natural_frequencies(
 
     Returns
     -------
-    freqs_hz : ndarray, shape (n_modes,)
-        Ascending; rigid-body modes give 0 (tiny negative eigenvalues are clipped).
-    shapes : ndarray, shape (n_dof, n_modes)
-        Columns with ``φᵀ M φ = 1``, the largest entry of each positive.
+    NaturalModes
+        ``freqs_hz`` (n_modes,): ascending; rigid-body modes give 0 (tiny negative eigenvalues
+        are clipped). ``shapes`` (n_dof, n_modes): columns with ``φᵀ M φ = 1``, the largest
+        entry of each positive. A NamedTuple, like ``damped_modes``' result.
     """
     n = system.n_dof
     if n_modes is None:
@@ -98,7 +107,7 @@ def natural_frequencies(
         initial_stiffness(system), system.M, subset_by_index=(0, int(n_modes) - 1)
     )
     freqs = np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi)
-    return freqs, _sign_normalised(shapes)
+    return NaturalModes(freqs, _sign_normalised(shapes))
 
 
 class DampedModes(NamedTuple):

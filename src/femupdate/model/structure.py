@@ -6,6 +6,11 @@ map, scatter indices) is built once, lazily, and ``assemble`` then only evaluate
 matrices of all elements of a kind together and scatters them with precomputed flat indices,
 which keeps re-assembly for new parameter values cheap (it runs once per evaluation of the
 objective in model updating).
+
+Why this file is long (about 900 lines): it is one class on purpose. The description methods
+(``add_*``, with their checks and messages, half of the file) and the compiled topology and
+assembly share the element records and their scatter indices; split in two, each half would
+reach into the other's private state.
 """
 
 from __future__ import annotations

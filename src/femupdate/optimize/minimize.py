@@ -405,8 +405,9 @@ def minimize(
     per_evaluation = callback if kind == "legacy" else None
     try:
         while not state.done:
+            nit = state.nit
             state.step(fun, map_fn, per_evaluation)
-            if kind == "result":
+            if kind == "result" and state.nit > nit:  # a step cut short is not an iteration
                 try:
                     callback(state.intermediate_result())  # type: ignore[misc]
                 except StopIteration:

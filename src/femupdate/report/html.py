@@ -10,7 +10,10 @@ Sections: the case; the table of runs (the paper's Tables 3–6 and 9); converge
 run, the Beta trace, the parameters); the spread of the parameters over the successful runs,
 with values at a bound flagged as improper minima; measured against predicted time histories
 and Fourier spectra (Figs. 13, 18, 19); natural frequencies (Tables 7, 11); identifiability.
-What cannot be drawn (no results store, data no longer readable) is said where it would be.
+What cannot be drawn (no results store, no fit) is said where it would be.
+
+Why this file is long (about 700 lines): one page of seven sections, each a function of the
+results; the figures are drawn by :mod:`femupdate.report.figures` and ``plots``.
 """
 
 from __future__ import annotations
@@ -540,8 +543,8 @@ def _section_fit(res: Results, page: _Page, fit: Fit | str) -> str:
                            if fit.unit == "m" else
                            "measured and predicted time histories, best model"))
     dt = float(fit.t[1] - fit.t[0])
-    f, measured = fourier_amplitude(fit.measured_acc, dt)
-    _, predicted = fourier_amplitude(fit.predicted_acc, dt)
+    f, measured = fourier_amplitude(fit.measured_acc, fs=1.0 / dt)
+    _, predicted = fourier_amplitude(fit.predicted_acc, fs=1.0 / dt)
     path = plot_spectra(f, measured, predicted, page.path("spectra.png"),
                         labels=[f"{c} [m/s]" for c in fit.channels],
                         f_max=spectrum_limit(f, measured),

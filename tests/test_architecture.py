@@ -1,0 +1,88 @@
+"""The layout: every import points down the layers, and long files say why they are long."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "src" / "femupdate"
+
+#: The layers, bottom up: a module may import its own top-level package and the layers below.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("errors", "units"),
+    ("_optional", "_parallel"),
+    ("data", "model", "optimize"),
+    ("simulate", "runs"),
+    ("objective", "case"),
+    ("experiment", "virtual"),
+    ("update",),
+    ("identifiability", "results"),
+    ("workflow", "problems"),
+    ("bench", "report"),
+    ("cli",),
+    ("__main__", "__init__"),
+)
+RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+#: Longer files must give the reason in their module docstring.
+MAX_LINES = 600
+REASON = "Why this file is long"
+
+
+def _top(module: Path) -> str:
+    rel = module.relative_to(PACKAGE)
+    return rel.parts[0].removesuffix(".py")
+
+
+def _imports(module: Path) -> list[tuple[int, str]]:
+    """(line, top-level femupdate package) of every import, lazy ones included."""
+    tree = ast.parse(module.read_text(encoding="utf-8"))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module]
+            if node.module == "femupdate":  # from femupdate import x
+                names = [f"femupdate.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            continue
+        for name in names:
+            parts = name.split(".")
+            if parts[0] == "femupdate" and len(parts) > 1:
+                found.append((node.lineno, parts[1]))
+    return found
+
+
+def test_every_module_has_a_layer() -> None:
+    tops = {_top(m) for m in PACKAGE.rglob("*.py")}
+    assert tops <= set(RANK), f"modules without a layer: {sorted(tops - set(RANK))}"
+
+
+def test_imports_only_point_down() -> None:
+    upward = []
+    for module in sorted(PACKAGE.rglob("*.py")):
+        top = _top(module)
+        for line, target in _imports(module):
+            if target != top and target in RANK and RANK[target] >= RANK[top]:
+                upward.append(f"{module.relative_to(PACKAGE)}:{line} imports femupdate.{target} "
+                              f"(layer {RANK[target]} ≥ {RANK[top]})")
+    assert not upward, "imports that do not point down the layers:\n" + "\n".join(upward)
+
+
+def test_the_layer_check_sees_an_upward_import(tmp_path: Path) -> None:
+    # The check itself: a lazy import of the report from the workflow is an upward arrow.
+    module = tmp_path / "m.py"
+    module.write_text("def f():\n    from femupdate.report.figures import plot_fit\n")
+    assert _imports(module) == [(2, "report")]
+    assert RANK["report"] > RANK["workflow"]
+
+
+def test_long_files_say_why() -> None:
+    unexplained = []
+    for module in sorted(PACKAGE.rglob("*.py")):
+        text = module.read_text(encoding="utf-8")
+        if text.count("\n") > MAX_LINES and REASON not in (ast.get_docstring(ast.parse(text))
+                                                          or ""):
+            unexplained.append(f"{module.relative_to(PACKAGE)}: {text.count(chr(10))} lines")
+    assert not unexplained, (f"files over {MAX_LINES} lines without '{REASON}' in their "
+                             "docstring:\n" + "\n".join(unexplained))
