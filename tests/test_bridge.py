@@ -96,7 +96,7 @@ def test_linear_models_give_the_same_fit_either_way(
     spec["preprocess"]["filter_prediction"] = True
     filtered = parse_case(spec, source=problem.case.source)
     other = UpdateProblem(filtered, load_experiment(filtered))
-    assert other.filter
+    assert other.fitted[0].filter
     x = problem.case.to_search(bridge.truth("viscous"))
     x[0] *= 1.01
     assert other(x) == pytest.approx(problem(x), rel=1e-6)

@@ -261,7 +261,8 @@ def test_every_field_is_documented() -> None:
 
     for model in (c.Node, c.Beam, c.Spring, c.Damper, c.Friction, c.Mass, c.Support,
                   c.Rayleigh, c.ShearBuilding, c.Parameter, c.Data, c.Channel,
-                  c.OutputChannel, c.Preprocess, c.ObjectiveOptions, c.Simulation, c.Search):
+                  c.OutputChannel, c.Trial, c.Preprocess, c.ObjectiveOptions, c.Simulation,
+                  c.Search):
         missing += [f"{model.__name__}.{n}" for n in model.model_fields if f"`{n}`" not in text]
     assert not missing, f"fields not documented in docs/case-files.md: {missing}"
 

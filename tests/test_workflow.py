@@ -18,7 +18,7 @@ import pytest
 from femupdate.case import load_case
 from femupdate.errors import ConfigError, DataError
 from femupdate.model.modes import natural_frequencies
-from femupdate.results import Fit, read_summary
+from femupdate.results import load_fits, read_summary
 from femupdate.virtual import virtual_experiment
 from femupdate.workflow import UpdateResult, run_case
 
@@ -154,9 +154,9 @@ def test_summary_json(result: UpdateResult, case_dir: Path) -> None:
     assert set(summary["spread"]["params"]) == set(TRUTH)
     # Read back typed, equal to what the run returned; the best fit is kept beside it.
     assert read_summary(case_dir / "out" / "summary.json") == result.summary
-    fit = Fit.load(case_dir / "out" / "fit.npz")
+    (fit,) = load_fits(case_dir / "out" / "fit.npz")
     assert fit.phi == pytest.approx(result.summary.best.phi, rel=1e-12)
-    assert fit.channels == ("F1.ux", "F2.ux")
+    assert fit.channels == ("F1.ux", "F2.ux") and fit.role == "fit"
 
 
 # ----------------------------------------------------------------------------- bad input

@@ -130,7 +130,7 @@ def _fit(case: Case, experiment: Experiment, out_dir: Path | None, name: str,
     where = None if out_dir is None else out_dir / name
     if where is not None:
         shutil.rmtree(where, ignore_errors=True)  # this benchmark's own output: start anew
-    return run_case(case, where, experiment=experiment, **opts)
+    return run_case(case, where, experiments=[experiment], **opts)
 
 
 def _as_case(case: Case | str | os.PathLike[str], data: Path | None) -> Case:

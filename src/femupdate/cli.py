@@ -14,7 +14,7 @@ from rich.table import Table
 from femupdate.errors import FemupdateError
 
 if TYPE_CHECKING:
-    from femupdate.results import Summary
+    from femupdate.results import Summary, TrialRecord
 
 app = typer.Typer(
     help="Finite element model updating in structural dynamics, in the time domain.",
@@ -286,6 +286,7 @@ def print_update_summary(summary: Summary) -> None:
     ))
     freqs = ", ".join(f"{f:.3f}" for f in summary.best.frequencies_hz)
     console.print(f"natural frequencies of the best model [Hz]: {freqs}")
+    print_trials(summary.trials, "the best model on each trial")
     console.print(f"successful runs: {summary.successes}/{len(summary.runs)}; "
                   f"evaluations (successful): mean {_fmt(summary.evals_mean)}, "
                   f"median {_fmt(summary.evals_median)}; per success, failed runs "
@@ -303,6 +304,23 @@ def print_update_summary(summary: Summary) -> None:
                           f"run {r.index}: " + ", ".join(f"{n} {side}" for n, side
                                                            in r.at_bounds.items())
                           for r in improper))
+
+
+def print_trials(trials: list[TrialRecord], title: str) -> None:
+    """Each trial's NMSE, each channel's, and the channel delays removed."""
+    if not trials:
+        return
+    table = Table(title=title)
+    for col in ("trial", "role", "NMSE %", "channels: NMSE %", "delays removed"):
+        table.add_column(col, justify="right")
+    for t in trials:
+        channels = ", ".join(f"{c} {100 * v:.4g}" for c, v in t.nmse_per_channel.items())
+        delays = ", ".join(f"{c} {1e3 * d:.2f} ms" for c, d in t.delays_s.items()) or "–"
+        table.add_row(t.name, t.role, f"{100 * t.phi:.4g}", channels, delays)
+    console.print(table)
+    for t in trials:
+        for note in t.notes:
+            console.print(f"{t.name}: {note}", markup=False)
 
 
 @app.command()
@@ -411,6 +429,43 @@ def modes(
         "damping_ratios": np.asarray(damped.damping_ratios).tolist(),
         "dof_labels": list(system.dof_labels), "mode_shapes": shapes.tolist(),
     })
+
+
+@app.command()
+def validate(
+    case_file: CaseArgument,
+    params: Annotated[str, typer.Option(
+        help="Parameter values: a summary.json of `femupdate run` (its best run), a JSON file "
+             "or a JSON object.")],
+    out: Annotated[Path | None, typer.Option(
+        "--out", help="Write validation.json and a fit plot per trial here.")] = None,
+    data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
+                                                   "instead of [data] directory.")] = None,
+    json_path: JsonOption = None,
+) -> None:
+    """Evaluate fixed parameters on every trial of a case: NMSE per trial and channel.
+
+    Each trial is simulated over its whole window and scored over its score_window, fitted
+    trials and validation trials alike; nothing is searched.
+    """
+    from femupdate.workflow import validate_case, with_data_directory
+
+    case = _load(case_file)
+    if data is not None:
+        case = with_data_directory(case, data)
+    values = _read_params(params)
+    result = validate_case(case, values)
+    print_trials(result.trials, f"{case.label}: the given parameters on each trial")
+    if out is not None:
+        from femupdate.report.figures import plot_fit
+
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "validation.json").write_text(json.dumps(result.to_dict(), indent=2) + "\n")
+        for fit in result.fits:
+            plot_fit(fit.t, fit.measured, fit.predicted, out / f"fit-{fit.trial}.png",
+                     labels=[f"{c} [{fit.unit}]" for c in fit.channels])
+        console.print(f"validation in {out.resolve()}")
+    _write_json(json_path, result.to_dict())
 
 
 @app.command()

@@ -1,8 +1,11 @@
-"""Measured data of a case, read and processed as the paper did (METHOD.md §8).
+"""Measured data of a case, read and processed as the paper did (Zapico-Valle et al. 2010, §5).
 
 files ─► Measurement (SI units, one time base, window) ─► channel delays removed ─► high-pass
 ─► the base input a_g and, per output channel, the target: relative displacement (channel −
 table, integrated twice by the trapezoidal rule) or absolute acceleration.
+
+A case may hold several trials (``[[trials]]``): each is read and processed on its own
+(:func:`load_experiments`), with its own delays; the model is shared.
 """
 
 from __future__ import annotations
@@ -14,16 +17,21 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import Case, format_value
+from femupdate.case import Case, Data, TrialSpec, format_value
 from femupdate.data import io, signal
-from femupdate.errors import ConfigError, DataError
+from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
 
-__all__ = ["Experiment", "apply_delays", "load_experiment", "process", "read_measurement"]
+__all__ = ["Experiment", "apply_delays", "load_experiment", "load_experiments", "process",
+           "read_measurement"]
 
 #: Samples trimmed beyond those a shift leaves undefined: where the band-limited shift of
 #: `signal.advance` is approximate (within 0.5 % of the record's scale on measured records).
 DELAY_TRIM_EXTRA = 4
+#: An estimated delay longer than this many samples, where the median coherence in the band is
+#: below ``DELAY_COHERENCE``, is reported as doubtful: a large shift on a poor estimate.
+DELAY_SAMPLES_DOUBTFUL = 3
+DELAY_COHERENCE = 0.8
 
 
 @dataclass(frozen=True)
@@ -51,6 +59,14 @@ class Experiment:
     ag_unfiltered : ndarray (n,) or None
         The base acceleration before the high-pass (None: there was none), the input of a model
         whose prediction is filtered instead (``Case.filters_prediction``).
+    name, role, weight : str, str, float
+        The trial's name, ``"fit"`` or ``"validate"``, and its weight in φ.
+    start_s : float
+        Record time of the first sample (the window's start, after the samples a delay trims).
+    score : slice
+        The samples the error function scores (all, unless the trial has a ``score_window``).
+    notes : tuple of str
+        What was noticed while reading and processing (repairs, doubtful delays), to report.
     """
 
     t: np.ndarray
@@ -62,30 +78,38 @@ class Experiment:
     weights: np.ndarray
     delays: dict[str, float] = field(default_factory=dict)
     ag_unfiltered: np.ndarray | None = None
+    name: str = ""
+    role: str = "fit"
+    weight: float = 1.0
+    start_s: float = 0.0
+    score: slice = field(default_factory=lambda: slice(None))
+    notes: tuple[str, ...] = ()
 
     @property
     def dt(self) -> float:
         return float(self.t[1] - self.t[0])
 
+    @property
+    def scored_target(self) -> np.ndarray:
+        """The part of ``target`` the error function compares."""
+        return self.target[self.score]
 
-def _read(case: Case, file: Path, column: str | int, name: str) -> io.Measurement:
+
+def _read(data: Data, file: Path, column: str | int, name: str) -> io.Measurement:
     """One channel of a file, renamed ``name`` once read: read errors name the file's column."""
-    data = case.data
-    if data is None:
-        raise DataError(f"{case.label}: the case has no [data] section: nothing to read")
     if data.format == "csv":
         rec = io.read_csv(
             file, [column], time=data.time_column, rate=data.rate,
             time_scale=TIME_UNITS[data.time_unit], delimiter=data.delimiter,
             skip_lines=data.skip_lines, header=data.header, skip_rows=data.skip_rows,
-            comments=data.comments,
+            comments=data.comments, repair=data.repair,
         )
     elif data.format == "npz":
         rec = io.read_npz(file, [str(column)])
     else:
         rec = io.read_uff58(file, [str(column)])
     (read_as,) = rec.names
-    return rec.rename({read_as: name})
+    return replace(rec.rename({read_as: name}), notes=rec.notes)
 
 
 def _check_rates(case: Case, records: list[io.Measurement]) -> None:
@@ -100,20 +124,24 @@ def _check_rates(case: Case, records: list[io.Measurement]) -> None:
                     "(or another rate) to resample all channels to one rate")
 
 
-def read_measurement(case: Case) -> io.Measurement:
-    """The input and output channels of ``case`` in m/s² on one time base, windowed.
+def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
+    """The input and output channels of a trial's ``data`` (default the case's ``[data]``) in
+    m/s² on one time base, windowed.
 
     The input channel is named ``"input"``; outputs by their labels. With
     ``[preprocess] resample_hz`` every record is resampled to that rate before alignment;
-    without it, all files must have the same rate.
+    without it, all files must have the same rate. Times are record times (0 at the first
+    sample common to all files).
     """
-    data = case.data
+    data = data or case.data
     if data is None:
         raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
     specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
     records = []
+    notes: list[str] = []
     for name, channel in specs:
-        rec = _read(case, case.data_path(channel), channel.column, name)
+        rec = _read(data, case.data_path(channel, data), channel.column, name)
+        notes += [n for n in rec.notes if n not in notes]  # a file read for several channels
         scale = ACCELERATION_UNITS[channel.unit or data.unit]
         records.append(io.Measurement(rec.t, {name: rec[name] * scale}, {name: "m/s2"},
                                       rec.source))
@@ -123,11 +151,11 @@ def read_measurement(case: Case) -> io.Measurement:
     aligned = io.align(*records, rate=rate)
     merged = io.Measurement(
         aligned[0].t, {k: v for m in aligned for k, v in m.channels.items()},
-        {k: "m/s2" for m in aligned for k in m.channels}, str(case.data_directory()),
+        {k: "m/s2" for m in aligned for k in m.channels}, str(case.data_directory(data)),
     )
     if data.window is not None:
-        merged = merged.window(*data.window).shifted(0.0)
-    return merged
+        merged = merged.window(*data.window)
+    return replace(merged, notes=tuple(notes))
 
 
 def apply_delays(
@@ -248,27 +276,131 @@ def _check_band(case: Case, rate: float) -> tuple[float, float]:
     return low, high
 
 
-def load_experiment(case: Case) -> Experiment:
-    """Read the measured data of ``case``, remove the channel delays, process them.
+def load_experiment(case: Case, trial: TrialSpec | None = None) -> Experiment:
+    """Read the measured data of a trial of ``case`` (default its first), remove the channel
+    delays, process them.
 
     Reading, alignment and window (`read_measurement`), then the ``delay`` of each output
-    channel (`apply_delays`), then the high-pass and the quantity compared (`process`).
+    channel (`apply_delays`), then the high-pass and the quantity compared (`process`); the
+    trial's ``score_window`` says which samples the error function compares.
     """
-    measurement = read_measurement(case)
-    data = case.data
-    if data is None:  # read_measurement refused it already
+    specs = case.trial_specs()
+    if not specs:
         raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
+    spec = trial or specs[0]
+    data = spec.data
+    measurement = read_measurement(case, data)
+    start_record = float(measurement.t[0])
+    notes: list[str] = list(measurement.notes)
     pre = case.preprocess
     labels = tuple(c.label for c in data.outputs)
     wanted = {c.label: c.delay for c in data.outputs}
     low, high = pre.delay_band_hz
-    band = _check_band(case, measurement.rate) if "auto" in wanted.values() else (low, high)
+    if "auto" in wanted.values():
+        band = _check_band(case, measurement.rate)
+        notes += _check_band_below_modes(case, band)
+        notes += _doubtful_delays(measurement, wanted, band, pre.highpass_hz,
+                                  pre.highpass_order, pre.zero_phase)
+    else:
+        band = (low, high)
     measurement, delays = apply_delays(
         replace(measurement, source=case.label), wanted, band=band,
         highpass_hz=pre.highpass_hz, highpass_order=pre.highpass_order,
         zero_phase=pre.zero_phase)
-    return process(
+    experiment = process(
         measurement, labels, np.array([c.weight for c in data.outputs]),
         quantity=case.objective.quantity, highpass_hz=pre.highpass_hz,
         highpass_order=pre.highpass_order, zero_phase=pre.zero_phase, delays=delays,
     )
+    # apply_delays trims samples at both ends and restarts the time at 0: the record time of
+    # the first sample kept
+    start_s = start_record + (_trimmed_samples(delays, measurement.rate) / measurement.rate
+                              if delays else 0.0)
+    score = _score_slice(case, spec, experiment.t + start_s)
+    return replace(experiment, name=spec.name, role=spec.role, weight=spec.weight,
+                   start_s=start_s, score=score, notes=tuple(notes))
+
+
+def _check_band_below_modes(case: Case, band: tuple[float, float]) -> list[str]:
+    """Refuse a delay band that holds a natural frequency of the model (nominal values), and
+    note one that reaches within 1.5× below a natural frequency.
+
+    The estimate reads the table → channel phase as a pure delay, which holds only well below
+    the first resonance: near a mode the structure's own phase (−90° at resonance) would be
+    taken for a sensor delay of a quarter period.
+    """
+    from femupdate.case import CaseModel
+    from femupdate.model.modes import natural_frequencies
+
+    try:
+        freqs = natural_frequencies(CaseModel(case).system(case.nominal())).freqs_hz
+    except FemupdateError:
+        return []  # a model that cannot be assembled at its nominal values is reported elsewhere
+    listed = ", ".join(f"{f:.4g}" for f in freqs[:4])
+    inside = [f for f in freqs if band[0] <= f <= band[1]]
+    if inside:
+        raise ConfigError(
+            f"{case.label}: preprocess.delay_band_hz: got {format_value(list(band))} Hz, but "
+            f"the model at its nominal parameters has a natural frequency at {inside[0]:.4g} Hz "
+            f"in it (modes: {listed} Hz); near a mode the structure's own phase would be read "
+            "as a sensor delay (allowed: a band whose top is below "
+            f"{inside[0] / 1.5:.4g} Hz, two thirds of that frequency, or the delay as a number "
+            "of seconds)")
+    near = [f for f in freqs if band[1] < f < 1.5 * band[1]]
+    if near:
+        return [f"preprocess.delay_band_hz {format_value(list(band))} Hz reaches within 1.5× "
+                f"below the model's natural frequency {near[0]:.4g} Hz (nominal parameters): "
+                "the structure's own phase may bias the estimated delays"]
+    return []
+
+
+def _doubtful_delays(measurement: io.Measurement, wanted: Mapping[str, float | str],
+                     band: tuple[float, float], highpass_hz: float, order: int,
+                     zero_phase: bool) -> list[str]:
+    """Notes on "auto" delays longer than a few samples estimated where coherence is poor."""
+    rate = measurement.rate
+    x = measurement["input"]
+    if highpass_hz > 0.0:
+        x = signal.highpass(x, rate, highpass_hz, order=order, zero_phase=zero_phase)
+    notes = []
+    for name, delay in wanted.items():
+        if delay != "auto":
+            continue
+        y = measurement[name]
+        if highpass_hz > 0.0:
+            y = signal.highpass(y, rate, highpass_hz, order=order, zero_phase=zero_phase)
+        try:
+            tau, coherence = signal.estimate_delay(x, y, rate, band=band, full_output=True)
+        except DataError:
+            continue  # apply_delays says why with the channel's name
+        if abs(tau) * rate > DELAY_SAMPLES_DOUBTFUL and coherence < DELAY_COHERENCE:
+            notes.append(f"channel {name!r}: the estimated delay {1e3 * tau:.3g} ms "
+                         f"({abs(tau) * rate:.2g} samples) rests on a median coherence of "
+                         f"{coherence:.2f} in {format_value(list(band))} Hz (below "
+                         f"{DELAY_COHERENCE}): doubtful; check the band or give the delay")
+    return notes
+
+
+def load_experiments(case: Case) -> list[Experiment]:
+    """Every trial of ``case``, read and processed on its own (its own delays)."""
+    return [load_experiment(case, spec) for spec in case.trial_specs()]
+
+
+def _trimmed_samples(delays: Mapping[str, float], rate: float) -> int:
+    """Samples `apply_delays` trims from each end for these delays."""
+    return math.ceil(max(abs(d) for d in delays.values()) * rate) + DELAY_TRIM_EXTRA
+
+
+def _score_slice(case: Case, spec: TrialSpec, t_record: np.ndarray) -> slice:
+    """The samples inside the trial's ``score_window`` (record time), or all of them."""
+    if spec.score_window is None:
+        return slice(None)
+    low, high = spec.score_window
+    tol = 1e-6 * float(t_record[1] - t_record[0])
+    inside = np.flatnonzero((t_record >= low - tol) & (t_record <= high + tol))
+    if inside.size < 3:
+        raise DataError(f"{case.label}: {spec.path}.score_window: got {format_value([low, high])}"
+                        f" s, which holds {inside.size} samples of the trial's record (record "
+                        f"time {t_record[0]:.6g} to {t_record[-1]:.6g} s after the delays) "
+                        "(allowed: a part of the record with at least 3 samples)")
+    return slice(int(inside[0]), int(inside[-1]) + 1)

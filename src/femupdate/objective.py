@@ -190,6 +190,26 @@ class ErrorFunction:
         energy = self._perp_energy + np.sum((qtd + self._qty) ** 2, axis=0)
         return _sum_squares(d) / energy
 
+    def residuals(self, prediction: np.ndarray | Response) -> np.ndarray:
+        """The residual vector r with φ = ‖r‖² (to rounding), samples of each channel in turn.
+
+        Channel c contributes its residual (with experimental parameters: the part the
+        integration constants cannot explain, P⊥(ŷ − y)) scaled by √(w_c / (Σw · E_c)), E_c
+        the energy φ normalises it by. A non-finite prediction gives an all-inf vector.
+        """
+        yhat = self._prediction(prediction)
+        if yhat is None:
+            return np.full(self.target.size, np.inf)
+        d = yhat - self.target
+        if self.with_experimental_parameters:
+            qtd = self._q.T @ d
+            d -= self._q @ qtd
+            energy = self._perp_energy + np.sum((qtd + self._qty) ** 2, axis=0)
+        else:
+            energy = self._energy
+        scale = np.sqrt(self.weights / (self.weights.sum() * energy))
+        return (d * scale).ravel(order="F")
+
     def __call__(self, prediction: np.ndarray | Response) -> float:
         """φ: the weighted mean of `per_channel` (inf for a non-finite prediction)."""
         errors = self.per_channel(prediction)

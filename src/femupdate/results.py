@@ -40,8 +40,11 @@ __all__ = [
     "RunRecord",
     "Spread",
     "Summary",
+    "TrialRecord",
+    "load_fits",
     "load_results",
     "read_summary",
+    "save_fits",
     "write_summary",
 ]
 
@@ -89,6 +92,27 @@ class Best(_Record):
     params: dict[str, float]
     frequencies_hz: list[float]
     nmse_per_channel: dict[str, float]
+
+
+class TrialRecord(_Record):
+    """One trial of the case at the best parameters (summary.json ``trials[i]``).
+
+    ``phi`` is the trial's NMSE (as a fraction) over its scored samples; ``role`` says whether
+    it was fitted or only predicted (a validation); ``notes`` what was noticed reading it
+    (repaired glitches, doubtful delays).
+    """
+
+    name: str
+    role: Literal["fit", "validate"]
+    weight: float
+    phi: float
+    nmse_per_channel: dict[str, float]
+    delays_s: dict[str, float]
+    samples: int
+    dt: float
+    start_s: float
+    score_window: list[float] | None = None
+    notes: list[str] = Field(default_factory=list)
 
 
 class Spread(_Record):
@@ -140,6 +164,7 @@ class Summary(_Record):
     runs: list[RunRecord]
     best: Best
     spread: Spread
+    trials: list[TrialRecord] = Field(default_factory=list)
     identifiability: dict[str, Any] | None = None
     benchmark: BridgeBenchmark | None = None
 
@@ -190,11 +215,12 @@ def read_summary(path: Path) -> Summary:
 
 @dataclass(frozen=True)
 class Fit:
-    """The best model's prediction beside the measurement (``fit.npz``).
+    """A trial's prediction by the best model beside its measurement.
 
     ``measured`` is what φ compares the prediction with (displacements: the measurement plus
-    its fitted integration constants); ``measured_acc`` and ``predicted_acc`` are the
-    accelerations relative to the table, for spectra.
+    its fitted integration constants; over the scored samples, ``t``); ``measured_acc`` and
+    ``predicted_acc`` are the accelerations relative to the table over the whole trial
+    (``t_acc``), for spectra.
     """
 
     t: np.ndarray
@@ -205,22 +231,43 @@ class Fit:
     channels: tuple[str, ...]
     unit: str
     phi: float
+    trial: str = ""
+    role: str = "fit"
+    t_acc: np.ndarray | None = None
 
-    def save(self, directory: Path) -> Path:
-        path = Path(directory) / FIT_FILE
-        np.savez_compressed(path, t=self.t, measured=self.measured, predicted=self.predicted,
-                            measured_acc=self.measured_acc, predicted_acc=self.predicted_acc,
-                            channels=np.array(self.channels), unit=np.array(self.unit),
-                            phi=np.array(self.phi))
-        return path
+    _ARRAYS = ("t", "measured", "predicted", "measured_acc", "predicted_acc")
+
+    def arrays(self, prefix: str) -> dict[str, np.ndarray]:
+        out = {f"{prefix}{k}": getattr(self, k) for k in self._ARRAYS}
+        out.update({f"{prefix}channels": np.array(self.channels), f"{prefix}unit":
+                    np.array(self.unit), f"{prefix}phi": np.array(self.phi),
+                    f"{prefix}trial": np.array(self.trial), f"{prefix}role": np.array(self.role),
+                    f"{prefix}t_acc": self.t if self.t_acc is None else self.t_acc})
+        return out
 
     @classmethod
-    def load(cls, path: Path) -> Fit:
-        with np.load(path, allow_pickle=False) as data:
-            return cls(t=data["t"], measured=data["measured"], predicted=data["predicted"],
-                       measured_acc=data["measured_acc"], predicted_acc=data["predicted_acc"],
-                       channels=tuple(str(c) for c in data["channels"]),
-                       unit=str(data["unit"]), phi=float(data["phi"]))
+    def from_arrays(cls, data: Any, prefix: str) -> Fit:
+        return cls(**{k: data[f"{prefix}{k}"] for k in cls._ARRAYS},
+                   channels=tuple(str(c) for c in data[f"{prefix}channels"]),
+                   unit=str(data[f"{prefix}unit"]), phi=float(data[f"{prefix}phi"]),
+                   trial=str(data[f"{prefix}trial"]), role=str(data[f"{prefix}role"]),
+                   t_acc=data[f"{prefix}t_acc"])
+
+
+def save_fits(fits: list[Fit], directory: Path) -> Path:
+    """Write every trial's fit to ``directory/fit.npz`` (trial ``i``'s arrays as ``i/…``)."""
+    path = Path(directory) / FIT_FILE
+    arrays: dict[str, np.ndarray] = {"count": np.array(len(fits))}
+    for i, fit in enumerate(fits):
+        arrays.update(fit.arrays(f"{i}/"))
+    np.savez_compressed(path, **arrays)
+    return path
+
+
+def load_fits(path: Path) -> list[Fit]:
+    """The fits written by :func:`save_fits`."""
+    with np.load(path, allow_pickle=False) as data:
+        return [Fit.from_arrays(data, f"{i}/") for i in range(int(data["count"]))]
 
 
 @dataclass
@@ -238,8 +285,8 @@ class Results:
     histories : dict
         Run index → history (``x`` in the search space, ``fun``, and the optimizer's trace);
         empty without a store.
-    fit : Fit or str
-        The best model against the measurement, or why it is not there.
+    fits : list of Fit, or str
+        The best model against each trial's measurement, or why they are not there.
     store_note : str or None
         Why the store was not used (None when it was).
     """
@@ -249,12 +296,19 @@ class Results:
     case: Case
     meta: dict[str, Any] | None = None
     histories: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)
-    fit: Fit | str = "not read"
+    fits: list[Fit] | str = "not read"
     store_note: str | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
         return self.case.parameter_names
+
+    @property
+    def fit(self) -> Fit | str:
+        """The first fitted trial's fit (or why there is none)."""
+        if isinstance(self.fits, str):
+            return self.fits
+        return next((f for f in self.fits if f.role == "fit"), self.fits[0])
 
     @property
     def best_index(self) -> int:
@@ -286,12 +340,15 @@ def load_results(results_dir: str | Path) -> Results:
         raise FemupdateError(f"{path}: the saved case is not valid:\n{exc}") from None
     results = Results(directory, summary, case)
     fit_path = directory / FIT_FILE
-    results.fit = (Fit.load(fit_path) if fit_path.is_file()
-                   else f"no {FIT_FILE} in this directory (written by `femupdate run`)")
-    if isinstance(results.fit, Fit) and not math.isclose(
-            results.fit.phi, summary.best.phi, rel_tol=1e-9, abs_tol=1e-15):
-        results.fit = (f"{FIT_FILE} (φ = {results.fit.phi:.6g}) does not belong to this "
-                       f"summary's best run (φ = {summary.best.phi:.6g})")
+    results.fits = (load_fits(fit_path) if fit_path.is_file()
+                    else f"no {FIT_FILE} in this directory (written by `femupdate run`)")
+    if not isinstance(results.fits, str):
+        scored = {t.name: t.phi for t in summary.trials}
+        stale = [f.trial for f in results.fits if f.trial in scored and not math.isclose(
+            f.phi, scored[f.trial], rel_tol=1e-9, abs_tol=1e-15)]
+        if stale:
+            results.fits = (f"{FIT_FILE} does not belong to this summary's best run (trial "
+                            f"{stale[0]!r}: φ differs)")
     _read_store(results)
     return results
 

@@ -1,49 +1,59 @@
 """The error function of a model-updating case: parameters → model → simulation → φ.
 
-``UpdateProblem(case, experiment)`` is a picklable callable ``φ(x)`` on the search space of the
-case (log10 values for log-scale parameters), ready for :func:`femupdate.minimize` and for
-repeated runs in worker processes.
+``UpdateProblem(case, experiments)`` is a picklable callable ``φ(x)`` on the search space of
+the case (log10 values for log-scale parameters), ready for :func:`femupdate.minimize` and for
+repeated runs in worker processes. A case of several trials shares the model and parameters:
+φ is the mean of the fitted trials' φ, weighted by their ``weight`` (Eq. 1 per trial); its
+residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, scaled so that
+φ = ‖r‖².
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from femupdate.case import Case, CaseModel
 from femupdate.data import signal
-from femupdate.errors import SimulationError
+from femupdate.errors import ConfigError, SimulationError
 from femupdate.experiment import Experiment
 from femupdate.model.system import System
 from femupdate.objective import ErrorFunction
 from femupdate.simulate.response import Response
 
+Point = np.ndarray | Mapping[str, float]
 
-class UpdateProblem:
-    """φ(x) of a case against its processed measurement.
+
+class TrialProblem:
+    """φ of one trial: the case's model driven by the trial's table record, against its
+    processed measurement (over its scored samples).
 
     Parameters
     ----------
     case : Case
         The validated case.
     experiment : Experiment
-        The processed measured data (:func:`femupdate.experiment.load_experiment`).
+        The trial's processed data (:func:`femupdate.experiment.load_experiment`).
     """
 
     def __init__(self, case: Case, experiment: Experiment) -> None:
         self.case = case
         self.experiment = experiment
-        self.model = CaseModel(case)
+        spec = next((s for s in case.trial_specs() if s.name == experiment.name), None)
+        channels = spec.data.outputs if spec is not None else None
+        self.model = CaseModel(case, channels)
         self.integrate = (experiment.quantity == "displacement"
                           and case.objective.integrate_prediction)
         # A nonlinear model is driven by the record as measured and its prediction filtered as
         # the data were: the high-pass does not commute with it (Case.filters_prediction).
         self.filter = case.filters_prediction and experiment.ag_unfiltered is not None
         self._ag = experiment.ag_unfiltered if self.filter else experiment.ag
+        score = experiment.score
         self.objective = ErrorFunction(
-            experiment.target,
-            t=experiment.t,
+            experiment.target[score],
+            t=experiment.t[score],
             weights=experiment.weights,
             experimental_parameters=(
                 experiment.quantity == "displacement" and case.objective.experimental_parameters
@@ -51,27 +61,12 @@ class UpdateProblem:
         )
 
     @property
-    def names(self) -> tuple[str, ...]:
-        return self.case.parameter_names
+    def name(self) -> str:
+        return self.experiment.name
 
-    @property
-    def bounds(self) -> list[tuple[float, float]]:
-        return self.case.bounds
-
-    def values(self, x: np.ndarray) -> dict[str, float]:
-        """Physical parameter values of search-space point ``x``."""
-        return self.case.to_physical(x)
-
-    def system(self, x: np.ndarray | Mapping[str, float]) -> System:
-        """The assembled model at search point ``x`` (or at physical values, a mapping)."""
-        return self.model.system(self._physical(x))
-
-    def simulate(self, x: np.ndarray | Mapping[str, float]) -> Response:
-        """Response of the model at ``x`` to the measured base motion, at the output DOFs."""
-        return self.model.simulate(self._physical(x), self._ag, self.experiment.dt)
-
-    def _physical(self, x: np.ndarray | Mapping[str, float]) -> Mapping[str, float]:
-        return x if isinstance(x, Mapping) else self.values(np.asarray(x, dtype=float))
+    def simulate(self, values: Mapping[str, float]) -> Response:
+        """Response of the model at ``values`` to the trial's base motion, at its outputs."""
+        return self.model.simulate(values, self._ag, self.experiment.dt)
 
     def _highpass(self, x: np.ndarray) -> np.ndarray:
         """The measured data's high-pass, applied to a prediction when ``self.filter``."""
@@ -82,7 +77,7 @@ class UpdateProblem:
                                order=pre.highpass_order, zero_phase=pre.zero_phase)
 
     def prediction(self, response: Response) -> np.ndarray:
-        """What the objective compares, from a response.
+        """What the error function compares, from a response, over the whole trial.
 
         Displacements relative to the base: by default the model's relative accelerations
         integrated twice by the trapezoidal rule, exactly as the measured ones were
@@ -96,12 +91,113 @@ class UpdateProblem:
             return self._highpass(response.displacement)
         return self._highpass(response.acceleration)
 
-    def __call__(self, x: np.ndarray) -> float:
+    def scored(self, prediction: np.ndarray) -> np.ndarray:
+        """The samples of a prediction the error function scores."""
+        return prediction[self.experiment.score]
+
+    def _scored_prediction(self, values: Mapping[str, float]) -> np.ndarray | None:
         try:
-            response = self.simulate(x)
+            response = self.simulate(values)
         except SimulationError:
-            # An unstable integration step for these parameter values: a failed step.
-            return float("inf")
+            return None  # an unstable integration step for these values: a failed step
         if response.diverged:
-            return float("inf")
-        return self.objective(self.prediction(response))
+            return None
+        return self.scored(self.prediction(response))
+
+    def phi(self, values: Mapping[str, float]) -> float:
+        """φ of the trial at physical parameter values (inf for a failed simulation)."""
+        prediction = self._scored_prediction(values)
+        return math.inf if prediction is None else self.objective(prediction)
+
+    def per_channel(self, values: Mapping[str, float]) -> np.ndarray:
+        """Each channel's error at physical parameter values (inf for a failed simulation)."""
+        prediction = self._scored_prediction(values)
+        if prediction is None:
+            return np.full(self.objective.n_channels, np.inf)
+        return self.objective.per_channel(prediction)
+
+    def residuals(self, values: Mapping[str, float]) -> np.ndarray:
+        """The trial's residual vector (φ = ‖r‖²); all inf for a failed simulation."""
+        prediction = self._scored_prediction(values)
+        if prediction is None:
+            return np.full(self.objective.target.size, np.inf)
+        return self.objective.residuals(prediction)
+
+
+class UpdateProblem:
+    """φ(x) of a case against its processed measurements.
+
+    Parameters
+    ----------
+    case : Case
+        The validated case.
+    experiments : Experiment or sequence of Experiment
+        The processed data of its trials (:func:`femupdate.experiment.load_experiments`);
+        trials with ``role = "validate"`` are kept in ``trials`` and never fitted.
+    """
+
+    def __init__(self, case: Case, experiments: Experiment | Sequence[Experiment]) -> None:
+        if isinstance(experiments, Experiment):
+            experiments = [experiments]
+        self.case = case
+        self.trials = [TrialProblem(case, e) for e in experiments]
+        self.fitted = [t for t in self.trials if t.experiment.role == "fit"]
+        if not self.fitted:
+            raise ConfigError(f"{case.label}: no trial to fit (every trial has role = "
+                              "\"validate\") (allowed: at least one trial with role = \"fit\")")
+        total = sum(t.experiment.weight for t in self.fitted)
+        self._shares = [t.experiment.weight / total for t in self.fitted]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.case.parameter_names
+
+    @property
+    def bounds(self) -> list[tuple[float, float]]:
+        return self.case.bounds
+
+    # The first fitted trial, for the callers of a one-trial case.
+
+    @property
+    def experiment(self) -> Experiment:
+        return self.fitted[0].experiment
+
+    @property
+    def objective(self) -> ErrorFunction:
+        return self.fitted[0].objective
+
+    @property
+    def model(self) -> CaseModel:
+        return self.fitted[0].model
+
+    def values(self, x: np.ndarray) -> dict[str, float]:
+        """Physical parameter values of search-space point ``x``."""
+        return self.case.to_physical(x)
+
+    def _physical(self, x: Point) -> Mapping[str, float]:
+        return x if isinstance(x, Mapping) else self.values(np.asarray(x, dtype=float))
+
+    def system(self, x: Point) -> System:
+        """The assembled model at search point ``x`` (or at physical values, a mapping)."""
+        return self.fitted[0].model.system(self._physical(x))
+
+    def simulate(self, x: Point) -> Response:
+        """Response of the model at ``x`` to the first fitted trial's base motion."""
+        return self.fitted[0].simulate(self._physical(x))
+
+    def prediction(self, response: Response) -> np.ndarray:
+        """What the first fitted trial's error function compares, from its response."""
+        return self.fitted[0].prediction(response)
+
+    def __call__(self, x: np.ndarray) -> float:
+        values = self._physical(x)
+        if len(self.fitted) == 1:
+            return self.fitted[0].phi(values)
+        return math.fsum(share * t.phi(values) for share, t in zip(self._shares, self.fitted,
+                                                                   strict=True))
+
+    def residuals(self, x: Point) -> np.ndarray:
+        """The residual vector r(x) of every fitted trial, with φ(x) = ‖r‖² to rounding."""
+        values = self._physical(x)
+        return np.concatenate([math.sqrt(share) * t.residuals(values)
+                               for share, t in zip(self._shares, self.fitted, strict=True)])

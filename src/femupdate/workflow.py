@@ -9,6 +9,7 @@ It draws nothing: :mod:`femupdate.report` renders what it returns or writes.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,12 +20,21 @@ import numpy as np
 
 from femupdate.case import Case, parse_case
 from femupdate.errors import FemupdateError
-from femupdate.experiment import Experiment, load_experiment
+from femupdate.experiment import Experiment, load_experiments
 from femupdate.model.modes import natural_frequencies
-from femupdate.results import Best, Fit, RunRecord, Spread, Summary, write_summary
+from femupdate.results import (
+    Best,
+    Fit,
+    RunRecord,
+    Spread,
+    Summary,
+    TrialRecord,
+    save_fits,
+    write_summary,
+)
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
-from femupdate.update import UpdateProblem
+from femupdate.update import TrialProblem, UpdateProblem
 
 #: Without a target φ_s, a run counts as successful when its φ is within this factor of the
 #: best run's: it reached the same minimum rather than an improper one at a bound.
@@ -41,12 +51,18 @@ def with_data_directory(case: Case, directory: Path) -> Case:
 
 @dataclass
 class UpdateResult:
-    """What a job produced: the summary, the run outcomes, the problem and the best fit."""
+    """What a job produced: the summary, the run outcomes, the problem and the best model's
+    fit to each trial."""
 
     summary: Summary
     outcomes: list[RunOutcome]
     problem: UpdateProblem
-    fit: Fit
+    fits: list[Fit]
+
+    @property
+    def fit(self) -> Fit:
+        """The first fitted trial's fit."""
+        return next(f for f in self.fits if f.role == "fit")
 
 
 def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
@@ -85,9 +101,8 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     freqs = np.array([_frequencies(problem, o.x) for o in good])
     # With experimental parameters, each channel's NMSE is against the measurement corrected
     # by its fitted integration constants, as φ itself.
-    prediction = problem.prediction(problem.simulate(best.x))
-    per_channel = dict(zip(problem.experiment.channels,
-                           problem.objective.per_channel(prediction).tolist(), strict=True))
+    trials = trial_records(problem, best.x)
+    per_channel = _flat(trials, "nmse_per_channel")
     stats = evaluation_stats([o.nfev for o in outcomes], success)
     stats.pop("runs")
     ident = None
@@ -102,7 +117,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         case=case_dict,
         case_file=str(case.source) if case.source is not None else None,
         settings=settings or {},
-        delays_s=dict(problem.experiment.delays),
+        delays_s=_flat(trials, "delays_s"),
         fingerprint=case.fingerprint(),
         method=case.search.method,
         **stats,
@@ -117,23 +132,71 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
             frequencies_hz=(spread(freqs, [f"f{i + 1}" for i in range(freqs.shape[1])])
                             if len(good) else {}),
         ),
+        trials=trials,
         identifiability=ident,
     )
 
 
-def best_fit(problem: UpdateProblem, x: np.ndarray) -> Fit:
-    """The model at ``x`` beside the measurement, as φ compares them, and their accelerations
-    relative to the table (for spectra)."""
-    exp = problem.experiment
-    response = problem.simulate(x)
-    predicted = problem.prediction(response)
-    measured = np.asarray(problem.objective.corrected_target(predicted)).reshape(predicted.shape)
-    table = np.outer(exp.ag, problem.model.influence)  # the table's share of each output
-    return Fit(t=exp.t, measured=measured, predicted=predicted,
+def trial_records(problem: UpdateProblem, x: np.ndarray | dict[str, float]
+                  ) -> list[TrialRecord]:
+    """Every trial of the problem (fitted and validated) at ``x``: its NMSE, each channel's,
+    its delays and what was noticed reading it."""
+    values = x if isinstance(x, dict) else problem.values(np.asarray(x, dtype=float))
+    return [trial_record(t, values) for t in problem.trials]
+
+
+def trial_record(trial: TrialProblem, values: dict[str, float]) -> TrialRecord:
+    """A trial's NMSE and each channel's at physical ``values``, its delays and notes."""
+    exp = trial.experiment
+    per_channel = trial.per_channel(values)
+    phi = (float(trial.objective.weights @ per_channel / trial.objective.weights.sum())
+           if np.all(np.isfinite(per_channel)) else math.inf)
+    spec = next(s for s in trial.case.trial_specs() if s.name == trial.name)
+    return TrialRecord(
+        name=trial.name, role=exp.role, weight=exp.weight, phi=phi,
+        nmse_per_channel=dict(zip(exp.channels, per_channel.tolist(), strict=True)),
+        delays_s=dict(exp.delays), samples=int(exp.t.size), dt=exp.dt, start_s=exp.start_s,
+        score_window=None if spec.score_window is None else list(spec.score_window),
+        notes=list(exp.notes))
+
+
+def _flat(trials: list[TrialRecord], key: str) -> dict[str, float]:
+    """A per-channel mapping of one trial as it is, of several as ``trial/channel``."""
+    if len(trials) == 1:
+        return dict(getattr(trials[0], key))
+    return {f"{t.name}/{c}": v for t in trials for c, v in getattr(t, key).items()}
+
+
+def trial_fit(trial: TrialProblem, values: dict[str, float]) -> Fit:
+    """The model at ``values`` beside a trial's measurement, as φ compares them (over the
+    scored samples), and their accelerations relative to the table (the whole trial)."""
+    exp = trial.experiment
+    response = trial.simulate(values)
+    predicted = trial.scored(trial.prediction(response))
+    measured = np.asarray(trial.objective.corrected_target(predicted)).reshape(predicted.shape)
+    table = np.outer(exp.ag, trial.model.influence)  # the table's share of each output
+    return Fit(t=exp.t[exp.score] + exp.start_s, measured=measured, predicted=predicted,
                measured_acc=exp.accelerations - table,
                predicted_acc=response.acceleration - table, channels=exp.channels,
                unit="m" if exp.quantity == "displacement" else "m/s²",
-               phi=float(problem.objective(predicted)))
+               phi=float(trial.objective(predicted)), trial=exp.name, role=exp.role,
+               t_acc=exp.t + exp.start_s)
+
+
+def trial_fits(problem: UpdateProblem, x: np.ndarray | dict[str, float]) -> list[Fit]:
+    """The model at ``x`` against every trial (those whose simulation fails are left out)."""
+    values = dict(x) if isinstance(x, dict) else problem.values(np.asarray(x, dtype=float))
+    return _fits(problem.trials, values)
+
+
+def _fits(trials: Sequence[TrialProblem], values: dict[str, float]) -> list[Fit]:
+    fits = []
+    for trial in trials:
+        try:
+            fits.append(trial_fit(trial, values))
+        except FemupdateError:
+            continue  # a simulation that cannot run at these values: its trial has no fit
+    return fits
 
 
 def optimizer_options(case: Case) -> dict[str, Any]:
@@ -159,7 +222,7 @@ def run_case(
     execution: Execution | None = None,
     keep_history: bool = False,
     sensitivities: bool = True,
-    experiment: Experiment | None = None,
+    experiments: Sequence[Experiment] | None = None,
 ) -> UpdateResult:
     """Update the model of ``case`` from its data; write the results to ``out_dir``.
 
@@ -183,10 +246,10 @@ def run_case(
         Give each outcome its history (for plots).
     sensitivities : bool
         Add the identifiability analysis at the best run to the summary.
-    experiment : Experiment or None
-        The case's processed data when the caller has already loaded it.
+    experiments : sequence of Experiment or None
+        The case's processed trials when the caller has already loaded them.
     """
-    problem = UpdateProblem(case, experiment or load_experiment(case))
+    problem = UpdateProblem(case, experiments or load_experiments(case))
     search = case.search
     workers = search.workers if workers is None else workers
     execution = dataclasses.replace(execution or Execution(label=case.label), workers=workers)
@@ -210,8 +273,43 @@ def run_case(
                 "workers": workers, "scheduler": execution.scheduler}
     summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target,
                         settings, sensitivities=sensitivities)
-    fit = best_fit(problem, outcomes[[o.index for o in outcomes].index(summary.best.run)].x)
+    fits = trial_fits(problem, summary.best.params)
     if out_dir is not None:
         write_summary(summary, out_dir)
-        fit.save(out_dir)
-    return UpdateResult(summary, outcomes, problem, fit)
+        save_fits(fits, out_dir)
+    return UpdateResult(summary, outcomes, problem, fits)
+
+
+@dataclass
+class Validation:
+    """Fixed parameters evaluated on every trial of a case (``femupdate validate``)."""
+
+    case: str
+    params: dict[str, float]
+    trials: list[TrialRecord]
+    fits: list[Fit]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the case, the parameters and every trial's figures."""
+        return {"case": self.case, "params": self.params,
+                "trials": [t.model_dump() for t in self.trials]}
+
+
+def validate_case(case: Case, params: dict[str, float], *,
+                  experiments: Sequence[Experiment] | None = None) -> Validation:
+    """Evaluate fixed parameter values on every trial of ``case``, fitted or not.
+
+    Each trial is simulated over its whole window and scored over its ``score_window``, as
+    in an update; nothing is searched.
+
+    Raises
+    ------
+    ConfigError
+        ``params`` do not name exactly the case's parameters as finite numbers.
+    """
+    from femupdate.case.build import check_parameter_values
+
+    values = check_parameter_values(params, case.parameter_names, "parameter values")
+    trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]
+    records = [trial_record(t, values) for t in trials]
+    return Validation(case.label, values, records, _fits(trials, values))

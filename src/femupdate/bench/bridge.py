@@ -80,7 +80,7 @@ def run_bridge_benchmark(
     if not resume:
         shutil.rmtree(out, ignore_errors=True)  # a benchmark starts afresh
     result = run_case(case, out, runs=runs, workers=workers, resume=resume,
-                      experiment=problem.experiment)
+                      experiments=[problem.experiment])
     summary = result.summary
     truth_freqs = natural_frequencies(problem.system(truth_values))[0][:6]
     summary.benchmark = BridgeBenchmark(

@@ -5,7 +5,7 @@ data, the signal processing, the error function, the integrator and the search. 
 laid out by job:
 
 - ``fields``: the field types (numbers with ranges and units, names, columns, delays);
-- ``schema``: the sections as pydantic models, ``Case`` the whole file;
+- ``schema`` and ``model_sections``: the sections as pydantic models, ``Case`` the whole file;
 - ``checks`` and ``issues``: what one field cannot check alone, and its wording;
 - ``load``: ``load_case`` (TOML) and ``parse_case`` (a mapping), with messages that name file,
   field and allowed values;
@@ -18,27 +18,31 @@ in ``[[parameters]]`` (``k = "kp2"``); the built structure substitutes them at e
 from femupdate.case.build import CaseModel, build_structure
 from femupdate.case.fields import DOF_NAMES, format_value
 from femupdate.case.load import load_case, parse_case
-from femupdate.case.schema import (
+from femupdate.case.model_sections import (
     Beam,
-    Case,
-    CaseInfo,
-    Channel,
     Damper,
-    Data,
     Friction,
     Mass,
     Model,
     Node,
+    Rayleigh,
+    ShearBuilding,
+    Spring,
+    Support,
+)
+from femupdate.case.schema import (
+    Case,
+    CaseInfo,
+    Channel,
+    Data,
     ObjectiveOptions,
     OutputChannel,
     Parameter,
     Preprocess,
-    Rayleigh,
     Search,
-    ShearBuilding,
     Simulation,
-    Spring,
-    Support,
+    Trial,
+    TrialSpec,
 )
 from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
 
@@ -67,6 +71,8 @@ __all__ = [
     "Simulation",
     "Spring",
     "Support",
+    "Trial",
+    "TrialSpec",
     "build_structure",
     "format_value",
     "load_case",

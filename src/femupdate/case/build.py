@@ -11,11 +11,12 @@ from __future__ import annotations
 import math
 import numbers
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from femupdate.case.schema import Case, Model
+from femupdate.case.model_sections import Model
+from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError
 
 if typing.TYPE_CHECKING:
@@ -82,7 +83,9 @@ class CaseModel:
     Parameters
     ----------
     case : Case
-        A validated case; its ``[data]`` outputs (if any) are the output DOFs.
+        A validated case.
+    channels : sequence of OutputChannel, optional
+        The output channels (a trial's); default the ``[data]`` outputs, if any.
 
     Attributes
     ----------
@@ -99,12 +102,13 @@ class CaseModel:
         The influence vector at the outputs: what a unit base motion moves them by.
     """
 
-    def __init__(self, case: Case) -> None:
+    def __init__(self, case: Case, channels: Sequence[OutputChannel] | None = None) -> None:
         self.structure = build_structure(case.model)
         self.direction = case.model.excitation_direction
         self.method = case.simulation_method
         self.substeps = 1 if self.method == "exact" else case.preprocess.substeps
-        channels = case.data.outputs if case.data is not None else []
+        if channels is None:
+            channels = case.data.outputs if case.data is not None else []
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]

@@ -11,13 +11,14 @@ import math
 import typing
 from collections.abc import Iterator
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
 from femupdate.case.fields import DOF_NAMES, Range, field_range, find_range, format_value
 from femupdate.case.issues import Issue, did_you_mean, duplicates, join_path
 
 if typing.TYPE_CHECKING:
-    from femupdate.case.schema import Case, Data, Model
+    from femupdate.case.model_sections import Model
+    from femupdate.case.schema import Case, Data
 
 #: The element lists of ``[model]``, in the order of the case file.
 ELEMENT_LISTS = ("nodes", "beams", "springs", "dampers", "frictions", "masses", "supports")
@@ -165,31 +166,60 @@ def case_issues(case: Case) -> list[Issue]:
     if case.model.has_friction and case.simulation.method not in (None, "nonlinear"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
                        "has friction elements", "'nonlinear' (or leave it out)"))
-    if case.data is not None:
-        issues += output_issues(case.model, case.data)
-        rate = case.preprocess.resample_hz or case.data.rate
-        if rate is not None and case.preprocess.highpass_hz >= rate / 2:
-            cutoff = format_value(case.preprocess.highpass_hz)
-            issues.append(("preprocess.highpass_hz", f"got {cutoff} for data at "
-                           f"{format_value(rate)} Hz",
-                           f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
-        band = case.preprocess.delay_band_hz
-        auto = any(out.delay == "auto" for out in case.data.outputs)
-        if auto and rate is not None and band[0] < band[1] and band[1] >= rate / 2:
-            issues.append(("preprocess.delay_band_hz", f"got {format_value(band)} for data at "
-                           f"{format_value(rate)} Hz (used by delay = \"auto\")",
-                           f"0 < low < high < the Nyquist frequency {format_value(rate / 2)} "
-                           "Hz, well below the first resonance"))
+    if case.trials and case.data is None:
+        issues.append(("trials", "[[trials]] given without [data]",
+                       "a [data] section: how to read the records, and the channels a trial "
+                       "does not give"))
+    if case.trials:
+        issues += duplicates([(f"trials[{i}].name", t.name) for i, t in enumerate(case.trials)],
+                             "trial name")
+        if not any(t.role == "fit" for t in case.trials):
+            issues.append(("trials", "no trial has role = \"fit\": nothing to fit",
+                           "at least one trial with role = \"fit\""))
+    for spec in case.trial_specs():
+        issues += _data_issues(case, spec.data, spec.path)
     return issues
 
 
-def output_issues(model: Model, data: Data) -> list[Issue]:
+def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
+    """The checks of one trial's records against the model and the processing."""
+    from femupdate.case.schema import Data
+
+    issues: list[Issue] = []
+    if path != "data":  # [data] checked its own channels; a trial's merged ones are new
+        try:
+            Data.model_validate(data.model_dump())
+        except ValidationError as exc:
+            for err in exc.errors(include_url=False):
+                ctx = err.get("ctx") or {}
+                for rel, what, allowed in ctx.get("issues", [("", err["msg"], "")]):
+                    where = join_path(path, *[p for p in err["loc"] if p != "data"], rel)
+                    issues.append((where, what, allowed))
+    issues += output_issues(case.model, data, path)
+    rate = case.preprocess.resample_hz or data.rate
+    if rate is not None and case.preprocess.highpass_hz >= rate / 2:
+        cutoff = format_value(case.preprocess.highpass_hz)
+        issues.append(("preprocess.highpass_hz", f"got {cutoff} for data at "
+                       f"{format_value(rate)} Hz",
+                       f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
+    band = case.preprocess.delay_band_hz
+    auto = any(out.delay == "auto" for out in data.outputs)
+    if auto and rate is not None and band[0] < band[1] and band[1] >= rate / 2:
+        issues.append(("preprocess.delay_band_hz", f"got {format_value(band)} for data at "
+                       f"{format_value(rate)} Hz (used by delay = \"auto\")",
+                       f"0 < low < high < the Nyquist frequency {format_value(rate / 2)} "
+                       "Hz, well below the first resonance"))
+    return issues
+
+
+def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
+    """Outputs on nodes and free DOFs of the model (``where``: "data" or "trials[i]")."""
     issues: list[Issue] = []
     nodes = model.node_names()
     dofs = model.dof_names()
     fixed = model.fixed_dofs()
     for i, out in enumerate(data.outputs):
-        path = f"data.outputs[{i}]"
+        path = f"{where}.outputs[{i}]"
         if out.node not in nodes:
             hint = did_you_mean(out.node, list(nodes))
             shown = ", ".join(repr(n) for n in nodes[:20]) + (", ..." if len(nodes) > 20 else "")

@@ -1,5 +1,7 @@
 """The sections of a case file as pydantic models (``extra="forbid"``, bounds on every number).
 
+The ``[model]`` sections are in :mod:`femupdate.case.model_sections`.
+
 ``Case`` is the whole file; each section class documents its TOML table. What one field cannot
 check alone is checked by ``checks`` from the sections' validators; ``load`` turns pydantic's
 errors into messages naming file, field and allowed values.
@@ -12,42 +14,26 @@ import json
 import math
 import os
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, PrivateAttr, model_validator
 
-from femupdate.case.checks import case_issues, model_issues
+from femupdate.case.checks import case_issues
 from femupdate.case.fields import (
-    DOF_NAMES,
     SIGMA_MAX,
     AccelerationUnit,
-    Area,
     Column,
-    Coordinate,
-    DampingCoefficient,
     Delay,
-    Density,
     DofName,
     ElementName,
-    MassPerLength,
-    Modulus,
-    NodalMass,
     NodeName,
     Options,
     ParameterName,
     ParameterValue,
-    Poisson,
-    PositiveModulus,
-    RayleighAlpha,
-    RayleighBeta,
-    RotaryInertia,
-    SecondMoment,
     Section,
-    ShearFactor,
-    SlipForce,
-    Stiffness,
     env_syntax,
     expand_env,
     format_value,
@@ -56,6 +42,9 @@ from femupdate.case.fields import (
     text_field,
 )
 from femupdate.case.issues import Issue, duplicates, raise_issues
+from femupdate.case.model_sections import (
+    Model,
+)
 from femupdate.errors import ConfigError
 
 # ----------------------------------------------------------------------------- [case]
@@ -66,193 +55,6 @@ class CaseInfo(Section):
 
     name: text_field(200, 1)
     description: text_field(10_000) = ""
-
-
-# ----------------------------------------------------------------------------- [model]
-
-
-class Node(Section):
-    """``[[model.nodes]]``: a node in the plane of the model."""
-
-    name: NodeName
-    x: Coordinate
-    y: Coordinate = 0.0
-
-
-class Beam(Section):
-    """``[[model.beams]]``: a Timoshenko beam between two nodes (bending and shear)."""
-
-    nodes: Annotated[list[NodeName], Field(min_length=2, max_length=2)]
-    E: Modulus
-    G: PositiveModulus | None = None
-    nu: Poisson | None = None
-    A: Area
-    I: SecondMoment  # noqa: E741 (the usual symbol of the second moment of area)
-    rho: Density = 0.0
-    kappa: ShearFactor = 5.0 / 6.0
-    mass_per_length: MassPerLength = 0.0
-    rotary_inertia: bool = True
-    name: ElementName | None = None
-
-    @model_validator(mode="after")
-    def _check(self) -> Beam:
-        issues: list[Issue] = []
-        if self.nodes[0] == self.nodes[1]:
-            issues.append(("nodes", f"both ends are node {self.nodes[0]!r}",
-                           "two different nodes"))
-        if self.G is not None and self.nu is not None:
-            issues.append(("nu", f"both G = {format_value(self.G)} and nu = "
-                           f"{format_value(self.nu)} are given",
-                           "G or nu, not both (neither: no shear deformation)"))
-        raise_issues(issues)
-        return self
-
-
-class _Link(Section):
-    """An element at one DOF, to the base (ground), or between two DOFs."""
-
-    node: NodeName
-    dof: DofName
-    node2: NodeName | None = None
-    dof2: DofName | None = None
-    name: ElementName | None = None
-
-    @model_validator(mode="after")
-    def _check(self) -> _Link:
-        if self.dof2 is not None and self.node2 is None:
-            raise_issues([("dof2", f"dof2 = {self.dof2!r} without node2",
-                            "node2 with dof2 (between two DOFs), or neither (to the base)")])
-        if self.node2 == self.node and self.second_dof == self.dof:
-            raise_issues([("node2", f"connects {self.node}.{self.dof} to itself",
-                            "two different DOFs, or no node2 (to the base)")])
-        return self
-
-    @property
-    def second_dof(self) -> str | None:
-        """The DOF at ``node2`` (``dof2``, default the same as ``dof``), None to the base."""
-        if self.node2 is None:
-            return None
-        return self.dof2 if self.dof2 is not None else self.dof
-
-
-class Spring(_Link):
-    """``[[model.springs]]``: a linear spring."""
-
-    k: Stiffness
-
-
-class Damper(_Link):
-    """``[[model.dampers]]``: a linear viscous damper."""
-
-    c: DampingCoefficient
-
-
-class Friction(_Link):
-    """``[[model.frictions]]``: an elasto-slip (Jenkins) damper: spring k_r, slider f_u."""
-
-    k_r: Stiffness
-    f_u: SlipForce
-
-
-class Mass(Section):
-    """``[[model.masses]]``: a lumped mass on the node's translations and a rotary inertia."""
-
-    node: NodeName
-    m: NodalMass
-    J: RotaryInertia = 0.0
-
-
-class Support(Section):
-    """``[[model.supports]]``: DOFs fixed to the base (they move with the table)."""
-
-    node: NodeName
-    dofs: Annotated[list[DofName], Field(min_length=1, max_length=3)]
-
-    @model_validator(mode="after")
-    def _check(self) -> Support:
-        raise_issues([(f"dofs[{i}]", f"{dof!r} is listed twice", "each DOF once")
-                       for i, dof in enumerate(self.dofs) if dof in self.dofs[:i]])
-        return self
-
-
-class Rayleigh(Section):
-    """``[model.rayleigh]``: damping ``C += alpha M + beta K``."""
-
-    alpha: RayleighAlpha = 0.0
-    beta: RayleighBeta = 0.0
-
-
-class ShearBuilding(Section):
-    """``[model.shear_building]``: storeys on a shake table, storey 1 at the bottom."""
-
-    masses: Annotated[list[NodalMass], Field(min_length=1, max_length=1000)]
-    stiffnesses: Annotated[list[Stiffness], Field(min_length=1, max_length=1000)]
-    dampers: Annotated[list[DampingCoefficient], Field(min_length=1, max_length=1000)] | None = None
-
-    @model_validator(mode="after")
-    def _check(self) -> ShearBuilding:
-        n = len(self.masses)
-        issues = [(key, f"has {len(values)} values but masses has {n}",
-                   f"{n} values, one per storey")
-                  for key, values in (("stiffnesses", self.stiffnesses),
-                                      ("dampers", self.dampers or self.masses))
-                  if len(values) != n]
-        raise_issues(issues)
-        return self
-
-    @property
-    def floors(self) -> tuple[str, ...]:
-        """Node names of the floors: ``"F1"`` (above storey 1) to ``"Fn"`` (the roof)."""
-        return tuple(f"F{i + 1}" for i in range(len(self.masses)))
-
-
-
-class Model(Section):
-    """``[model]``: the finite element model."""
-
-    dofs_per_node: Literal[2, 3] = 2
-    direction: Literal["x", "y"] | None = None
-    rayleigh: Rayleigh | None = None
-    nodes: list[Node] = Field(default_factory=list)
-    beams: list[Beam] = Field(default_factory=list)
-    springs: list[Spring] = Field(default_factory=list)
-    dampers: list[Damper] = Field(default_factory=list)
-    frictions: list[Friction] = Field(default_factory=list)
-    masses: list[Mass] = Field(default_factory=list)
-    supports: list[Support] = Field(default_factory=list)
-    shear_building: ShearBuilding | None = None
-
-    @model_validator(mode="after")
-    def _check(self) -> Model:
-        raise_issues(model_issues(self))
-        return self
-
-    @property
-    def has_friction(self) -> bool:
-        return bool(self.frictions)
-
-    @property
-    def excitation_direction(self) -> str:
-        """Direction of the base motion: ``direction``, or "x" for a shear building and a
-        plane frame, "y" (transverse) for a 2-DOF/node model."""
-        if self.direction is not None:
-            return self.direction
-        return "y" if self.shear_building is None and self.dofs_per_node == 2 else "x"
-
-    def dof_names(self) -> tuple[str, ...]:
-        """DOF names of a node of this model (a shear building's floors: ``("ux",)``)."""
-        return ("ux",) if self.shear_building is not None else DOF_NAMES[self.dofs_per_node]
-
-    def node_names(self) -> tuple[str, ...]:
-        if self.shear_building is not None:
-            return self.shear_building.floors
-        return tuple(node.name for node in self.nodes)
-
-    def fixed_dofs(self) -> dict[tuple[str, str], str]:
-        """``(node, dof) -> path of the support`` for every fixed DOF."""
-        return {(s.node, dof): f"model.supports[{i}]"
-                for i, s in reversed(list(enumerate(self.supports))) for dof in s.dofs}
-
 
 
 # ----------------------------------------------------------------------------- [[parameters]]
@@ -333,6 +135,17 @@ class OutputChannel(Channel):
         return self.name if self.name is not None else f"{self.node}.{self.dof}"
 
 
+#: A time window [t_start, t_end] of a record, s.
+Window = Annotated[list[number_field("s", ge=0.0, le=1e7)], Field(min_length=2, max_length=2)]
+
+
+def _window_issues(window: list[float] | None, key: str) -> list[Issue]:
+    if window is not None and window[0] >= window[1]:
+        return [(key, f"got {format_value(window)}: t_start is not before t_end",
+                 "[t_start, t_end] with t_start < t_end (s)")]
+    return []
+
+
 class Data(Section):
     """``[data]``: where the measured accelerations are and how to read them."""
 
@@ -346,8 +159,8 @@ class Data(Section):
     delimiter: text_field(8, 1) | None = None
     comments: text_field(8, 1) = "#"
     skip_rows: integer_field(ge=0, le=1_000_000) = 0
-    window: Annotated[list[number_field("s", ge=0.0, le=1e7)],
-                      Field(min_length=2, max_length=2)] | None = None
+    window: Window | None = None
+    repair: bool = False
     unit: AccelerationUnit = "m/s2"
     input: Channel
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)]
@@ -361,7 +174,7 @@ class Data(Section):
                     issues.append((key, f"given for format = {self.format!r}",
                                    "nothing: NPZ files hold their times in the array 't', "
                                    "UFF58 files carry their own time axis"))
-            for key in ("skip_lines", "header", "delimiter"):
+            for key in ("skip_lines", "header", "delimiter", "repair"):
                 if key in self.model_fields_set:
                     issues.append((key, f"given for format = {self.format!r}",
                                    "nothing: a CSV option"))
@@ -369,9 +182,7 @@ class Data(Section):
             what = "both given" if self.rate is not None else "neither given"
             issues.append(("rate", f"time_column and rate: {what}",
                            "either time_column (a column of times) or rate (Hz)"))
-        if self.window is not None and self.window[0] >= self.window[1]:
-            issues.append(("window", f"got {format_value(self.window)}: t_start is not "
-                           "before t_end", "[t_start, t_end] with t_start < t_end (s)"))
+        issues += _window_issues(self.window, "window")
         if self.directory is not None:
             issues += [("directory", problem, "${NAME} with NAME a variable name")
                        for problem in env_syntax(self.directory)]
@@ -392,6 +203,56 @@ class Data(Section):
         raise_issues(issues)
         return self
 
+
+
+class Trial(Section):
+    """``[[trials]]``: one test of the specimen: a record, or a part of one, fitted or
+    validated.
+
+    The model and the parameters are shared by all trials; each trial names its records
+    (``input``, ``outputs``, ``directory``, ``window``; what it leaves out comes from
+    ``[data]``, which also says how to read them). ``role = "fit"`` trials make up φ (the mean
+    of their NMSE weighted by ``weight``); ``"validate"`` trials are predicted by the fitted
+    model and scored, never fitted. ``score_window`` scores part of the simulated record
+    only: the model is simulated over the whole ``window`` (from rest at its start) and the
+    error is taken over ``score_window`` (record time, s), so one record splits into a fitting
+    and a validation part without restarting the model mid-record.
+    """
+
+    name: ElementName
+    role: Literal["fit", "validate"] = "fit"
+    weight: number_field(gt=0.0, le=1e6) = 1.0
+    directory: text_field(4096) | None = None
+    input: Channel | None = None
+    outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)] | None = None
+    window: Window | None = None
+    score_window: Window | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> Trial:
+        issues = _window_issues(self.window, "window")
+        issues += _window_issues(self.score_window, "score_window")
+        if (self.window is not None and self.score_window is not None
+                and not self.window[0] <= self.score_window[0] < self.score_window[1]
+                <= self.window[1]):
+            issues.append(("score_window", f"got {format_value(self.score_window)} outside "
+                           f"window {format_value(self.window)}",
+                           "a part of the trial's window"))
+        raise_issues(issues)
+        return self
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """A trial resolved against ``[data]``: its full ``Data`` (records, reading options,
+    window) and its role, weight and scored window."""
+
+    name: str
+    role: str
+    weight: float
+    data: Data
+    score_window: tuple[float, float] | None
+    path: str  # where in the case file it is defined: "trials[2]" or "data"
 
 
 # ----------------------------------------------------------------------------- the job
@@ -457,6 +318,7 @@ class Case(Section):
     model: Model
     parameters: list[Parameter] = Field(default_factory=list)
     data: Data | None = None
+    trials: list[Trial] = Field(default_factory=list)
     preprocess: Preprocess = Field(default_factory=Preprocess)
     objective: ObjectiveOptions = Field(default_factory=ObjectiveOptions)
     simulation: Simulation = Field(default_factory=Simulation)
@@ -536,20 +398,35 @@ class Case(Section):
             return self.simulation.method
         return "nonlinear" if self.model.has_friction else "exact"
 
-    # -- data files
+    # -- trials and data files
 
-    def data_directory(self) -> Path:
-        """``data.directory`` with ``${VAR}`` expanded, relative to the case file's folder."""
+    def trial_specs(self) -> list[TrialSpec]:
+        """The trials, resolved: each ``[[trials]]`` over ``[data]``'s defaults, or ``[data]``
+        alone as one fitted trial named after the case. Empty without ``[data]``."""
+        if self.data is None:
+            return []
+        if not self.trials:
+            return [TrialSpec(self.case.name, "fit", 1.0, self.data, None, "data")]
+        return [TrialSpec(t.name, t.role, t.weight, trial_data(self.data, t),
+                          None if t.score_window is None else tuple(t.score_window),
+                          f"trials[{i}]")
+                for i, t in enumerate(self.trials)]
+
+    def data_directory(self, data: Data | None = None) -> Path:
+        """The ``directory`` of ``data`` (default ``[data]``) with ``${VAR}`` expanded, relative
+        to the case file's folder."""
         base = self._source.parent if self._source is not None else Path.cwd()
-        if self.data is None or self.data.directory is None:
+        data = data or self.data
+        if data is None or data.directory is None:
             return base
-        directory = Path(expand_env(self.data.directory, "data.directory", self.label)).expanduser()
+        directory = Path(expand_env(data.directory, "data.directory", self.label)).expanduser()
         return directory if directory.is_absolute() else base / directory
 
-    def data_path(self, channel: Channel) -> Path:
-        """Path of a channel's file (``${VAR}`` expanded; relative to ``data_directory()``)."""
+    def data_path(self, channel: Channel, data: Data | None = None) -> Path:
+        """Path of a channel's file (``${VAR}`` expanded; relative to ``data_directory(data)``)."""
         path = Path(expand_env(channel.file, "data file", self.label)).expanduser()
-        return Path(os.path.normpath(path if path.is_absolute() else self.data_directory() / path))
+        where = self.data_directory(data)
+        return Path(os.path.normpath(path if path.is_absolute() else where / path))
 
     # -- saving
 
@@ -562,3 +439,10 @@ class Case(Section):
         text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"),
                           ensure_ascii=False, allow_nan=False)
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def trial_data(data: Data, trial: Trial) -> Data:
+    """``[data]`` with what ``trial`` gives instead (records, directory, window)."""
+    update = {key: getattr(trial, key) for key in ("directory", "input", "outputs", "window")
+              if getattr(trial, key) is not None}
+    return data.model_copy(update=update)

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from femupdate._optional import require
+from femupdate.data.glitches import check_record
 from femupdate.data.measurement import (
     TIME_RTOL,
     Measurement,
@@ -191,7 +192,8 @@ def read_csv(path: str | Path, columns: ColumnSpec = None, *, time: str | int | 
              delimiter: str | None = None, skip_lines: int | None = None,
              header: bool | None = None, skip_rows: int = 0, comments: str = "#",
              units: Mapping[str, str] | str | None = None, on_nan: NanPolicy = "raise",
-             max_gap: int = 5, time_rtol: float = TIME_RTOL) -> Measurement:
+             max_gap: int = 5, time_rtol: float = TIME_RTOL,
+             repair: bool = False) -> Measurement:
     """Read a delimited text table.
 
     Parameters
@@ -225,6 +227,11 @@ def read_csv(path: str | Path, columns: ColumnSpec = None, *, time: str | int | 
         linear interpolation over gaps of at most ``max_gap`` samples.
     time_rtol : float
         Allowed relative deviation of a time step from the median step.
+    repair : bool
+        Repair isolated glitches of the export (repeated time stamps of duplicate or empty
+        rows, a few dropped samples, a few non-finite values; see
+        :mod:`femupdate.data.glitches`) and say so in the result's ``notes``; without it a
+        record with glitches is refused with every glitch's line and time.
     """
     path = Path(path)
     check_nan_policy(on_nan, max_gap)
@@ -252,12 +259,16 @@ def read_csv(path: str | Path, columns: ColumnSpec = None, *, time: str | int | 
         t = t * time_scale
     else:
         t = np.arange(len(table.rows)) / float(rate)
-    check_uniform(t, str(path), time_rtol, lines)
     chans = {}
     for name, j in column_list(columns, table, time_col, path):
         y = column_values(table, j, name, path)
-        chans[name] = apply_nan_policy(y, on_nan, max_gap, name, str(path), lines)
-    return Measurement(t, chans, units_for(list(chans), units), str(path), time_rtol)
+        # NaN fields: filled here on request (on_nan), else listed with the other glitches
+        chans[name] = (apply_nan_policy(y, on_nan, max_gap, name, str(path), lines)
+                       if on_nan == "interpolate" else y)
+    t, chans, notes = check_record(t, chans, lines, str(path), repair=repair)
+    check_uniform(t, str(path), time_rtol, lines if t.size == lines.size else None)
+    return Measurement(t, chans, units_for(list(chans), units), str(path), time_rtol,
+                       tuple(notes))
 
 
 def write_csv(path: str | Path, m: Measurement, *, delimiter: str = ",",

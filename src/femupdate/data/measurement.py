@@ -43,6 +43,9 @@ class Measurement:
         Where the data came from (a file path), used in messages.
     time_rtol : float
         Allowed relative deviation of any time step from the median step.
+    notes : tuple of str
+        What the reader repaired (glitches of the export), to report; not carried further by
+        the operations below.
     """
 
     t: np.ndarray
@@ -50,6 +53,7 @@ class Measurement:
     units: dict[str, str] = field(default_factory=dict)
     source: str = "<memory>"
     time_rtol: float = TIME_RTOL
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         t = np.array(self.t, dtype=float)

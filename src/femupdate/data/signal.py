@@ -306,7 +306,8 @@ def _delay_nperseg(fs: float, band: tuple[float, float], n: int) -> int:
 @_rate_renamed
 def estimate_delay(x: np.ndarray, y: np.ndarray, fs: float, *,
                    band: tuple[float, float] = (1.0, 10.0),
-                   nperseg: int | None = None) -> float:
+                   nperseg: int | None = None,
+                   full_output: bool = False) -> float | tuple[float, float]:
     """Delay of ``y`` behind ``x`` (s) from the phase slope of their transfer function.
 
     Fits ``phase(f) = −2π f τ`` (a line through the origin) to the unwrapped phase of the H1
@@ -330,11 +331,15 @@ def estimate_delay(x: np.ndarray, y: np.ndarray, fs: float, *,
     nperseg : int, optional
         Welch segment length; default: the power of 2 that makes the frequency bins at most
         1/16 of the band (256 samples for 1–10 Hz at 120 Hz), at most ``n``.
+    full_output : bool
+        Also return the median coherence γ² in the band (how much the estimate can be
+        trusted).
 
     Returns
     -------
-    float
-        τ in seconds; positive when ``y`` lags ``x``.
+    float, or (float, float)
+        τ in seconds, positive when ``y`` lags ``x``; with ``full_output`` also the median
+        coherence.
 
     Raises
     ------
@@ -366,7 +371,8 @@ def estimate_delay(x: np.ndarray, y: np.ndarray, fs: float, *,
     if not (np.all(np.isfinite(phase)) and np.all(np.isfinite(w)) and w.sum() > 0.0):
         raise DataError(f"no coherent signal between {lo:g} and {hi:g} Hz: the delay cannot be "
                         "estimated")
-    return float(-np.sum(w * omega * phase) / np.sum(w * omega * omega))
+    tau = float(-np.sum(w * omega * phase) / np.sum(w * omega * omega))
+    return (tau, float(np.median(gamma2))) if full_output else tau
 
 
 @_rate_renamed

@@ -1,0 +1,221 @@
+"""The ``[model]`` sections of a case file: nodes, beams, springs, dampers, friction elements,
+masses, supports, Rayleigh damping, or a shear building. Any number may name a parameter.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from femupdate.case.checks import model_issues
+from femupdate.case.fields import (
+    DOF_NAMES,
+    Area,
+    Coordinate,
+    DampingCoefficient,
+    Density,
+    DofName,
+    ElementName,
+    MassPerLength,
+    Modulus,
+    NodalMass,
+    NodeName,
+    Poisson,
+    PositiveModulus,
+    RayleighAlpha,
+    RayleighBeta,
+    RotaryInertia,
+    SecondMoment,
+    Section,
+    ShearFactor,
+    SlipForce,
+    Stiffness,
+    format_value,
+)
+from femupdate.case.issues import Issue, raise_issues
+
+# ----------------------------------------------------------------------------- [model]
+
+
+class Node(Section):
+    """``[[model.nodes]]``: a node in the plane of the model."""
+
+    name: NodeName
+    x: Coordinate
+    y: Coordinate = 0.0
+
+
+class Beam(Section):
+    """``[[model.beams]]``: a Timoshenko beam between two nodes (bending and shear)."""
+
+    nodes: Annotated[list[NodeName], Field(min_length=2, max_length=2)]
+    E: Modulus
+    G: PositiveModulus | None = None
+    nu: Poisson | None = None
+    A: Area
+    I: SecondMoment  # noqa: E741 (the usual symbol of the second moment of area)
+    rho: Density = 0.0
+    kappa: ShearFactor = 5.0 / 6.0
+    mass_per_length: MassPerLength = 0.0
+    rotary_inertia: bool = True
+    name: ElementName | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> Beam:
+        issues: list[Issue] = []
+        if self.nodes[0] == self.nodes[1]:
+            issues.append(("nodes", f"both ends are node {self.nodes[0]!r}",
+                           "two different nodes"))
+        if self.G is not None and self.nu is not None:
+            issues.append(("nu", f"both G = {format_value(self.G)} and nu = "
+                           f"{format_value(self.nu)} are given",
+                           "G or nu, not both (neither: no shear deformation)"))
+        raise_issues(issues)
+        return self
+
+
+class _Link(Section):
+    """An element at one DOF, to the base (ground), or between two DOFs."""
+
+    node: NodeName
+    dof: DofName
+    node2: NodeName | None = None
+    dof2: DofName | None = None
+    name: ElementName | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> _Link:
+        if self.dof2 is not None and self.node2 is None:
+            raise_issues([("dof2", f"dof2 = {self.dof2!r} without node2",
+                            "node2 with dof2 (between two DOFs), or neither (to the base)")])
+        if self.node2 == self.node and self.second_dof == self.dof:
+            raise_issues([("node2", f"connects {self.node}.{self.dof} to itself",
+                            "two different DOFs, or no node2 (to the base)")])
+        return self
+
+    @property
+    def second_dof(self) -> str | None:
+        """The DOF at ``node2`` (``dof2``, default the same as ``dof``), None to the base."""
+        if self.node2 is None:
+            return None
+        return self.dof2 if self.dof2 is not None else self.dof
+
+
+class Spring(_Link):
+    """``[[model.springs]]``: a linear spring."""
+
+    k: Stiffness
+
+
+class Damper(_Link):
+    """``[[model.dampers]]``: a linear viscous damper."""
+
+    c: DampingCoefficient
+
+
+class Friction(_Link):
+    """``[[model.frictions]]``: an elasto-slip (Jenkins) damper: spring k_r, slider f_u."""
+
+    k_r: Stiffness
+    f_u: SlipForce
+
+
+class Mass(Section):
+    """``[[model.masses]]``: a lumped mass on the node's translations and a rotary inertia."""
+
+    node: NodeName
+    m: NodalMass
+    J: RotaryInertia = 0.0
+
+
+class Support(Section):
+    """``[[model.supports]]``: DOFs fixed to the base (they move with the table)."""
+
+    node: NodeName
+    dofs: Annotated[list[DofName], Field(min_length=1, max_length=3)]
+
+    @model_validator(mode="after")
+    def _check(self) -> Support:
+        raise_issues([(f"dofs[{i}]", f"{dof!r} is listed twice", "each DOF once")
+                       for i, dof in enumerate(self.dofs) if dof in self.dofs[:i]])
+        return self
+
+
+class Rayleigh(Section):
+    """``[model.rayleigh]``: damping ``C += alpha M + beta K``."""
+
+    alpha: RayleighAlpha = 0.0
+    beta: RayleighBeta = 0.0
+
+
+class ShearBuilding(Section):
+    """``[model.shear_building]``: storeys on a shake table, storey 1 at the bottom."""
+
+    masses: Annotated[list[NodalMass], Field(min_length=1, max_length=1000)]
+    stiffnesses: Annotated[list[Stiffness], Field(min_length=1, max_length=1000)]
+    dampers: Annotated[list[DampingCoefficient], Field(min_length=1, max_length=1000)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> ShearBuilding:
+        n = len(self.masses)
+        issues = [(key, f"has {len(values)} values but masses has {n}",
+                   f"{n} values, one per storey")
+                  for key, values in (("stiffnesses", self.stiffnesses),
+                                      ("dampers", self.dampers or self.masses))
+                  if len(values) != n]
+        raise_issues(issues)
+        return self
+
+    @property
+    def floors(self) -> tuple[str, ...]:
+        """Node names of the floors: ``"F1"`` (above storey 1) to ``"Fn"`` (the roof)."""
+        return tuple(f"F{i + 1}" for i in range(len(self.masses)))
+
+
+
+class Model(Section):
+    """``[model]``: the finite element model."""
+
+    dofs_per_node: Literal[2, 3] = 2
+    direction: Literal["x", "y"] | None = None
+    rayleigh: Rayleigh | None = None
+    nodes: list[Node] = Field(default_factory=list)
+    beams: list[Beam] = Field(default_factory=list)
+    springs: list[Spring] = Field(default_factory=list)
+    dampers: list[Damper] = Field(default_factory=list)
+    frictions: list[Friction] = Field(default_factory=list)
+    masses: list[Mass] = Field(default_factory=list)
+    supports: list[Support] = Field(default_factory=list)
+    shear_building: ShearBuilding | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> Model:
+        raise_issues(model_issues(self))
+        return self
+
+    @property
+    def has_friction(self) -> bool:
+        return bool(self.frictions)
+
+    @property
+    def excitation_direction(self) -> str:
+        """Direction of the base motion: ``direction``, or "x" for a shear building and a
+        plane frame, "y" (transverse) for a 2-DOF/node model."""
+        if self.direction is not None:
+            return self.direction
+        return "y" if self.shear_building is None and self.dofs_per_node == 2 else "x"
+
+    def dof_names(self) -> tuple[str, ...]:
+        """DOF names of a node of this model (a shear building's floors: ``("ux",)``)."""
+        return ("ux",) if self.shear_building is not None else DOF_NAMES[self.dofs_per_node]
+
+    def node_names(self) -> tuple[str, ...]:
+        if self.shear_building is not None:
+            return self.shear_building.floors
+        return tuple(node.name for node in self.nodes)
+
+    def fixed_dofs(self) -> dict[tuple[str, str], str]:
+        """``(node, dof) -> path of the support`` for every fixed DOF."""
+        return {(s.node, dof): f"model.supports[{i}]"
+                for i, s in reversed(list(enumerate(self.supports))) for dof in s.dofs}
