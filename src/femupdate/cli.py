@@ -65,7 +65,7 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
                    ) -> list[dict[str, Any]]:
     from femupdate.bench.dynamic import ALL_METHODS, run_benchmark
 
-    methods = list(ALL_METHODS) if method == "all" else [method]
+    methods = list(ALL_METHODS) if method == "all" else [m.strip() for m in method.split(",")]
     rows = []
     for m in methods:
         with console.status(f"{runs} runs of {m} on {workers} worker(s)…"):
@@ -85,7 +85,8 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
 @bench_app.command("dynamic")
 def bench_dynamic(
     method: Annotated[
-        str, typer.Option(help="ib, ab, cmaes, de, ga, or all (side by side).")
+        str, typer.Option(help="A method, a comma-separated list (side by side, e.g. ab,cmaes) "
+                               "or all.")
     ] = "ab",
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.")] = 100,
     seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.")] = 0,
@@ -97,7 +98,22 @@ def bench_dynamic(
 ) -> None:
     """Benchmark 1 of the paper: identify a two-mode free vibration (Tables 1–2, Figs. 2–5)."""
     rows = _bench_dynamic(method, runs, seed, workers, plots)
-    _write_json(json_path, rows if method == "all" else rows[0])
+    _write_json(json_path, rows if len(rows) > 1 else rows[0])
+
+
+def _methods_table(rows: list[Summary]) -> Table:
+    """The methods of one bridge benchmark side by side, on the same data and target."""
+    target = rows[0].benchmark.f_target if rows[0].benchmark is not None else None
+    table = Table(title="methods side by side" + (f" (success: φ ≤ {target:.3g})"
+                                                  if target is not None else ""))
+    for col in ("method", "success", "mean", "median", "per success*", "wall (s)"):
+        table.add_column(col, justify="right")
+    table.caption = "evaluations of successful runs; * all runs' evaluations, failed ones " \
+                    "included, per successful run"
+    for r in rows:
+        table.add_row(r.method, f"{r.successes}/{len(r.runs)}", _fmt(r.evals_mean),
+                      _fmt(r.evals_median), _fmt(r.evals_per_success), f"{r.wall_s:.1f}")
+    return table
 
 
 def _print_bridge(summary: Summary) -> None:
@@ -190,16 +206,8 @@ def bench_bridge(
                                            resume=resume)
         _print_bridge(summary)
         rows.append(summary)
-    if len(rows) > 1 and all(r.evals_mean for r in rows):
-        base = rows[0]
-        for r in rows[1:]:
-            console.print(
-                f"to φ ≤ {base.benchmark.f_target:.3g}, {r.method} / {base.method}: "
-                f"evaluations per success, failed runs included "
-                f"{r.evals_per_success / base.evals_per_success:.2f}; mean evaluations "
-                f"of successful runs {r.evals_mean / base.evals_mean:.2f} (medians "
-                f"{r.evals_median / base.evals_median:.2f}); success "
-                f"{r.successes}/{len(r.runs)} against {base.successes}/{len(base.runs)}")
+    if len(rows) > 1:
+        console.print(_methods_table(rows))
     dumped = [r.model_dump() for r in rows]
     _write_json(json_path, dumped[0] if len(dumped) == 1 else dumped)
 
