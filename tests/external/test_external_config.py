@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from external_helpers import Space, experiment
 
-from femupdate.errors import ConfigError
+from femupdate.errors import ConfigError, FemupdateError
 from femupdate.external import ExternalProblem, PythonModel, load_function, parse_ref
 from femupdate.external.loader import compile_script
 
@@ -31,6 +31,17 @@ def test_a_missing_function_lists_the_functions_there(user_module: Path) -> None
                                           r"'.*' has no function 'modle'; did you mean 'model'\? "
                                           r"\(allowed: a function of it: 'frequencies', "
                                           r"'helper_not_for_users', 'model'\)"):
+        problem.evaluate([2.0, 0.0])
+    problem.close()
+
+
+def test_a_model_that_kills_its_process_while_loading_stops_the_run(tmp_path: Path) -> None:
+    (tmp_path / "crash.py").write_text("import os\nos._exit(3)\n")
+    problem = ExternalProblem(PythonModel("crash.py:f", ["roof"], base_dir=tmp_path),
+                              experiment(), Space())
+    with pytest.raises(FemupdateError, match=r"could not be loaded in its own process: the "
+                                             r"model's process died \(exit code 3\) while "
+                                             r"loading the model"):
         problem.evaluate([2.0, 0.0])
     problem.close()
 

@@ -126,3 +126,15 @@ def test_residuals_square_to_phi(user_module: Path) -> None:
         assert r.shape == (exp.t.size,)
         assert float(r @ r) == pytest.approx(prob(_x(0, a)), rel=1e-12, abs=1e-30)
     assert prob(_x(0, 3.0)) < 1e-20  # the integration constants fitted away
+
+
+def test_failures_on_a_dask_cluster_are_the_same(problem: ExternalProblem) -> None:
+    distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
+    rows = [_x(0, 1.0), _x(1), _x(5), _x(0, 3.0)]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            open_executor(scheduler=cluster.scheduler_address) as ex:
+        remote = evaluate_batch(problem, rows, ex)
+    assert [e.phi for e in remote] == [e.phi for e in evaluate_batch(problem, rows)]
+    assert remote[0].phi == pytest.approx(0.25) and remote[2].phi == np.inf
+    assert EXPECTED[1] in remote[1].error and EXPECTED[5] in remote[2].error

@@ -147,3 +147,13 @@ def test_missing_openseespy_names_the_extra(tmp_path: Path, monkeypatch: pytest.
     with pytest.raises(MissingDependencyError, match=r"pip install 'femupdate\[opensees\]'"):
         problem.predict(VALUES)
     problem.close()
+
+
+def test_an_output_the_model_lacks_is_a_config_error() -> None:
+    model = OpenSeesModel(f"{MODULE}:build", [(9, 2)], direction=2, excitation="nodal")
+    problem = ExternalProblem(model, _experiment(_motion()), SPACE)
+    with pytest.raises(ConfigError, match=r"model\.outputs: got node 9: the model built by .* "
+                                          r"has no such node \(allowed: its nodes \[1, 2, 3, "
+                                          r"11, 12, 13\]\)"):
+        problem.predict(VALUES)
+    problem.close()

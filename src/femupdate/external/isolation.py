@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 import femupdate
-from femupdate.errors import ConfigError, MissingDependencyError
+from femupdate.errors import ConfigError, FemupdateError, MissingDependencyError
 from femupdate.external.protocol import EvaluationError, ExternalModel
 from femupdate.external.worker import output_tail
 
@@ -128,7 +128,7 @@ class IsolatedModel:
         ------
         ConfigError, MissingDependencyError
             The model cannot be loaded (a missing module or function, a missing extra).
-        EvaluationError
+        FemupdateError
             The child died or did not load within ``start_timeout``.
         """
         if self._owner != os.getpid():
@@ -150,7 +150,12 @@ class IsolatedModel:
         offset = os.path.getsize(self.log)
         sys_path = [os.getcwd() if p == "" else p for p in sys.path]
         self._conn.send(("init", self.model, self.ag, self.dt, sys_path))
-        reply = self._receive(self.start_timeout, "loading the model", offset)
+        try:
+            reply = self._receive(self.start_timeout, "loading the model", offset)
+        except EvaluationError as exc:
+            # Not one bad candidate: no evaluation can run (a crash or hang while importing).
+            raise FemupdateError(f"the model {self.model!r} could not be loaded in its own "
+                                 f"process: {exc}") from None
         if reply[0] == "config":
             self._discard()
             error = MissingDependencyError if reply[1] == "MissingDependencyError" else ConfigError
@@ -241,6 +246,8 @@ class IsolatedModel:
             The model raised, timed out (child killed) or crashed.
         ConfigError
             The model raised a ConfigError (a configuration to fix, not a bad candidate).
+        FemupdateError
+            A new child could not load the model (see :meth:`start`).
         """
         self.start()
         assert self._conn is not None

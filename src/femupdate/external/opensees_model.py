@@ -127,7 +127,8 @@ class OpenSeesModel:
                  base_dir: str | Path | None = None, field: str = "model") -> None:
         self.ref: CodeRef = parse_ref(build, field=f"{field}.build", base_dir=base_dir,
                                       script_allowed=True)
-        self.dofs = _check_outputs(outputs, f"{field}.outputs")
+        self.outputs_field = f"{field}.outputs"
+        self.dofs = _check_outputs(outputs, self.outputs_field)
         self.outputs = tuple(f"{node}.{dof}" for node, dof in self.dofs)
         self.quantity = check_quantity(quantity, f"{field}.quantity")
         self.direction = _positive_int(direction, f"{field}.direction")
@@ -224,12 +225,13 @@ class OpenSeesModel:
         tags = set(ops.getNodeTags())
         for node, dof in self.dofs:
             if node not in tags:
-                raise ConfigError(f"{self.ref.field}: the model built has no node {node} "
-                                  f"(an output); its nodes: {sorted(tags)[:20]}")
+                raise ConfigError(f"{self.outputs_field}: got node {node}: the model built by "
+                                  f"{self.ref.text} has no such node (allowed: its nodes "
+                                  f"{sorted(tags)[:20]})")
             ndf = len(ops.nodeDisp(node))  # nodeDOFs needs an analysis set up
             if dof > ndf:
-                raise ConfigError(f"{self.ref.field}: node {node} has {ndf} DOFs; an output "
-                                  f"asks for DOF {dof}")
+                raise ConfigError(f"{self.outputs_field}: got DOF {dof} of node {node}, which "
+                                  f"has {ndf} (allowed: 1 to {ndf})")
 
     def _apply_base_motion(self, ops: ModuleType, ag: np.ndarray, dt: float) -> None:
         loads = (_seismic_loads(ops, self.direction, self.constraints)
