@@ -43,6 +43,12 @@ def model(values, ag, dt):
     return (values["a"] * ag)[:, None]
 
 
+def fragile(values, ag, dt):
+    if values["a"] > 3.5:
+        raise ValueError("unstable above a = 3.5")
+    return (values["a"] * ag)[:, None]
+
+
 def frequencies(values):
     return [values["a"], 2 * values["a"]]
 

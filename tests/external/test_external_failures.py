@@ -21,6 +21,7 @@ from femupdate.external import (
     evaluate_batch,
 )
 from femupdate.runs.executors import open_executor
+from femupdate.runs.runner import run_all
 
 #: mode → a fragment of the message of its failure.
 EXPECTED = {
@@ -138,3 +139,21 @@ def test_failures_on_a_dask_cluster_are_the_same(problem: ExternalProblem) -> No
     assert [e.phi for e in remote] == [e.phi for e in evaluate_batch(problem, rows)]
     assert remote[0].phi == pytest.approx(0.25) and remote[2].phi == np.inf
     assert EXPECTED[1] in remote[1].error and EXPECTED[5] in remote[2].error
+
+
+def test_a_search_through_the_runner_survives_failures(user_module: Path, tmp_path: Path
+                                                       ) -> None:
+    from femupdate.runs.store import ResultsStore
+
+    model = PythonModel(f"{user_module}:fragile", ["roof"])
+    prob = ExternalProblem(model, experiment(), Space(("a",), ((0.0, 5.0),)))
+    try:
+        outcomes = run_all(prob, prob.bounds, "ab", runs=2, seed=3, max_evals=150,
+                           store_dir=tmp_path)
+    finally:
+        prob.close()
+    for outcome in outcomes:
+        assert outcome.nfev == 150 and abs(outcome.x[0] - 2.0) < 1e-3
+    with ResultsStore.open(tmp_path) as store:
+        phi = np.concatenate([store.history(i)["fun"] for i in range(2)])
+    assert np.isinf(phi).any() and np.isfinite(phi).any()  # failures stored as inf, runs done
