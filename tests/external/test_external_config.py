@@ -29,7 +29,7 @@ def test_a_missing_function_lists_the_functions_there(user_module: Path) -> None
     problem = ExternalProblem(model, experiment(), Space())
     with pytest.raises(ConfigError, match=r"model\.function: got '.*user_model\.py:modle': file "
                                           r"'.*' has no function 'modle'; did you mean 'model'\? "
-                                          r"\(allowed: a function of it: 'frequencies', "
+                                          r"\(allowed: a function of it: 'fragile', 'frequencies', "
                                           r"'helper_not_for_users', 'model'\)"):
         problem.evaluate([2.0, 0.0])
     problem.close()

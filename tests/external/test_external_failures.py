@@ -132,7 +132,10 @@ def test_residuals_square_to_phi(user_module: Path) -> None:
 def test_failures_on_a_dask_cluster_are_the_same(problem: ExternalProblem) -> None:
     distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
     rows = [_x(0, 1.0), _x(1), _x(5), _x(0, 3.0)]
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+    # Worker threads in this process: quick to start; each thread gets its own model process.
+    # (Daemonic worker processes, which may not have multiprocessing children, are exercised by
+    # benchmarks/external_parallel.py.)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             open_executor(scheduler=cluster.scheduler_address) as ex:
         remote = evaluate_batch(problem, rows, ex)

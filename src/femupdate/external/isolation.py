@@ -50,6 +50,8 @@ __all__ = ["START_TIMEOUT_S", "IsolatedModel", "checkout", "close_all"]
 START_TIMEOUT_S = 120.0
 #: Seconds to wait for a stopped or killed child to exit.
 EXIT_WAIT_S = 5.0
+#: Bytes of model output kept: the log restarts empty beyond (only its tail is ever quoted).
+LOG_LIMIT = 1 << 20
 _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
@@ -62,6 +64,13 @@ def _child_env() -> dict[str, str]:
     for name in _THREAD_VARS:
         env.setdefault(name, "1")
     return env
+
+
+def _new_log() -> str:
+    """A new empty file for what a model prints."""
+    fd, path = tempfile.mkstemp(prefix="femupdate-model-", suffix=".log")
+    os.close(fd)
+    return path
 
 
 def _signal_text(code: int | None) -> str:
@@ -107,8 +116,7 @@ class IsolatedModel:
         self._proc: subprocess.Popen[bytes] | None = None
         self._conn: Connection | None = None
         self._owner = os.getpid()
-        fd, self.log = tempfile.mkstemp(prefix="femupdate-model-", suffix=".log")
-        os.close(fd)
+        self.log = _new_log()
         self.starts = 0  # children started (1 + restarts after time-outs and crashes)
 
     @property
@@ -132,8 +140,8 @@ class IsolatedModel:
             The child died or did not load within ``start_timeout``.
         """
         if self._owner != os.getpid():
-            self.forget()  # a copy in another process: the child is not this process's
-            self._owner = os.getpid()
+            self.forget()  # a copy in another process: the child and log are not its own
+            self._owner, self.log = os.getpid(), _new_log()
         if self.alive:
             return
         self._discard()
@@ -251,6 +259,8 @@ class IsolatedModel:
         """
         self.start()
         assert self._conn is not None
+        if os.path.getsize(self.log) > LOG_LIMIT:
+            os.truncate(self.log, 0)  # the child appends (O_APPEND): it writes from 0 again
         offset = os.path.getsize(self.log)
         try:
             self._conn.send((kind, {str(k): float(v) for k, v in values.items()}))
