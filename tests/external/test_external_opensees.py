@@ -157,3 +157,17 @@ def test_an_output_the_model_lacks_is_a_config_error() -> None:
                                           r"11, 12, 13\]\)"):
         problem.predict(VALUES)
     problem.close()
+
+
+def test_an_analysis_that_does_not_converge_is_one_failed_evaluation() -> None:
+    # One Newton iteration cannot pass a displacement-increment test: every step fails.
+    problem = _problem("build", _motion(), excitation="nodal", algorithm="newton",
+                       max_iterations=1, tolerance=1e-12)
+    try:
+        ev = problem.evaluate(np.array([2e11, 4e5, 100.0]))
+    finally:
+        problem.close()
+    assert ev.phi == np.inf
+    assert ev.error.startswith("EvaluationError: OpenSees analysis failed at t = 0.002 s "
+                               "(sample 1 of 300; algorithm 'newton')")
+    assert "the Algorithm failed at time 0.002" in ev.error  # OpenSees, from the model log
