@@ -84,8 +84,6 @@ def _answer(model: Any, request: tuple[Any, ...], ag: np.ndarray, dt: float,
             out = model.frequencies(values)
         else:
             return ("fail", f"unknown request {kind!r}")
-        # An array of numbers pickles safely; anything else is named, not sent.
-        return ("ok", None if out is None else np.asarray(out, dtype=float))
     except (ConfigError, MissingDependencyError) as exc:
         return _config_reply(exc)
     except BaseException as exc:  # the user's code: SystemExit and all
@@ -94,6 +92,14 @@ def _answer(model: Any, request: tuple[Any, ...], ag: np.ndarray, dt: float,
         sys.stderr.flush()
         tail = output_tail(log, start)
         return ("fail", f"{message}; model output: {tail}" if tail else message)
+    # An array of numbers pickles safely; anything else is named, not sent.
+    if out is None:
+        return ("ok", None)
+    try:
+        return ("ok", np.asarray(out, dtype=float))
+    except (TypeError, ValueError) as exc:
+        return ("fail", f"the model returned {type(out).__name__}, not an array of numbers "
+                        f"({exc})")
 
 
 def serve(conn: Connection, log: str) -> None:
