@@ -7,13 +7,14 @@ model prints to ``LOG``. It holds one model, loaded once, and answers one reques
 - ``("init", model, ag, dt, sys_path)`` → ``("ready",)`` or ``("config", kind, message)``;
 - ``("predict", values)`` or ``("frequencies", values)`` → ``("ok", array)`` or
   ``("fail", message)`` (or ``("config", kind, message)`` for a ConfigError);
-- ``("stop",)``, or the parent going away → the process exits.
+- ``("stop",)``, or the parent going away → the process removes ``LOG`` and exits.
 
 A hung model is the parent's to kill: this process never limits time itself.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
@@ -141,6 +142,10 @@ def main(argv: list[str]) -> int:
         pass
     finally:
         conn.close()
+    # Stopped or orphaned, not crashed: nobody will quote the log (its parent may not be able
+    # to remove it: pool and Dask workers exit without atexit handlers).
+    with contextlib.suppress(OSError):
+        os.unlink(log)
     # Skip interpreter teardown: some extensions (OpenSees) print or hang when unloaded.
     sys.stdout.flush()
     sys.stderr.flush()
