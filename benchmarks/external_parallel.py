@@ -28,28 +28,33 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.benchmarks import bridge
-from femupdate.external import ExternalProblem, OpenSeesModel, evaluate_batch
+from femupdate.case import parse_case
+from femupdate.problems import bridge
+from femupdate.runs import run_all
+from femupdate.runs.batch import evaluate_batch
 from femupdate.runs.executors import RunExecutor, open_executor
-from femupdate.runs.runner import run_all
+from femupdate.update import UpdateProblem
 
 SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "bridge-external" / "bridge_opensees.py"
 
 
-def bridge_problem(substeps: int) -> ExternalProblem:
-    """φ of the OpenSeesPy bridge on the viscous virtual experiment (noise-free)."""
+def bridge_problem(substeps: int) -> UpdateProblem:
+    """φ of the OpenSeesPy bridge (the case's [model.opensees]) on the viscous virtual
+    experiment (noise-free)."""
     ref = bridge.viscous_problem()
-    model = OpenSeesModel(f"{SCRIPT}:build", [(2, 2), (3, 2), (4, 2)], direction=2,
-                          excitation="nodal", algorithm="linear", substeps=substeps)
-    return ExternalProblem.from_case(ref.case, ref.experiment, model)
+    spec = ref.case.to_dict()
+    spec["model"] = {"opensees": {"build": f"{SCRIPT}:build", "outputs": [[2, 2], [3, 2], [4, 2]],
+                                  "direction": 2, "excitation": "nodal", "algorithm": "linear"}}
+    spec["preprocess"]["substeps"] = substeps
+    return UpdateProblem(parse_case(spec, source=ref.case.source), ref.experiment)
 
 
-def candidates(problem: ExternalProblem, n: int, seed: int) -> np.ndarray:
+def candidates(problem: UpdateProblem, n: int, seed: int) -> np.ndarray:
     low, high = np.array(problem.bounds).T
     return low + (high - low) * np.random.default_rng(seed).random((n, low.size))
 
 
-def time_batches(problem: ExternalProblem, xs: np.ndarray, ex: RunExecutor, repeats: int
+def time_batches(problem: UpdateProblem, xs: np.ndarray, ex: RunExecutor, repeats: int
                  ) -> tuple[float, float, np.ndarray]:
     """Wall time of evaluating ``xs`` cold, the shortest of ``repeats`` warm ones, and φ."""
     t0 = time.perf_counter()
@@ -69,7 +74,7 @@ def time_batches(problem: ExternalProblem, xs: np.ndarray, ex: RunExecutor, repe
     return cold_s, warm_s, phi
 
 
-def time_search(problem: ExternalProblem, args: argparse.Namespace, **where: Any
+def time_search(problem: UpdateProblem, args: argparse.Namespace, **where: Any
                 ) -> tuple[float, float, np.ndarray]:
     """Wall time of one CMA-ES run, its evaluation count, and its best x followed by φ."""
     t0 = time.perf_counter()

@@ -11,7 +11,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "femupdate"
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors", "units"),
     ("_optional", "_parallel"),
-    ("data", "model", "optimize"),
+    ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
     ("objective", "case"),
     ("experiment", "virtual"),

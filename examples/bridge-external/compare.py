@@ -2,7 +2,7 @@
 
     PYTHONPATH=src python examples/bridge-external/compare.py [--candidates 5] [--json out.json]
 
-On the viscous bridge's noise-free virtual experiment (femupdate.benchmarks.bridge), at the
+On the viscous bridge's noise-free virtual experiment (femupdate.problems.bridge), at the
 truth and at random candidates inside the narrow bounds, each model's absolute accelerations at
 P1–P3, its φ and its natural frequencies against the built-in model's:
 
@@ -26,27 +26,45 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.benchmarks import bridge
+from femupdate.case import parse_case
 from femupdate.errors import ConfigError
-from femupdate.external import ExternalProblem, OpenSeesModel, PythonModel
 from femupdate.model.modes import natural_frequencies
+from femupdate.problems import bridge
 from femupdate.simulate import prepare
 from femupdate.update import UpdateProblem
 
 HERE = Path(__file__).resolve().parent
-OUTPUTS = [(2, 2), (3, 2), (4, 2)]  # OpenSees node tags of P1, P2, P3; DOF 2 = uy
+OUTPUTS = [[2, 2], [3, 2], [4, 2]]  # OpenSees node tags of P1, P2, P3; DOF 2 = uy
 
 
-def python_model() -> PythonModel:
-    return PythonModel(f"{HERE / 'bridge_model.py'}:predict", ["P1", "P2", "P3"],
-                       frequencies=f"{HERE / 'bridge_model.py'}:frequencies")
+def python_model() -> dict[str, Any]:
+    """The case file's ``[model.python]`` of the function."""
+    return {"python": {"function": f"{HERE / 'bridge_model.py'}:predict",
+                       "frequencies": f"{HERE / 'bridge_model.py'}:frequencies"}}
 
 
 def opensees_model(substeps: int = 10, excitation: str = "nodal", build: str = "build",
-                   check: bool = True) -> OpenSeesModel:
-    return OpenSeesModel(f"{HERE / 'bridge_opensees.py'}:{build}", OUTPUTS, direction=2,
-                         excitation=excitation, algorithm="linear", substeps=substeps,
-                         n_modes=6, eigen_solver="-fullGenLapack", check_base_load=check)
+                   check: bool = True) -> dict[str, Any]:
+    """The case file's ``[model.opensees]`` (and the substeps, a ``[preprocess]`` field)."""
+    return {"opensees": {"build": f"{HERE / 'bridge_opensees.py'}:{build}", "outputs": OUTPUTS,
+                         "direction": 2, "excitation": excitation, "algorithm": "linear",
+                         "n_modes": 6, "eigen_solver": "-fullGenLapack",
+                         "check_base_load": check}, "substeps": substeps}
+
+
+def external(ref: UpdateProblem, model: dict[str, Any]) -> UpdateProblem:
+    """The reference bridge case with its model replaced by an external one."""
+    spec = ref.case.to_dict()
+    substeps = model.pop("substeps", None)
+    spec["model"] = model
+    if substeps is not None:
+        spec["preprocess"]["substeps"] = substeps
+    return UpdateProblem(parse_case(spec, source=ref.case.source), ref.experiment)
+
+
+def predict(problem: UpdateProblem, x: np.ndarray) -> np.ndarray:
+    """The external model's accelerations at the outputs."""
+    return problem.simulate(x).acceleration
 
 
 def rel(a: np.ndarray, b: np.ndarray) -> float:
@@ -55,7 +73,7 @@ def rel(a: np.ndarray, b: np.ndarray) -> float:
 
 def builtin(problem: UpdateProblem, x: np.ndarray, method: str, substeps: int) -> np.ndarray:
     sim = prepare(problem.system(x), problem.experiment.dt, method=method,
-                  outputs=problem.outputs, substeps=substeps)
+                  outputs=problem.model.outputs, substeps=substeps)
     return sim.run(problem.experiment.ag).acceleration
 
 
@@ -69,12 +87,11 @@ def candidates(problem: UpdateProblem, n: int, seed: int) -> list[np.ndarray]:
 
 def compare(n: int, seed: int) -> dict[str, Any]:
     ref = bridge.viscous_problem()
-    case, exp = ref.case, ref.experiment
     xs = candidates(ref, n, seed)
     out: dict[str, Any] = {"candidates": len(xs), "seed": seed}
 
-    py = ExternalProblem.from_case(case, exp, python_model())
-    acc = [rel(py.predict(x), builtin(ref, x, "exact", 1)) for x in xs]
+    py = external(ref, python_model())
+    acc = [rel(predict(py, x), builtin(ref, x, "exact", 1)) for x in xs]
     phi = [abs(py(x) - ref(x)) / ref(x) for x in xs[1:]]
     freq = [rel(py.frequencies(x), natural_frequencies(ref.system(x))[0][:6]) for x in xs]
     out["python_vs_exact"] = {"acceleration": max(acc), "phi_rel": max(phi),
@@ -83,12 +100,12 @@ def compare(n: int, seed: int) -> dict[str, Any]:
     py.close()
 
     for substeps in (1, 10):
-        ops = ExternalProblem.from_case(case, exp, opensees_model(substeps))
-        acc = [rel(ops.predict(x), builtin(ref, x, "newmark", substeps)) for x in xs]
+        ops = external(ref, opensees_model(substeps))
+        acc = [rel(predict(ops, x), builtin(ref, x, "newmark", substeps)) for x in xs]
         phi = [abs(ops(x) - ref(x)) / ref(x) for x in xs[1:]]
         out[f"opensees_newmark{substeps}"] = {
             "acceleration_vs_builtin_newmark": max(acc),
-            "acceleration_vs_exact": rel(ops.predict(xs[0]), builtin(ref, xs[0], "exact", 1)),
+            "acceleration_vs_exact": rel(predict(ops, xs[0]), builtin(ref, xs[0], "exact", 1)),
             "phi_rel_vs_exact": max(phi), "phi_at_truth": ops(xs[0])}
         if substeps == 10:
             freq = [rel(ops.frequencies(x), natural_frequencies(ref.system(x))[0][:6])
@@ -100,25 +117,23 @@ def compare(n: int, seed: int) -> dict[str, Any]:
     exact_freqs = natural_frequencies(ref.system(truth))[0][:6]
     for build in ("build", "build_lumped", "build_nodal_mass"):
         for excitation in ("uniform", "nodal"):
-            model = opensees_model(10, excitation, build, check=False)
-            ops = ExternalProblem.from_case(case, exp, model)
+            ops = external(ref, opensees_model(10, excitation, build, check=False))
             out[f"trap_{build}_{excitation}"] = {
-                "acceleration_vs_builtin_newmark": rel(ops.predict(truth), newmark),
+                "acceleration_vs_builtin_newmark": rel(predict(ops, truth), newmark),
                 "phi_at_truth": ops(truth),
                 "frequencies_hz": ops.frequencies(truth).round(3).tolist(),
                 "exact_frequencies_hz": exact_freqs.round(3).tolist()}
             ops.close()
             if excitation == "uniform":
                 out[f"trap_{build}_{excitation}"]["base_load_check"] = base_load_check(
-                    opensees_model(10, excitation, build), case, exp, truth)
+                    external(ref, opensees_model(10, excitation, build)), truth)
     return out
 
 
-def base_load_check(model: OpenSeesModel, case: Any, exp: Any, x: np.ndarray) -> str:
+def base_load_check(problem: UpdateProblem, x: np.ndarray) -> str:
     """"passed", or the ConfigError of the base-load check."""
-    problem = ExternalProblem.from_case(case, exp, model)
     try:
-        problem.predict(x)
+        predict(problem, x)
     except ConfigError as exc:
         return f"refused: {exc}"
     finally:

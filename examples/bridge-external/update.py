@@ -3,7 +3,7 @@
     PYTHONPATH=src python examples/bridge-external/update.py [--models builtin,python,opensees]
         [--snr 0] [--workers 2] [--substeps 10] [--json out.json]
 
-The same virtual experiment (femupdate.benchmarks.bridge, viscous, narrow bounds), the same
+The same virtual experiment (femupdate.problems.bridge, viscous, narrow bounds), the same
 start (the truth moved by 10–30 % per parameter, inside the bounds) and the same solver
 (scipy's least_squares on the residuals whose sum of squares is φ, forward-difference Jacobian
 computed in ``--workers`` threads, each with its own model process) for the three models; then
@@ -23,14 +23,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from compare import opensees_model, python_model
+from compare import external, opensees_model, python_model
 from scipy.optimize import least_squares
 
-from femupdate.benchmarks import bridge
-from femupdate.external import ExternalProblem
-from femupdate.external.problem import residuals_of
-from femupdate.model.modes import natural_frequencies
-from femupdate.update import UpdateProblem
+from femupdate.problems import bridge
 
 #: Start: the truth times these factors (E, kp1, kp2, kp3, kp4, c1, c2, c3, c4).
 START_FACTORS = np.array([1.1, 1.3, 1.3, 0.8, 1.2, 0.7, 0.8, 1.2, 1.3])
@@ -81,32 +77,25 @@ def main() -> None:
     args = parser.parse_args()
 
     ref = bridge.viscous_problem(snr=args.snr)
-    case, exp = ref.case, ref.experiment
+    case = ref.case
     names = case.parameter_names
     truth = bridge.truth("viscous")
     low, high = np.array(case.bounds).T
     x0 = np.clip(case.to_search(truth) * START_FACTORS, low, high)
     problems: dict[str, Any] = {
         "builtin": ref,
-        "python": ExternalProblem.from_case(case, exp, python_model()),
-        "opensees": ExternalProblem.from_case(case, exp, opensees_model(args.substeps)),
+        "python": external(ref, python_model()),
+        "opensees": external(ref, opensees_model(args.substeps)),
     }
     out: dict[str, Any] = {"snr": args.snr, "start": dict(zip(names, x0.tolist(), strict=True)),
                            "truth": truth, "models": {}}
     for name in args.models.split(","):
         problem = problems[name]
-        if isinstance(problem, UpdateProblem):
-            def fun(x: np.ndarray, p: UpdateProblem = problem) -> np.ndarray:
-                return residuals_of(p.objective, p.prediction(p.simulate(x)))
-            freqs = lambda x, p=problem: natural_frequencies(p.system(x))[0][:6]  # noqa: E731
-        else:
-            fun, freqs = problem.residuals, problem.frequencies
-        x, info = identify(fun, low, high, x0, args.workers)
+        x, info = identify(problem.residuals, low, high, x0, args.workers)
         info["params"] = dict(zip(names, x.tolist(), strict=True))
-        info["frequencies_hz"] = np.asarray(freqs(x))[:4].tolist()
+        info["frequencies_hz"] = problem.frequencies(x)[:4].tolist()
         out["models"][name] = info
-        if not isinstance(problem, UpdateProblem):
-            problem.close()
+        problem.close()
         print(f"{name:>9}: φ = {info['phi']:.3e}, {info['evaluations']} evaluations, "
               f"{info['wall_s']:.1f} s", flush=True)
     base = out["models"].get("builtin")

@@ -28,3 +28,7 @@ class SimulationError(FemupdateError, RuntimeError):
 
 class MissingDependencyError(FemupdateError, ImportError):
     """An optional dependency is not installed."""
+
+
+class StoreError(FemupdateError):
+    """A results store that cannot be used: another case's, locked, corrupt, incompatible."""

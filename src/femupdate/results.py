@@ -65,6 +65,8 @@ class RunRecord(_Record):
     ``x`` is the run's best point in the search space (log10 for log-scale parameters),
     ``params`` the same in physical values; ``at_bounds`` names the parameters that ended at a
     bound ("lower" or "upper"): an improper minimum, the typical failure of a bounded search.
+    ``nfail`` counts the evaluations that failed (φ = inf: an unstable step, an external
+    model's error) and ``failure`` says why the first did (the store keeps every message).
     """
 
     index: int
@@ -77,6 +79,8 @@ class RunRecord(_Record):
     nfev: int
     nit: int
     restarts: int = 0
+    nfail: int = 0
+    failure: str | None = None
     wall_s: float
     x: list[float]
     params: dict[str, float]

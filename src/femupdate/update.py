@@ -11,6 +11,7 @@ residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, s
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -19,6 +20,9 @@ from femupdate.case import Case, CaseModel
 from femupdate.data import signal
 from femupdate.errors import ConfigError, SimulationError
 from femupdate.experiment import Experiment
+from femupdate.external.protocol import Evaluation
+from femupdate.external.runner import ExternalRunner
+from femupdate.model.modes import natural_frequencies
 from femupdate.model.system import System
 from femupdate.objective import ErrorFunction
 from femupdate.simulate.response import Response
@@ -41,15 +45,28 @@ class TrialProblem:
     def __init__(self, case: Case, experiment: Experiment) -> None:
         self.case = case
         self.experiment = experiment
-        spec = next((s for s in case.trial_specs() if s.name == experiment.name), None)
+        specs = case.trial_specs()
+        spec = next((s for s in specs if s.name == experiment.name),
+                    specs[0] if len(specs) == 1 else None)
         channels = spec.data.outputs if spec is not None else None
         self.model = CaseModel(case, channels)
-        self.integrate = (experiment.quantity == "displacement"
+        external = self.model.external
+        gives_acceleration = external is None or external.quantity == "acceleration"
+        if external is not None:
+            _check_external(case, experiment, external.quantity)
+        self.integrate = (experiment.quantity == "displacement" and gives_acceleration
                           and case.objective.integrate_prediction)
         # A nonlinear model is driven by the record as measured and its prediction filtered as
         # the data were: the high-pass does not commute with it (Case.filters_prediction).
         self.filter = case.filters_prediction and experiment.ag_unfiltered is not None
         self._ag = experiment.ag_unfiltered if self.filter else experiment.ag
+        self._runner = None
+        if external is not None:
+            section = case.model.external
+            self._runner = ExternalRunner(external, self._ag, experiment.dt,
+                                          timeout=section.timeout, isolate=section.isolate)
+        #: Why the last evaluation failed (None when it did not).
+        self.last_failure: str | None = None
         score = experiment.score
         self.objective = ErrorFunction(
             experiment.target[score],
@@ -65,8 +82,32 @@ class TrialProblem:
         return self.experiment.name
 
     def simulate(self, values: Mapping[str, float]) -> Response:
-        """Response of the model at ``values`` to the trial's base motion, at its outputs."""
-        return self.model.simulate(values, self._ag, self.experiment.dt)
+        """Response of the model at ``values`` to the trial's base motion, at its outputs.
+
+        An external model's response holds what it gives (absolute accelerations or relative
+        displacements; NaN in the other fields); its failure raises ``EvaluationError``.
+        """
+        if self._runner is None:
+            return self.model.simulate(values, self._ag, self.experiment.dt)
+        out = self._runner.predict(values)
+        nan = np.full_like(out, np.nan)
+        t = np.arange(out.shape[0]) * self.experiment.dt
+        if self._runner.model.quantity == "acceleration":
+            return Response(t, nan, nan, out)
+        return Response(t, out, nan, nan.copy())
+
+    def frequencies(self, values: Mapping[str, float]) -> np.ndarray:
+        """Undamped natural frequencies (Hz) of the model at ``values`` (friction elements
+        stuck); an external model's own, or none."""
+        if self._runner is None:
+            return natural_frequencies(self.model.system(values)).freqs_hz
+        freqs = self._runner.frequencies(values)
+        return np.empty(0) if freqs is None else freqs
+
+    def close(self) -> None:
+        """Stop the external model's processes in this process (nothing for femupdate's)."""
+        if self._runner is not None:
+            self._runner.close()
 
     def _highpass(self, x: np.ndarray) -> np.ndarray:
         """The measured data's high-pass, applied to a prediction when ``self.filter``."""
@@ -96,18 +137,28 @@ class TrialProblem:
         return prediction[self.experiment.score]
 
     def _scored_prediction(self, values: Mapping[str, float]) -> np.ndarray | None:
+        """The scored prediction, or None for a failed simulation (``last_failure`` says why:
+        an unstable step, a divergence, an external model's error)."""
+        self.last_failure = None
         try:
             response = self.simulate(values)
-        except SimulationError:
-            return None  # an unstable integration step for these values: a failed step
+        except SimulationError as exc:
+            self.last_failure = f"trial {self.name!r}: {exc}"
+            return None
         if response.diverged:
+            self.last_failure = f"trial {self.name!r}: the simulation diverged"
             return None
         return self.scored(self.prediction(response))
 
     def phi(self, values: Mapping[str, float]) -> float:
         """φ of the trial at physical parameter values (inf for a failed simulation)."""
         prediction = self._scored_prediction(values)
-        return math.inf if prediction is None else self.objective(prediction)
+        if prediction is None:
+            return math.inf
+        phi = self.objective(prediction)
+        if not math.isfinite(phi):
+            self.last_failure = f"trial {self.name!r}: the processed prediction is not finite"
+        return phi
 
     def per_channel(self, values: Mapping[str, float]) -> np.ndarray:
         """Each channel's error at physical parameter values (inf for a failed simulation)."""
@@ -196,8 +247,46 @@ class UpdateProblem:
         return math.fsum(share * t.phi(values) for share, t in zip(self._shares, self.fitted,
                                                                    strict=True))
 
+    @property
+    def last_failure(self) -> str | None:
+        """Why the last evaluation was inf (the first failed trial's reason), or None."""
+        return next((t.last_failure for t in self.fitted if t.last_failure), None)
+
+    def evaluate(self, x: np.ndarray) -> Evaluation:
+        """φ at ``x``, and why it is inf when the evaluation failed, and how long it took."""
+        start = time.perf_counter()
+        phi = self(x)
+        seconds = time.perf_counter() - start
+        if math.isfinite(phi):
+            return Evaluation(phi, None, seconds)
+        return Evaluation(math.inf, self.last_failure or "φ is not finite", seconds)
+
+    def frequencies(self, x: Point) -> np.ndarray:
+        """Natural frequencies (Hz) of the model at ``x``."""
+        return self.fitted[0].frequencies(self._physical(x))
+
+    def close(self) -> None:
+        """Stop the external model's processes, if any, in this process."""
+        for trial in self.trials:
+            trial.close()
+
     def residuals(self, x: Point) -> np.ndarray:
         """The residual vector r(x) of every fitted trial, with φ(x) = ‖r‖² to rounding."""
         values = self._physical(x)
         return np.concatenate([math.sqrt(share) * t.residuals(values)
                                for share, t in zip(self._shares, self.fitted, strict=True)])
+
+
+def _check_external(case: Case, experiment: Experiment, quantity: str) -> None:
+    """What an external model gives must give what the error function compares."""
+    where = "model.python" if case.model.python is not None else "model.opensees"
+    if experiment.quantity == "acceleration" and quantity != "acceleration":
+        raise ConfigError(f"{case.label}: {where}.quantity: got 'displacement' but the "
+                          "objective compares accelerations (allowed: 'acceleration', or "
+                          "objective.quantity = 'displacement')")
+    if (experiment.quantity == "displacement" and quantity == "acceleration"
+            and not case.objective.integrate_prediction):
+        raise ConfigError(f"{case.label}: objective.integrate_prediction: got false with a "
+                          "model giving accelerations: its displacements can only be "
+                          "integrated (allowed: true, or a model with quantity = "
+                          "'displacement')")

@@ -21,7 +21,6 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.errors import FemupdateError
 from femupdate.experiment import Experiment, load_experiments
-from femupdate.model.modes import natural_frequencies
 from femupdate.results import (
     Best,
     Fit,
@@ -66,8 +65,7 @@ class UpdateResult:
 
 
 def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
-    freqs, _ = natural_frequencies(problem.system(x))
-    return freqs[:N_FREQUENCIES].tolist()
+    return problem.frequencies(x)[:N_FREQUENCIES].tolist()
 
 
 def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: float,

@@ -6,9 +6,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from external_helpers import USER_CODE, Space, experiment
+from external_helpers import USER_CODE, problem_for
 
-from femupdate.external import ExternalProblem, PythonModel
+from femupdate.update import UpdateProblem
 
 
 @pytest.fixture(scope="session")
@@ -19,9 +19,10 @@ def user_module(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def problem(user_module: Path) -> Iterator[ExternalProblem]:
+def problem(user_module: Path) -> Iterator[UpdateProblem]:
     """Isolated, with a 1.5 s time-out; its child process reused across a module's tests."""
-    model = PythonModel(f"{user_module}:model", ["roof"], frequencies=f"{user_module}:frequencies")
-    prob = ExternalProblem(model, experiment(), Space(), timeout=1.5)
+    prob = problem_for({"python": {"function": f"{user_module}:model",
+                                   "frequencies": f"{user_module}:frequencies",
+                                   "timeout": 1.5}})
     yield prob
     prob.close()

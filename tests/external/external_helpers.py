@@ -6,11 +6,15 @@ A module of its own (not conftest.py, of which the suite has several): pickled o
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from femupdate.case import Case, parse_case
 from femupdate.experiment import Experiment
+from femupdate.update import UpdateProblem
 
 N_SAMPLES = 200
 DT = 0.01
@@ -72,6 +76,31 @@ class Space:
 
     def to_physical(self, x: Sequence[float] | np.ndarray) -> dict[str, float]:
         return dict(zip(self.parameter_names, map(float, x), strict=True))
+
+
+def case_for(model: dict[str, Any], *, quantity: str = "acceleration", space: Space = Space(),
+             channels: Sequence[str] = ("roof",), source: Path | None = None) -> Case:
+    """A case whose ``[model]`` is ``model`` (``{"python": {...}}`` or ``{"opensees": ...}``);
+    its ``[data]`` names the channels only: the experiments here are made in memory."""
+    return parse_case({
+        "case": {"name": "user"},
+        "model": model,
+        "parameters": [{"name": n, "lower": lo, "upper": hi}
+                       for n, (lo, hi) in zip(space.parameter_names, space.limits, strict=True)],
+        "data": {"format": "csv", "rate": 1 / DT, "input": {"file": "x.csv", "column": 0},
+                 "outputs": [{"file": "x.csv", "column": i + 1, "name": c}
+                             for i, c in enumerate(channels)]},
+        "objective": {"quantity": quantity},
+    }, source=source)
+
+
+def problem_for(model: dict[str, Any], exp: Experiment | None = None, *,
+                space: Space = Space(), source: Path | None = None) -> UpdateProblem:
+    """φ of the case of ``model`` on the experiment ``exp`` (default :func:`experiment`)."""
+    exp = exp or experiment()
+    case = case_for(model, quantity=exp.quantity, space=space, channels=exp.channels,
+                    source=source)
+    return UpdateProblem(case, replace(exp, name=case.case.name))
 
 
 def experiment(quantity: str = "acceleration") -> Experiment:

@@ -5,29 +5,28 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from external_helpers import Space, experiment
+from external_helpers import case_for, problem_for
 
 from femupdate.errors import ConfigError, FemupdateError
-from femupdate.external import ExternalProblem, PythonModel, load_function, parse_ref
+from femupdate.external import PythonModel, load_function, parse_ref
 from femupdate.external.loader import compile_script
 
 
 def test_a_missing_module_is_named_when_the_model_is_loaded() -> None:
-    model = PythonModel("no_such_package.models:predict", ["roof"])
-    problem = ExternalProblem(model, experiment(), Space())
+    problem = problem_for({"python": {"function": "no_such_package.models:predict"}})
     with pytest.raises(ConfigError) as info:
         problem.evaluate([2.0, 0.0])
     problem.close()
     assert str(info.value) == (
-        "model.function: got 'no_such_package.models:predict': no module named "
+        "model.python.function: got 'no_such_package.models:predict': no module named "
         "'no_such_package' on the Python path (allowed: 'package.module:function' (importable "
         "here) or 'path/to/file.py:function')")
 
 
 def test_a_missing_function_lists_the_functions_there(user_module: Path) -> None:
-    model = PythonModel(f"{user_module}:modle", ["roof"])
-    problem = ExternalProblem(model, experiment(), Space())
-    with pytest.raises(ConfigError, match=r"model\.function: got '.*user_model\.py:modle': file "
+    problem = problem_for({"python": {"function": f"{user_module}:modle"}})
+    with pytest.raises(ConfigError, match=r"model\.python\.function: got '.*user_model\.py:modle'"
+                                          r": file "
                                           r"'.*' has no function 'modle'; did you mean 'model'\? "
                                           r"\(allowed: a function of it: 'fragile', 'frequencies', "
                                           r"'helper_not_for_users', 'model'\)"):
@@ -37,8 +36,8 @@ def test_a_missing_function_lists_the_functions_there(user_module: Path) -> None
 
 def test_a_model_that_kills_its_process_while_loading_stops_the_run(tmp_path: Path) -> None:
     (tmp_path / "crash.py").write_text("import os\nos._exit(3)\n")
-    problem = ExternalProblem(PythonModel("crash.py:f", ["roof"], base_dir=tmp_path),
-                              experiment(), Space())
+    problem = problem_for({"python": {"function": "crash.py:f"}},
+                          source=tmp_path / "case.toml")
     with pytest.raises(FemupdateError, match=r"could not be loaded in its own process: the "
                                              r"model's process died \(exit code 3\) while "
                                              r"loading the model"):
@@ -98,3 +97,19 @@ def test_outputs_and_quantity_are_checked() -> None:
         PythonModel("json:dumps", ["a"], quantity="velocity")
     with pytest.raises(ConfigError, match=r"model\.influence: got \[1, 0\]"):
         PythonModel("json:dumps", ["a"], influence=[1, 0])
+
+
+def test_a_missing_file_is_named_with_the_case_field(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"model\.python\.function: got 'nothere\.py:f': "
+                                          r"no file"):
+        problem_for({"python": {"function": "nothere.py:f"}}, source=tmp_path / "case.toml")
+
+
+def test_an_external_model_with_elements_or_too_few_channels_is_refused() -> None:
+    with pytest.raises(ConfigError, match=r"model\.python: an external model given together "
+                                          r"with model\.shear_building"):
+        case_for({"python": {"function": "m.py:f"},
+                  "shear_building": {"masses": [1.0], "stiffnesses": [1.0]}})
+    with pytest.raises(ConfigError, match=r"data\.outputs: 1 channels but "
+                                          r"model\.opensees\.outputs gives 2"):
+        case_for({"opensees": {"build": "m.py:build", "outputs": [[2, 2], [3, 2]]}})

@@ -9,19 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from external_helpers import Space, experiment
+from external_helpers import Space, experiment, problem_for
 
 from femupdate.errors import ConfigError
-from femupdate.external import (
-    Evaluation,
-    EvaluationError,
-    ExternalProblem,
-    PythonModel,
-    check_prediction,
-    evaluate_batch,
-)
+from femupdate.external import Evaluation, EvaluationError, check_prediction
+from femupdate.runs import run_all
+from femupdate.runs.batch import evaluate_batch
 from femupdate.runs.executors import open_executor
-from femupdate.runs.runner import run_all
+from femupdate.update import UpdateProblem
 
 #: mode → a fragment of the message of its failure.
 EXPECTED = {
@@ -38,15 +33,20 @@ def _x(mode: int, a: float = 2.0) -> np.ndarray:
     return np.array([a, float(mode)])
 
 
-def test_a_good_candidate_is_fitted(problem: ExternalProblem) -> None:
+def test_a_good_candidate_is_fitted(problem: UpdateProblem) -> None:
     ev = problem.evaluate(_x(0))
     assert ev == Evaluation(0.0, None, ev.seconds) and not ev.failed
     assert problem(_x(0, a=1.0)) == pytest.approx(0.25)  # (1 − 2)² / 2²
     assert problem.frequencies(_x(0, a=1.5)).tolist() == [1.5, 3.0]
 
 
+def _key(problem: UpdateProblem) -> str:
+    """Names the problem's model processes (one trial, one external model)."""
+    return problem.trials[0]._runner.key
+
+
 def test_every_failure_is_inf_with_its_message_and_the_batch_finishes(
-        problem: ExternalProblem) -> None:
+        problem: UpdateProblem) -> None:
     modes = [0, 1, 2, 3, 4, 5, 6, 0]
     start = time.perf_counter()
     results = evaluate_batch(problem, [_x(m) for m in modes])
@@ -62,11 +62,11 @@ def test_every_failure_is_inf_with_its_message_and_the_batch_finishes(
     assert "model output: step 41: no convergence" in results[6].error
 
 
-def test_a_hung_model_is_killed_and_replaced(problem: ExternalProblem) -> None:
+def test_a_hung_model_is_killed_and_replaced(problem: UpdateProblem) -> None:
     from femupdate.external.isolation import _all
 
     assert problem(_x(0)) == 0.0
-    (worker,) = _all[problem.key]
+    (worker,) = _all[_key(problem)]
     old_pid = worker.pid
     ev = problem.evaluate(_x(4))
     assert ev.phi == np.inf and 1.5 <= ev.seconds < 10
@@ -75,12 +75,12 @@ def test_a_hung_model_is_killed_and_replaced(problem: ExternalProblem) -> None:
     assert problem(_x(0)) == 0.0 and worker.pid != old_pid
 
 
-def test_batches_over_two_local_processes_keep_order(problem: ExternalProblem) -> None:
+def test_batches_over_two_local_processes_keep_order(problem: UpdateProblem) -> None:
     from femupdate.external.isolation import _all
 
     rows = [_x(0, 1.0), _x(1), _x(0, 2.0), _x(3), _x(0, 3.0)]
     assert problem(_x(0)) == 0.0
-    (mine,) = _all[problem.key]
+    (mine,) = _all[_key(problem)]
     pid = mine.pid
     with open_executor(2) as ex:  # forked workers: they must start their own model processes
         remote = evaluate_batch(problem, rows, ex)
@@ -91,25 +91,19 @@ def test_batches_over_two_local_processes_keep_order(problem: ExternalProblem) -
 
 
 def test_in_process_evaluation_catches_exceptions_too(user_module: Path) -> None:
-    model = PythonModel(f"{user_module}:model", ["roof"])
-    prob = ExternalProblem(model, experiment(), Space(), isolate=False)
+    prob = problem_for({"python": {"function": f"{user_module}:model", "isolate": False}})
     assert prob(_x(0)) == 0.0
     ev = prob.evaluate(_x(1))
-    assert ev.phi == np.inf and ev.error == "ValueError: negative stiffness in storey 2"
+    assert ev.phi == np.inf
+    assert ev.error == "trial 'user': ValueError: negative stiffness in storey 2"
     assert "shape (200, 2)" in prob.evaluate(_x(3)).error
 
 
 def test_a_time_out_needs_a_process(user_module: Path) -> None:
-    model = PythonModel(f"{user_module}:model", ["roof"])
     with pytest.raises(ConfigError, match=r"model\.timeout: a time-out needs the model in its "
                                           r"own process"):
-        ExternalProblem(model, experiment(), Space(), isolate=False, timeout=1.0)
-
-
-def test_outputs_must_match_the_channels(user_module: Path) -> None:
-    model = PythonModel(f"{user_module}:model", ["roof", "floor"])
-    with pytest.raises(ConfigError, match=r"model\.outputs: the model gives 2 outputs"):
-        ExternalProblem(model, experiment(), Space())
+        problem_for({"python": {"function": f"{user_module}:model", "isolate": False,
+                                "timeout": 1.0}})
 
 
 def test_check_prediction_accepts_one_column_as_a_vector() -> None:
@@ -119,9 +113,8 @@ def test_check_prediction_accepts_one_column_as_a_vector() -> None:
 
 
 def test_residuals_square_to_phi(user_module: Path) -> None:
-    model = PythonModel(f"{user_module}:model", ["roof"])
     exp = experiment("displacement")
-    prob = ExternalProblem(model, exp, Space(), isolate=False)
+    prob = problem_for({"python": {"function": f"{user_module}:model", "isolate": False}}, exp)
     for a in (2.0, 2.9, 3.0, 4.5):
         r = prob.residuals(_x(0, a))
         assert r.shape == (exp.t.size,)
@@ -129,7 +122,7 @@ def test_residuals_square_to_phi(user_module: Path) -> None:
     assert prob(_x(0, 3.0)) < 1e-20  # the integration constants fitted away
 
 
-def test_failures_on_a_dask_cluster_are_the_same(problem: ExternalProblem) -> None:
+def test_failures_on_a_dask_cluster_are_the_same(problem: UpdateProblem) -> None:
     distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
     rows = [_x(0, 1.0), _x(1), _x(5), _x(0, 3.0)]
     # Worker threads in this process: quick to start; each thread gets its own model process.
@@ -148,8 +141,8 @@ def test_a_search_through_the_runner_survives_failures(user_module: Path, tmp_pa
                                                        ) -> None:
     from femupdate.runs.store import ResultsStore
 
-    model = PythonModel(f"{user_module}:fragile", ["roof"])
-    prob = ExternalProblem(model, experiment(), Space(("a",), ((0.0, 5.0),)))
+    prob = problem_for({"python": {"function": f"{user_module}:fragile"}},
+                       space=Space(("a",), ((0.0, 5.0),)))
     try:
         outcomes = run_all(prob, prob.bounds, "ab", runs=2, seed=3, max_evals=150,
                            store_dir=tmp_path)
@@ -157,6 +150,12 @@ def test_a_search_through_the_runner_survives_failures(user_module: Path, tmp_pa
         prob.close()
     for outcome in outcomes:
         assert outcome.nfev == 150 and abs(outcome.x[0] - 2.0) < 1e-3
+        assert outcome.nfail > 0 and "unstable above a = 3.5" in outcome.failure
     with ResultsStore.open(tmp_path) as store:
         phi = np.concatenate([store.history(i)["fun"] for i in range(2)])
+        failures = store.failures(0)
     assert np.isinf(phi).any() and np.isfinite(phi).any()  # failures stored as inf, runs done
+    # every failed evaluation's message is in the store, at its evaluation
+    inf_at = np.flatnonzero(np.isinf(store_phi := phi[:150]))
+    assert [i for i, _ in failures] == inf_at.tolist() and store_phi.size == 150
+    assert all("ValueError: unstable above a = 3.5" in why for _, why in failures)

@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
-from external_helpers import Space
+from external_helpers import Space, problem_for
 
-from femupdate.benchmarks.opensees import import_opensees
 from femupdate.errors import ConfigError, MissingDependencyError
 from femupdate.experiment import Experiment
-from femupdate.external import ExternalProblem, OpenSeesModel
+from femupdate.external import ExternalRunner, OpenSeesModel
+from femupdate.external.openseespy import import_opensees
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.structure import Structure
 from femupdate.simulate import prepare
@@ -63,20 +62,28 @@ def _builtin(values: dict[str, float], beam_mass: bool = True):
     return s, s.assemble(values, direction="y")
 
 
-def _problem(build: str, ag: np.ndarray, **options) -> ExternalProblem:
+def _runner(build: str, ag: np.ndarray, **options) -> ExternalRunner:
+    """The adapter for the middle node's two DOFs, in its own process, under ``ag``."""
     model = OpenSeesModel(f"{MODULE}:{build}" if build else str(MODULE), [MIDDLE, (2, 3)],
                           direction=2, n_modes=4, eigen_solver="-fullGenLapack", **options)
+    return ExternalRunner(model, ag, DT)
+
+
+def _problem(build: str, ag: np.ndarray, **options):
+    """φ of the same model through a case file's [model.opensees]."""
     exp = _experiment(ag)
     exp = Experiment(t=exp.t, ag=exp.ag, accelerations=np.repeat(exp.accelerations, 2, 1),
                      target=np.repeat(exp.target, 2, 1), quantity="acceleration",
-                     channels=("mid", "mid.rz"), weights=np.ones(2))
-    return ExternalProblem(model, exp, SPACE)
+                     channels=("mid", "mid_rz"), weights=np.ones(2))
+    section = {"build": f"{MODULE}:{build}", "outputs": [list(MIDDLE), [2, 3]],
+               "direction": 2, "n_modes": 4, "eigen_solver": "-fullGenLapack", **options}
+    return problem_for({"opensees": section}, exp, space=SPACE)
 
 
 @pytest.mark.parametrize("algorithm", ["linear", "newton"])
 def test_accelerations_equal_builtin_newmark(algorithm: str) -> None:
     ag = _motion()
-    problem = _problem("build", ag, excitation="nodal", substeps=2, algorithm=algorithm)
+    problem = _runner("build", ag, excitation="nodal", substeps=2, algorithm=algorithm)
     try:
         theirs = problem.predict(VALUES)
     finally:
@@ -88,7 +95,7 @@ def test_accelerations_equal_builtin_newmark(algorithm: str) -> None:
 
 
 def test_frequencies_equal_builtin() -> None:
-    problem = _problem("build", _motion(), excitation="nodal")
+    problem = _runner("build", _motion(), excitation="nodal")
     try:
         theirs = problem.frequencies(VALUES)
     finally:
@@ -98,7 +105,7 @@ def test_frequencies_equal_builtin() -> None:
 
 
 def test_uniform_excitation_with_element_mass_is_refused() -> None:
-    problem = _problem("build", _motion(), excitation="uniform")
+    problem = _runner("build", _motion(), excitation="uniform")
     with pytest.raises(ConfigError, match=r"model\.build: UniformExcitation loads this model "
                                           r"with more \(or less\) than its mass: .* output 2\.2 "
                                           r"starts with relative acceleration -1\.[0-9]+ instead "
@@ -113,8 +120,7 @@ def test_a_script_with_nodal_masses_runs_under_uniform_excitation(tmp_path: Path
                       "import opensees_small\nopensees_small.build_massless_beams(params)\n")
     ag = _motion()
     model = OpenSeesModel(str(script), [MIDDLE], direction=2, quantity="displacement")
-    exp = replace(_experiment(ag), quantity="displacement")  # the target: any curve
-    problem = ExternalProblem(model, exp, SPACE)
+    problem = ExternalRunner(model, ag, DT)
     try:
         theirs = problem.predict(VALUES)
     finally:
@@ -132,7 +138,7 @@ def test_a_failing_build_is_one_failed_evaluation() -> None:
     finally:
         problem.close()
     assert ev.phi == np.inf
-    assert ev.error.startswith("EvaluationError: building the OpenSees model (")
+    assert ev.error.startswith("trial 'user': EvaluationError: building the OpenSees model (")
     assert "raised ValueError: no section for E = 2e+11" in ev.error
 
 
@@ -143,7 +149,7 @@ def test_missing_openseespy_names_the_extra(tmp_path: Path, monkeypatch: pytest.
     fake.mkdir()
     (fake / "__init__.py").write_text("raise ImportError('no OpenSees here')\n")
     monkeypatch.setattr(sys, "path", [str(tmp_path), *sys.path])
-    problem = _problem("build", _motion(), excitation="nodal")
+    problem = _runner("build", _motion(), excitation="nodal")
     with pytest.raises(MissingDependencyError, match=r"pip install 'femupdate\[opensees\]'"):
         problem.predict(VALUES)
     problem.close()
@@ -151,7 +157,7 @@ def test_missing_openseespy_names_the_extra(tmp_path: Path, monkeypatch: pytest.
 
 def test_an_output_the_model_lacks_is_a_config_error() -> None:
     model = OpenSeesModel(f"{MODULE}:build", [(9, 2)], direction=2, excitation="nodal")
-    problem = ExternalProblem(model, _experiment(_motion()), SPACE)
+    problem = ExternalRunner(model, _motion(), DT)
     with pytest.raises(ConfigError, match=r"model\.outputs: got node 9: the model built by .* "
                                           r"has no such node \(allowed: its nodes \[1, 2, 3, "
                                           r"11, 12, 13\]\)"):
@@ -168,6 +174,7 @@ def test_an_analysis_that_does_not_converge_is_one_failed_evaluation() -> None:
     finally:
         problem.close()
     assert ev.phi == np.inf
-    assert ev.error.startswith("EvaluationError: OpenSees analysis failed at t = 0.002 s "
+    assert ev.error.startswith("trial 'user': EvaluationError: OpenSees analysis failed at t = "
+                               "0.002 s "
                                "(sample 1 of 300; algorithm 'newton')")
     assert "the Algorithm failed at time 0.002" in ev.error  # OpenSees, from the model log

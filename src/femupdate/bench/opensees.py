@@ -39,33 +39,25 @@ whose domain was wiped by another is rebuilt before it runs.
 
 from __future__ import annotations
 
-import ctypes
-import functools
-import importlib
-import importlib.util
 import itertools
 import os
-import sys
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 
-from femupdate._optional import require
 from femupdate.case import Model, build_structure
 from femupdate.errors import (
     ConfigError,
     DataError,
-    MissingDependencyError,
     ModelError,
     SimulationError,
 )
+from femupdate.external.openseespy import OPENSEES_EXTRA, import_opensees
 from femupdate.model.system import System
 
 __all__ = ["OPENSEES_EXTRA", "OPENSEES_METHODS", "OpenSeesPeer", "import_opensees"]
 
-OPENSEES_EXTRA = "opensees"
 #: Integrators of :meth:`OpenSeesPeer.run`, named as femupdate's.
 OPENSEES_METHODS: tuple[str, ...] = ("newmark", "central_difference")
 
@@ -74,50 +66,6 @@ _SERIES_TAG = 1
 _PATTERN_TAG = 1
 _builds = itertools.count(1)  # build counter: tells a peer whether the domain is still its own
 _live_build = [0]
-
-
-def _bundled_blas() -> Path | None:
-    """The ``libblas.so.3`` shipped inside the openseespy Linux wheel, if there is one."""
-    spec = importlib.util.find_spec("openseespylinux")
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    for folder in spec.submodule_search_locations:
-        path = Path(folder) / "lib" / "libblas.so.3"
-        if path.is_file():
-            return path
-    return None
-
-
-@functools.cache
-def import_opensees() -> ModuleType:
-    """Import ``openseespy.opensees``, preloading the BLAS its Linux wheel bundles.
-
-    The wheel's ``opensees.so`` needs symbols of its own ``libblas.so.3`` but does not find
-    them by itself here (pitfalls.md §3): the library is loaded first with ``RTLD_GLOBAL``.
-
-    Returns
-    -------
-    module
-        ``openseespy.opensees``.
-
-    Raises
-    ------
-    MissingDependencyError
-        When openseespy is not installed (``pip install 'femupdate[opensees]'``), or is
-        installed but cannot be imported.
-    """
-    require("openseespy", OPENSEES_EXTRA)
-    if sys.platform.startswith("linux"):
-        blas = _bundled_blas()
-        if blas is not None:
-            ctypes.CDLL(str(blas), mode=ctypes.RTLD_GLOBAL)
-    try:
-        return importlib.import_module("openseespy.opensees")
-    except (ImportError, RuntimeError) as exc:  # the package turns any failure into RuntimeError
-        raise MissingDependencyError(
-            f"openseespy is installed but 'openseespy.opensees' failed to import ({exc}); "
-            f"reinstall it with: pip install --force-reinstall 'femupdate[{OPENSEES_EXTRA}]'"
-        ) from exc
 
 
 def _resolve(value: float | str, values: Mapping[str, float]) -> float:

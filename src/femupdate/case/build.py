@@ -20,6 +20,7 @@ from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError
 
 if typing.TYPE_CHECKING:
+    from femupdate.external.protocol import ExternalModel
     from femupdate.model.structure import Structure
     from femupdate.model.system import System
     from femupdate.simulate import Simulator
@@ -103,26 +104,39 @@ class CaseModel:
     """
 
     def __init__(self, case: Case, channels: Sequence[OutputChannel] | None = None) -> None:
+        if channels is None:
+            channels = case.data.outputs if case.data is not None else []
+        self._label = case.label
+        self.external = external_model(case, channels)
+        if self.external is not None:
+            self.structure = None
+            self.influence = np.asarray(self.external.influence, dtype=float)
+            self.outputs = np.arange(len(channels), dtype=np.int64)
+            return
         self.structure = build_structure(case.model)
         self.direction = case.model.excitation_direction
         self.method = case.simulation_method
         self.substeps = 1 if self.method == "exact" else case.preprocess.substeps
-        if channels is None:
-            channels = case.data.outputs if case.data is not None else []
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
-        self._label = case.label
+
+    def _builtin(self, what: str) -> Structure:
+        if self.structure is None:
+            raise ConfigError(f"{self._label}: {what} needs femupdate's own model; this case's "
+                              "model is external ([model.python] or [model.opensees])")
+        return self.structure
 
     def system(self, values: Mapping[str, float]) -> System:
         """The assembled equations of motion at physical parameter ``values``."""
-        return self.structure.assemble(values, direction=self.direction)
+        return self._builtin("the assembled system").assemble(values, direction=self.direction)
 
     def simulator(self, values: Mapping[str, float], dt: float) -> Simulator:
         """The case's integrator prepared for the system at ``values`` and sample interval
         ``dt``, with the output DOFs."""
         from femupdate.simulate import prepare
 
+        self._builtin("simulating the model")
         if self.outputs.size == 0:
             raise ConfigError(f"{self._label}: the case has no [data] outputs: nothing to "
                               "simulate at")
@@ -159,3 +173,29 @@ def check_parameter_values(values: object, names: tuple[str, ...],
                               "finite number)")
         out[name] = float(value)
     return out
+
+
+def external_model(case: Case, channels: Sequence[OutputChannel]) -> ExternalModel | None:
+    """The adapter of the case's ``[model.python]`` or ``[model.opensees]`` (None: femupdate's
+    own model). Relative paths start from the case file's folder."""
+    section = case.model.external
+    if section is None:
+        return None
+    from femupdate.external.opensees_model import OpenSeesModel
+    from femupdate.external.python_model import PythonModel
+
+    base = case.source.parent if case.source is not None else None
+    labels = [c.label for c in channels]
+    if case.model.python is not None:
+        py = case.model.python
+        return PythonModel(py.function, labels, quantity=py.quantity, frequencies=py.frequencies,
+                           influence=py.influence, base_dir=base, field="model.python")
+    ops = case.model.opensees
+    assert ops is not None
+    return OpenSeesModel(ops.build, ops.outputs, quantity=ops.quantity, direction=ops.direction,
+                         excitation=ops.excitation, substeps=case.preprocess.substeps,
+                         algorithm=ops.algorithm, tolerance=ops.tolerance,
+                         max_iterations=ops.max_iterations, system=ops.system,
+                         constraints=ops.constraints, n_modes=ops.n_modes,
+                         eigen_solver=ops.eigen_solver, check_base_load=ops.check_base_load,
+                         base_dir=base, field="model.opensees")

@@ -26,6 +26,18 @@ ELEMENT_LISTS = ("nodes", "beams", "springs", "dampers", "frictions", "masses", 
 
 def model_issues(model: Model) -> list[Issue]:
     issues: list[Issue] = []
+    external = [key for key in ("python", "opensees") if getattr(model, key) is not None]
+    if external:
+        given = [key for key in (*ELEMENT_LISTS, "shear_building", "rayleigh")
+                 if getattr(model, key)]
+        if len(external) > 1:
+            issues.append(("python", "both [model.python] and [model.opensees] are given",
+                           "one external model"))
+        if given:
+            issues.append((external[0], "an external model given together with model."
+                           + ", model.".join(given), "either an external model or femupdate's "
+                           "elements, not both"))
+        return issues
     used = [key for key in ELEMENT_LISTS if getattr(model, key)]
     if model.shear_building is not None:
         if used:
@@ -159,7 +171,7 @@ def case_issues(case: Case) -> list[Issue]:
                            f"[{format_value(p.lower)}, {format_value(p.upper)}] but is used "
                            f"at {path}", f"bounds {rng.interval()}"))
     for name, (i, _) in declared.items():
-        if name not in used:
+        if name not in used and case.model.external is None:  # an external model's own use
             issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
                            "model never uses it", f'use it in [model] (e.g. k = "{name}") '
                            "or remove it"))
@@ -213,13 +225,21 @@ def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
 
 
 def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
-    """Outputs on nodes and free DOFs of the model (``where``: "data" or "trials[i]")."""
+    """Outputs on nodes and free DOFs of the model (``where``: "data" or "trials[i]"); an
+    external model's outputs are its columns in order: as many as it gives."""
+    if model.external is not None:
+        return _external_output_issues(model, data, where)
     issues: list[Issue] = []
     nodes = model.node_names()
     dofs = model.dof_names()
     fixed = model.fixed_dofs()
     for i, out in enumerate(data.outputs):
         path = f"{where}.outputs[{i}]"
+        missing = [key for key in ("node", "dof") if getattr(out, key) is None]
+        if missing:
+            issues.append((f"{path}.{missing[0]}", f"{' and '.join(missing)} not given",
+                           "the node and DOF of the model this channel measures"))
+            continue
         if out.node not in nodes:
             hint = did_you_mean(out.node, list(nodes))
             shown = ", ".join(repr(n) for n in nodes[:20]) + (", ..." if len(nodes) > 20 else "")
@@ -233,3 +253,14 @@ def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
                            f"{fixed[out.node, out.dof]}: it moves with the table",
                            "a free DOF of the model"))
     return issues
+
+
+def _external_output_issues(model: Model, data: Data, where: str) -> list[Issue]:
+    count = (len(model.opensees.outputs) if model.opensees is not None
+             else len(model.python.influence) if model.python and model.python.influence
+             else None)
+    if count is not None and count != len(data.outputs):
+        key = "model.opensees.outputs" if model.opensees is not None else "model.python.influence"
+        return [(f"{where}.outputs", f"{len(data.outputs)} channels but {key} gives {count}",
+                 f"one channel per output of the model, in the order of {key}")]
+    return []

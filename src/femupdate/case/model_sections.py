@@ -32,6 +32,9 @@ from femupdate.case.fields import (
     SlipForce,
     Stiffness,
     format_value,
+    integer_field,
+    number_field,
+    text_field,
 )
 from femupdate.case.issues import Issue, raise_issues
 
@@ -174,8 +177,54 @@ class ShearBuilding(Section):
 
 
 
+CodeReference = text_field(4096, 1)
+Timeout = number_field("s", gt=0.0, le=1e6)
+
+
+class PythonModelSection(Section):
+    """``[model.python]``: the user's Python function as the model.
+
+    ``function(values, ag, dt)`` returns the predicted channels, one column per
+    ``[[data.outputs]]`` in order: absolute accelerations (m/s²) or displacements relative to
+    the base (m), by ``quantity``.
+    """
+
+    function: CodeReference
+    frequencies: CodeReference | None = None
+    quantity: Literal["acceleration", "displacement"] = "acceleration"
+    influence: Annotated[list[number_field(ge=-1e3, le=1e3)],
+                         Field(min_length=1, max_length=10_000)] | None = None
+    timeout: Timeout | None = None
+    isolate: bool = True
+
+
+class OpenSeesSection(Section):
+    """``[model.opensees]``: an OpenSeesPy model built by the user's code, analysed by
+    femupdate under the measured base motion."""
+
+    build: CodeReference
+    outputs: Annotated[list[Annotated[list[integer_field(ge=1, le=10**9)],
+                                      Field(min_length=2, max_length=2)]],
+                       Field(min_length=1, max_length=10_000)]
+    quantity: Literal["acceleration", "displacement"] = "acceleration"
+    direction: integer_field(ge=1, le=6) = 1
+    excitation: Literal["uniform", "nodal"] = "uniform"
+    algorithm: Literal["newton", "linear"] = "newton"
+    tolerance: number_field(gt=0.0, lt=1.0) = 1e-10
+    max_iterations: integer_field(ge=1, le=10_000) = 25
+    system: text_field(64, 1) = "BandGeneral"
+    constraints: text_field(64, 1) = "Plain"
+    n_modes: integer_field(ge=1, le=10_000) = 6
+    eigen_solver: Literal["-genBandArpack", "-fullGenLapack", "-symmBandLapack"] = (
+        "-genBandArpack")
+    check_base_load: bool = True
+    timeout: Timeout | None = None
+    isolate: bool = True
+
+
 class Model(Section):
-    """``[model]``: the finite element model."""
+    """``[model]``: the finite element model, or an external one (``[model.python]``,
+    ``[model.opensees]``)."""
 
     dofs_per_node: Literal[2, 3] = 2
     direction: Literal["x", "y"] | None = None
@@ -188,11 +237,18 @@ class Model(Section):
     masses: list[Mass] = Field(default_factory=list)
     supports: list[Support] = Field(default_factory=list)
     shear_building: ShearBuilding | None = None
+    python: PythonModelSection | None = None
+    opensees: OpenSeesSection | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Model:
         raise_issues(model_issues(self))
         return self
+
+    @property
+    def external(self) -> PythonModelSection | OpenSeesSection | None:
+        """The external model's section, or None for femupdate's own."""
+        return self.python or self.opensees
 
     @property
     def has_friction(self) -> bool:
@@ -211,6 +267,8 @@ class Model(Section):
         return ("ux",) if self.shear_building is not None else DOF_NAMES[self.dofs_per_node]
 
     def node_names(self) -> tuple[str, ...]:
+        if self.external is not None:
+            return ()
         if self.shear_building is not None:
             return self.shear_building.floors
         return tuple(node.name for node in self.nodes)

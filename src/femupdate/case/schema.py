@@ -124,15 +124,17 @@ class Channel(Section):
 class OutputChannel(Channel):
     """``[[data.outputs]]``: a measured absolute acceleration at a DOF of the model."""
 
-    node: NodeName
-    dof: DofName
+    node: NodeName | None = None
+    dof: DofName | None = None
     weight: number_field(gt=0.0, le=1e6) = 1.0
     name: ElementName | None = None
     delay: Delay = 0.0
 
     @property
     def label(self) -> str:
-        return self.name if self.name is not None else f"{self.node}.{self.dof}"
+        if self.name is not None:
+            return self.name
+        return f"{self.node}.{self.dof}" if self.node is not None else str(self.column)
 
 
 #: A time window [t_start, t_end] of a record, s.
@@ -389,7 +391,9 @@ class Case(Section):
         pre = self.preprocess
         if pre.highpass_hz <= 0.0:
             return False
-        return self.model.has_friction if pre.filter_prediction is None else pre.filter_prediction
+        if pre.filter_prediction is not None:
+            return pre.filter_prediction
+        return self.model.has_friction  # an external model's linearity is unknown: not filtered
 
     @property
     def simulation_method(self) -> str:

@@ -1,10 +1,11 @@
 """Models femupdate did not build: the user's Python function, or an OpenSeesPy model.
 
 An adapter (:class:`ExternalModel`) turns parameter values, the base acceleration and its time
-step into the predicted channels; :class:`ExternalProblem` makes φ of it with femupdate's
-processing and objective; evaluations run in a child process per calling process (killable on
-a time-out, isolated from the model's global state and crashes) and batches spread over local
-processes or Dask (:func:`evaluate_batch`). A failed evaluation is φ = inf with its message.
+step into the predicted channels; :class:`ExternalRunner` runs it for one base motion in a
+child process (killable on a time-out, isolated from the model's global state and crashes).
+A case names its model in ``[model.python]`` or ``[model.opensees]``; everything after the
+prediction (processing, error function, runs, store, report) is femupdate's
+(:class:`femupdate.update.UpdateProblem`). A failed evaluation is φ = inf with its message.
 
 Names are imported on first use: the worker process that holds a model imports only what the
 model needs (a child starts faster).
@@ -25,8 +26,7 @@ _LAZY = {
     "PythonModel": "femupdate.external.python_model",
     "OpenSeesModel": "femupdate.external.opensees_model",
     "IsolatedModel": "femupdate.external.isolation",
-    "ExternalProblem": "femupdate.external.problem",
-    "evaluate_batch": "femupdate.external.batch",
+    "ExternalRunner": "femupdate.external.runner",
 }
 
 __all__ = sorted(_LAZY)

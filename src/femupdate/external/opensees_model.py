@@ -165,7 +165,7 @@ class OpenSeesModel:
         """Import OpenSeesPy (MissingDependencyError naming the extra) and the user's code."""
         if self._builder is not None:
             return
-        from femupdate.benchmarks.opensees import import_opensees
+        from femupdate.external.openseespy import import_opensees
 
         self._ops = import_opensees()  # before the user's module imports openseespy
         if self.ref.function is not None:

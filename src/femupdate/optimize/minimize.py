@@ -126,13 +126,15 @@ class MinimizeState:
         self.best_x = low + 0.5 * self.span  # replaced by the first evaluation
         self.best_f = math.inf
         self.stopped: dict[str, object] = {}
+        self.nfail = 0  # evaluations that failed (φ = inf)
+        self.first_failure: str | None = None  # why the first one failed, if fun says
         self._new_history(room=min(max_evals, 1024))
 
     # -- checkpoints ---------------------------------------------------------------------------
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for name in ("_hist_x", "_hist_f", "_hist_t"):
+        for name in ("_hist_x", "_hist_f", "_hist_t", "_failures"):
             del state[name]
         return state
 
@@ -147,6 +149,12 @@ class MinimizeState:
         self._hist_x = np.empty((cap, self.low.size))
         self._hist_f = np.empty(cap)
         self._hist_t = np.empty(cap if self.record_times else 0)
+        self._failures: list[tuple[int, str]] = []
+
+    def failures_since(self, nfev: int) -> list[tuple[int, str]]:
+        """(evaluation, why it failed) of the failed evaluations ``nfev`` … that are held,
+        when ``fun`` says why (its attribute ``last_failure``)."""
+        return [(i, why) for i, why in self._failures if i >= nfev]
 
     def evaluations_since(self, nfev: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Copies of ``x`` (k, n), φ (k,) and wall times (k,; empty without ``record_times``)
@@ -181,6 +189,8 @@ class MinimizeState:
         try:
             for i in range(k):
                 fs[i] = f = self._evaluate_next(results, x[i])
+                if f == math.inf:
+                    self._record_failure(fun)
                 evaluated += 1
                 if on_evaluation is not None:
                     on_evaluation(x[i], f)
@@ -218,6 +228,15 @@ class MinimizeState:
             self.best_f = f
             self.best_x = x.copy()
         return f
+
+    def _record_failure(self, fun: ScalarFunction) -> None:
+        """Count a failed evaluation and keep why, when ``fun`` (evaluated here) says."""
+        self.nfail += 1
+        why = getattr(fun, "last_failure", None)
+        if isinstance(why, str):
+            self._failures.append((self.nfev - 1, why))
+            if self.first_failure is None:
+                self.first_failure = why
 
     def _grow_history(self) -> None:
         held = self.nfev - self._hist_first
@@ -257,6 +276,8 @@ class MinimizeState:
             stop=stop,
             method=self.method,
             restarts=int(getattr(self.optimizer, "restarts_done", 0)),
+            nfail=self.nfail,
+            failure=self.first_failure,
             history=self.history(),
         )
 
@@ -383,8 +404,10 @@ def minimize(
         own convergence criteria, not the budget; with an ``f_target``: it was reached),
         ``status`` (:class:`~femupdate.optimize.termination.Status`), ``message``, ``stop``
         (every criterion that fired, with its value), ``method``, ``restarts`` (how many times
-        the optimizer started afresh: its option ``restarts``), ``history`` (``x`` (nfev, n),
-        ``fun`` (nfev,) and the optimizer's trace arrays).
+        the optimizer started afresh: its option ``restarts``), ``nfail`` (evaluations that
+        failed, φ = inf) and ``failure`` (why the first did, when ``fun`` has an attribute
+        ``last_failure`` saying it, as femupdate's update problems do), ``history`` (``x``
+        (nfev, n), ``fun`` (nfev,) and the optimizer's trace arrays).
     """
     if callback is not None and not callable(callback):
         raise ConfigError(f"callback must be callable or None, got {callback!r}")

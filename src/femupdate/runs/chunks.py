@@ -123,6 +123,7 @@ def advance_chunk(fun: Callable[[np.ndarray], float], task: ChunkTask,
         run=task.run, first_eval=nfev0, x=x, phi=phi, wall_s=task.wall_s + (stamps - t0),
         first_step=nit0, trace=trace, nfev=state.nfev, nit=state.nit,
         best_phi=float(state.best_f), run_wall_s=run_wall, state=blob,
+        failures=state.failures_since(nfev0),
     )
     return ChunkResult(record, outcome)
 

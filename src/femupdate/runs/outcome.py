@@ -32,6 +32,8 @@ class RunOutcome:
     stop: dict[str, Any]
     wall_s: float
     restarts: int = 0
+    nfail: int = 0
+    failure: str | None = None
     history: dict[str, np.ndarray] | None = field(default=None, repr=False)
 
     def to_dict(self, names: Sequence[str] | None = None) -> dict[str, Any]:
@@ -47,6 +49,8 @@ class RunOutcome:
             "nfev": self.nfev,
             "nit": self.nit,
             "restarts": self.restarts,
+            "nfail": self.nfail,
+            "failure": self.failure,
             "wall_s": self.wall_s,
             "x": self.x.tolist(),
         }
@@ -70,6 +74,8 @@ class RunOutcome:
             stop=dict(data["stop"]),
             wall_s=float(data["wall_s"]),
             restarts=int(data.get("restarts", 0)),
+            nfail=int(data.get("nfail", 0)),
+            failure=data.get("failure"),
         )
 
 
@@ -105,4 +111,5 @@ def outcome_of(index: int, seed: np.random.SeedSequence, res: OptimizeResult, wa
                       fun=float(res.fun), nfev=int(res.nfev), nit=int(res.nit),
                       success=bool(res.success), status=int(res.status),
                       message=str(res.message), stop=dict(res.stop), wall_s=wall_s,
-                      restarts=int(res.restarts), history=history)
+                      restarts=int(res.restarts), nfail=int(res.get("nfail", 0)),
+                      failure=res.get("failure"), history=history)

@@ -30,17 +30,12 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.errors import FemupdateError
-
-try:  # POSIX; elsewhere the lock falls back to the pid written in the lock file
-    import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None  # type: ignore[assignment]
+from femupdate.errors import StoreError
+from femupdate.runs.lock import StoreLock as _Lock
 
 #: Bumped whenever the tables change incompatibly.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 FILENAME = "results.sqlite"
-LOCK_SUFFIX = ".lock"
 #: How long a statement waits for another connection's write lock before failing.
 BUSY_TIMEOUT_MS = 10_000
 _SQLITE_HEADER = b"SQLite format 3\x00"
@@ -74,6 +69,12 @@ CREATE TABLE traces (
     data BLOB NOT NULL,
     PRIMARY KEY (run, step0)
 ) WITHOUT ROWID;
+CREATE TABLE failures (
+    run INTEGER NOT NULL REFERENCES runs (run),
+    eval INTEGER NOT NULL,
+    message TEXT NOT NULL,
+    PRIMARY KEY (run, eval)
+) WITHOUT ROWID;
 CREATE TABLE checkpoints (
     run INTEGER PRIMARY KEY REFERENCES runs (run),
     nfev INTEGER NOT NULL,
@@ -83,10 +84,6 @@ CREATE TABLE checkpoints (
     written REAL NOT NULL
 );
 """
-
-
-class StoreError(FemupdateError):
-    """A results store that cannot be used: another case's, locked, corrupt, incompatible."""
 
 
 def software_versions() -> dict[str, str]:
@@ -156,7 +153,8 @@ class ChunkRecord:
     ``x`` (k, n), ``phi`` (k,) and ``wall_s`` (k,) are evaluations ``first_eval`` … ``first_eval
     + k − 1``; ``trace`` holds the optimizer's per-step rows from step ``first_step`` on.
     ``state`` is the checkpoint after the chunk (None: not checkpointable, or the run is done);
-    ``result`` (JSON-ready) marks the run done.
+    ``result`` (JSON-ready) marks the run done; ``failures`` (evaluation, message) says why
+    evaluations of the chunk failed.
     """
 
     run: int
@@ -172,6 +170,7 @@ class ChunkRecord:
     run_wall_s: float
     state: bytes | None
     result: Mapping[str, Any] | None = None
+    failures: Sequence[tuple[int, str]] = ()
 
 
 class ResultsStore:
@@ -459,9 +458,16 @@ class ResultsStore:
         with self.transaction() as cur:
             cur.execute("DELETE FROM evaluations WHERE run = ? AND eval >= ?", (run, nfev))
             removed = cur.rowcount
+            cur.execute("DELETE FROM failures WHERE run = ? AND eval >= ?", (run, nfev))
             cur.execute("DELETE FROM traces WHERE run = ? AND step0 >= ?", (run, nit))
             cur.execute("UPDATE runs SET nfev = ?, nit = ? WHERE run = ?", (nfev, nit, run))
         return removed
+
+    def failures(self, run: int) -> list[tuple[int, str]]:
+        """(evaluation, why it failed) of the run's failed evaluations whose reason is known."""
+        rows = self._conn.execute("SELECT eval, message FROM failures WHERE run = ? ORDER BY "
+                                  "eval", (run,)).fetchall()
+        return [(int(i), str(m)) for i, m in rows]
 
     def write_chunk(self, chunk: ChunkRecord) -> None:
         """The chunk's evaluations, trace rows, checkpoint and run row, in one transaction."""
@@ -485,6 +491,8 @@ class ResultsStore:
                     f"run {chunk.run}: evaluations {chunk.first_eval}…{chunk.first_eval + k - 1}"
                     f" are already stored ({exc}); the store and the run disagree"
                 ) from exc
+            cur.executemany("INSERT OR REPLACE INTO failures (run, eval, message) VALUES "
+                            "(?, ?, ?)", [(chunk.run, i, why) for i, why in chunk.failures])
             if any(np.shape(v)[0] for v in chunk.trace.values()):
                 cur.execute("INSERT OR REPLACE INTO traces (run, step0, data) VALUES (?, ?, ?)",
                             (chunk.run, chunk.first_step, _pack_arrays(chunk.trace)))
@@ -537,62 +545,3 @@ def _pack_arrays(arrays: Mapping[str, np.ndarray]) -> bytes:
 def _unpack_arrays(data: bytes) -> dict[str, np.ndarray]:
     with np.load(io.BytesIO(data), allow_pickle=False) as npz:
         return {k: npz[k] for k in npz.files}
-
-
-class _Lock:
-    """An exclusive lock on ``<store>.lock`` for the lifetime of an open store."""
-
-    def __init__(self, path: Path, fd: int) -> None:
-        self.path = path
-        self.fd: int | None = fd
-
-    @classmethod
-    def acquire(cls, store_path: Path) -> _Lock:
-        path = store_path.with_name(store_path.name + LOCK_SUFFIX)
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            if fcntl is not None:
-                try:
-                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                except BlockingIOError:
-                    raise StoreError(_locked_message(store_path, _read_pid(fd))) from None
-            else:  # pragma: no cover - no flock: trust a live pid in the file
-                pid = _read_pid(fd)
-                if pid is not None and pid != os.getpid() and _alive(pid):
-                    raise StoreError(_locked_message(store_path, pid))
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-        except BaseException:
-            os.close(fd)
-            raise
-        return cls(path, fd)
-
-    def release(self) -> None:
-        if self.fd is not None:
-            os.close(self.fd)  # closing drops the flock
-            self.fd = None
-
-
-def _read_pid(fd: int) -> int | None:
-    try:
-        return int(os.pread(fd, 32, 0).decode().strip())
-    except (ValueError, OSError):
-        return None
-
-
-def _alive(pid: int) -> bool:  # pragma: no cover - used without fcntl only
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def _locked_message(store_path: Path, pid: int | None) -> str:
-    who = f"process {pid}" if pid is not None else "another process"
-    return (
-        f"{store_path.parent} is in use: {who} is running in it (lock {store_path.name}"
-        f"{LOCK_SUFFIX}); wait for it to finish or stop it, then resume"
-    )
