@@ -28,3 +28,8 @@ class SimulationError(FemupdateError, RuntimeError):
 
 class MissingDependencyError(FemupdateError, ImportError):
     """An optional dependency is not installed."""
+
+
+class FemupdateWarning(UserWarning):
+    """Something femupdate did or accepted that the user should know: records cut to their
+    overlap, a truth outside the bounds, a run in which no evaluation succeeded."""
