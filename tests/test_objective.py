@@ -1,4 +1,5 @@
-"""Tests of femupdate.objective: Eq. 1 and the experimental parameters (METHOD.md §1, §8)."""
+"""Tests of femupdate.objective: Eq. 1 and the experimental parameters (the paper's Eq. 1 and
+§5.2; docs/method.md)."""
 
 from __future__ import annotations
 

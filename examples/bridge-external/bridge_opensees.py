@@ -5,8 +5,8 @@ deck's axial DOF is fixed (the base moves along y, transversely, and the beams a
 The deck: ``ElasticTimoshenkoBeam`` with consistent mass (``-cMass``); springs and dampers are
 ``zeroLength`` elements to fixed ground nodes 11–15; 48 kg on each node.
 
-UniformExcitation counts this beam's mass twice in its load (pitfalls.md §2): run this model
-with ``excitation = "nodal"`` (femupdate applies −M r a_g as nodal loads), or femupdate's
+UniformExcitation counts this beam's mass twice in its load (docs/external-models.md): run this
+model with ``excitation = "nodal"`` (femupdate applies −M r a_g as nodal loads), or femupdate's
 base-load check stops the run. Two variants a user might try instead: ``build_lumped``, the
 beams' own lumped mass (``-mass`` without ``-cMass``: still counted twice), and
 ``build_nodal_mass``, the beams' mass put on the nodes with ``ops.mass`` (loaded right by

@@ -1,8 +1,20 @@
-"""The ``femupdate`` command line (also ``python -m femupdate``)."""
+"""The ``femupdate`` command line (also ``python -m femupdate``).
+
+Messages and help are printed as written (no rich markup: bracketed names such as ``[search]``
+stay), femupdate's errors as one line with exit code 2, Ctrl-C as one line (with the command that
+resumes a run) and exit code 130; tables fit 80 columns.
+
+Why this file is long (about 650 lines): typer declares each command's options, with their help,
+in the command's signature, so ten commands take half of the file; the other half prints their
+results (the run tables, the bridge's, the modes'), which only the command line needs.
+"""
 
 from __future__ import annotations
 
 import json
+import math
+import shlex
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -10,28 +22,40 @@ import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
-from femupdate.errors import FemupdateError
+from femupdate.errors import ConfigError, FemupdateError, FemupdateWarning
 
 if TYPE_CHECKING:
+    from femupdate.case import Case
     from femupdate.results import Summary, TrialRecord
 
+# Help and messages are printed as written: rich markup would eat bracketed names such as
+# [search] or [[parameters]] (rich_markup_mode=None; console output with markup=False).
 app = typer.Typer(
     help="Finite element model updating in structural dynamics, in the time domain.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
+    rich_markup_mode=None,
 )
-bench_app = typer.Typer(help="Benchmarks of the paper and of speed.", no_args_is_help=True)
+bench_app = typer.Typer(help="Benchmarks of the paper and of speed.", no_args_is_help=True,
+                        rich_markup_mode=None)
 app.add_typer(bench_app, name="bench")
-console = Console()
+console = Console(markup=False)
 
 JsonOption = Annotated[
     Path | None, typer.Option("--json", help="Write machine-readable results to this file.")
 ]
 WorkersOption = Annotated[
-    int, typer.Option("--workers", min=1, help="Parallel worker processes for the runs.")
+    int, typer.Option("--workers", min=1, help="Parallel worker processes for the benchmark's "
+                      "runs (its cases have no [search] workers of their own).")
 ]
+
+
+def say(message: str, style: str | None = None, *, out: Console | None = None) -> None:
+    """Print ``message`` as written (no markup), unwrapped so that commands stay whole."""
+    (out or console).print(Text(message, style=style or ""), soft_wrap=True)
 
 
 def _write_json(path: Path | None, data: Any) -> None:
@@ -39,7 +63,7 @@ def _write_json(path: Path | None, data: Any) -> None:
         return
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
-    console.print(f"wrote {path}")
+    say(f"wrote {path}")
 
 
 def _fmt(value: float | None, spec: str = ",.0f") -> str:
@@ -47,10 +71,11 @@ def _fmt(value: float | None, spec: str = ",.0f") -> str:
 
 
 def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
-    table = Table(title="Two-mode identification (paper Table 2): evaluations of successful runs")
+    table = Table(title="Two-mode identification (paper Table 2): evaluations of successful runs",
+                  pad_edge=False)  # 80 columns hold it whole
     for col in ("method", "runs", "success", "min", "mean", "median", "max",
-                "ERT*", "wall (s)"):
-        table.add_column(col, justify="right")
+                "ERT*", "wall s"):
+        table.add_column(col, justify="right", no_wrap=True)
     table.caption = "* ERT: evaluations of all runs, failed ones included, per successful run"
     for r in rows:
         table.add_row(
@@ -78,7 +103,7 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
         for m in methods:
             outcome = run_with_history(m, seed=seed)
             for path in dynamic_figures(outcome, plots, m):
-                console.print(f"figure: {path}")
+                say(f"figure: {path}")
     return rows
 
 
@@ -199,11 +224,22 @@ def bench_bridge(
     work = work_dir or Path("femupdate-bench-bridge")
     rows = []
     for m in method.split(","):
-        with console.status(f"{runs} runs of {m} on the {model} bridge…"):
-            summary = run_bridge_benchmark(model, band, m.strip(), runs=runs, seed=seed,
-                                           snr=snr, workers=workers, max_evals=max_evals,
-                                           options=method_options, work_dir=work,
-                                           resume=resume)
+        try:
+            with console.status(f"{runs} runs of {m} on the {model} bridge…"):
+                summary = run_bridge_benchmark(model, band, m.strip(), runs=runs, seed=seed,
+                                               snr=snr, workers=workers, max_evals=max_evals,
+                                               options=method_options, work_dir=work,
+                                               resume=resume)
+        except KeyboardInterrupt:
+            words = ["femupdate", "bench", "bridge", "--model", model, "--band", band,
+                     "--method", method, "--runs", str(runs), "--seed", str(seed), "--snr",
+                     f"{snr:g}", "--work-dir", str(work)]
+            if max_evals is not None:
+                words += ["--max-evals", str(max_evals)]
+            if options is not None:
+                words += ["--options", options]
+            _resume_hint([*words, "--resume"])
+            raise SystemExit(130) from None
         _print_bridge(summary)
         rows.append(summary)
     if len(rows) > 1:
@@ -237,7 +273,7 @@ def report(
 
     with console.status("writing the report…"):
         path = write_report(results)
-    console.print(f"report: {path}")
+    say(f"report: {path}")
 
 
 @app.command()
@@ -252,7 +288,7 @@ def demo(
         f"a two-mode free vibration (Zapico-Valle et al. 2010, §4), {runs} independent runs."
     )
     _bench_dynamic("ab", runs, 0, workers, out)
-    console.print(f"figures in {out.resolve()}")
+    say(f"figures in {out.resolve()}")
 
 
 CaseArgument = Annotated[Path, typer.Argument(help="The case file (TOML).", exists=False)]
@@ -265,7 +301,7 @@ def _load(path: Path):
 
 
 def _params_table(title: str, rows: list[tuple[str, str, str]]) -> Table:
-    table = Table(title=title)
+    table = Table(title=Text(title))
     for col in ("parameter", "value", "spread (successful runs)"):
         table.add_column(col, justify="right")
     for row in rows:
@@ -273,62 +309,123 @@ def _params_table(title: str, rows: list[tuple[str, str, str]]) -> Table:
     return table
 
 
-def print_update_summary(summary: Summary) -> None:
-    """The table of runs (as the paper's Tables 5, 6, 9) and the best parameters."""
-    runs = Table(title=f"{summary.name}: {summary.method} runs ({summary.success_rule})")
+#: Width a parameter column takes in a table beside its cell text: padding and border.
+_COLUMN_EDGES = 3
+
+
+def _column_groups(names: list[str], values: list[list[str]], width: int,
+                   first: int) -> list[list[int]]:
+    """Indices of ``names`` in groups whose columns fit ``width`` beside a first column of
+    width ``first`` (every group at least one column)."""
+    groups: list[list[int]] = [[]]
+    used = first + 1
+    for j, name in enumerate(names):
+        need = max([len(name), *(len(row[j]) for row in values)]) + _COLUMN_EDGES
+        if groups[-1] and used + need > width:
+            groups.append([])
+            used = first + 1
+        groups[-1].append(j)
+        used += need
+    return groups
+
+
+def _success_words(summary: Summary) -> tuple[str, str, str]:
+    """What success meant: the success column's header, its caption and the rule."""
+    from femupdate.workflow import NEAR_BEST
+
+    target = summary.settings.get("f_target")
+    if target is not None:
+        rule = f"φ ≤ f_target = {target:g}"
+        return "φ ≤ target", f"✓: the run reached {rule} ([search] f_target)", rule
+    rule = f"φ within {NEAR_BEST:g} × the best run's φ"
+    return ("≈ best", f"✓: {rule}; no f_target was given, so success is relative to the best "
+                      "run, not to an absolute target", rule)
+
+
+def print_update_summary(summary: Summary, out: Console | None = None) -> None:
+    """The table of runs (as the paper's Tables 5, 6, 9), their parameters and the best one.
+
+    Readable at 80 columns: the runs' parameters go in tables of as many columns as fit the
+    console, after the table of runs.
+    """
+    out = out or console
     names = list(summary.best.params)
     restarted = any(r.restarts for r in summary.runs)
-    for col in ("run", "NMSE %", "evals", "stop", "ok", *(["restarts"] if restarted else []),
-                *names):
-        runs.add_column(col, justify="right")
+    header, meaning, rule = _success_words(summary)
+    # Text, not str: the console given may interpret markup, which would eat "[search]".
+    runs = Table(title=Text(f"{summary.name}: {summary.method}, {len(summary.runs)} runs"),
+                 caption=Text(meaning))
+    for col in ("run", "NMSE %", "evals", "stop", header, *(["restarts"] if restarted else []),
+                "at a bound"):
+        runs.add_column(col, justify="left" if col in ("stop", "at a bound") else "right")
     for r in summary.runs:
-        runs.add_row(str(r.index), f"{100 * r.phi:.4g}", str(r.nfev), ",".join(r.stop),
+        bound = ", ".join(f"{n} {side}" for n, side in r.at_bounds.items()) or "–"
+        runs.add_row(str(r.index), f"{100 * r.phi:.4g}", f"{r.nfev:,}", ", ".join(r.stop),
                      "✓" if r.success else "✗", *([str(r.restarts)] if restarted else []),
-                     *(f"{r.params[n]:.4g}" for n in names))
-    console.print(runs)
+                     bound)
+    out.print(runs)
+    values = [[f"{r.params[n]:.4g}" for n in names] for r in summary.runs]
+    groups = _column_groups(names, values, out.width, len("run") + _COLUMN_EDGES)
+    for k, group in enumerate(groups):
+        part = f" ({k + 1}/{len(groups)})" if len(groups) > 1 else ""
+        table = Table(title=Text(f"parameters of each run{part}"))
+        table.add_column("run", justify="right")
+        for j in group:
+            table.add_column(names[j], justify="right")
+        for r, row in zip(summary.runs, values, strict=True):
+            table.add_row(str(r.index), *(row[j] for j in group))
+        out.print(table)
     spread = summary.spread.params
-    console.print(_params_table(
+    out.print(_params_table(
         f"best run {summary.best.run}: NMSE {summary.best.nmse_percent:.4g} %",
         [(n, f"{v:.6g}", f"{spread[n]['mean']:.4g} ± {spread[n]['std']:.2g}" if n in spread
           else "–") for n, v in summary.best.params.items()],
     ))
     freqs = ", ".join(f"{f:.3f}" for f in summary.best.frequencies_hz)
-    console.print(f"natural frequencies of the best model [Hz]: {freqs}")
-    print_trials(summary.trials, "the best model on each trial")
-    console.print(f"successful runs: {summary.successes}/{len(summary.runs)}; "
-                  f"evaluations (successful): mean {_fmt(summary.evals_mean)}, "
-                  f"median {_fmt(summary.evals_median)}; per success, failed runs "
-                  f"included: {_fmt(summary.evals_per_success)}; "
-                  f"wall {summary.wall_s:.1f} s")
+    say(f"natural frequencies of the best model [Hz]: {freqs}", out=out)
+    print_trials(summary.trials, "the best model on each trial", out=out)
+    say(f"successful runs ({rule}): {summary.successes}/{len(summary.runs)}; "
+        f"evaluations (successful): mean {_fmt(summary.evals_mean)}, "
+        f"median {_fmt(summary.evals_median)}; per success, failed runs "
+        f"included: {_fmt(summary.evals_per_success)}; "
+        f"wall {summary.wall_s:.1f} s", out=out)
     if restarted:
         counts = [r.restarts for r in summary.runs]
-        console.print(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
-                      f"{sum(c > 0 for c in counts)} of {len(counts)} runs")
+        say(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
+            f"{sum(c > 0 for c in counts)} of {len(counts)} runs", out=out)
     failed = [r for r in summary.runs if not r.success]
     improper = [r for r in failed if r.at_bounds]
-    if failed:
-        console.print(f"unsuccessful runs: {len(failed)}, of which {len(improper)} end with a "
-                      "parameter at a bound (improper minima): " + "; ".join(
-                          f"run {r.index}: " + ", ".join(f"{n} {side}" for n, side
-                                                           in r.at_bounds.items())
-                          for r in improper))
+    if improper:
+        say(f"unsuccessful runs: {len(failed)}, of which {len(improper)} end with a "
+            "parameter at a bound (improper minima): " + "; ".join(
+                f"run {r.index}: " + ", ".join(f"{n} {side}" for n, side in r.at_bounds.items())
+                for r in improper), out=out)
+    elif failed:
+        say(f"unsuccessful runs: {len(failed)}, none with a parameter at a bound: stopped "
+            "before reaching the target (budget or stopping criteria) or in another minimum",
+            out=out)
 
 
-def print_trials(trials: list[TrialRecord], title: str) -> None:
+def _resume_hint(words: list[str]) -> None:
+    """Say how to continue after Ctrl-C (the store keeps every finished chunk)."""
+    say("interrupted; the runs so far are kept: resume with " + shlex.join(words), "yellow")
+
+
+def print_trials(trials: list[TrialRecord], title: str, *, out: Console | None = None) -> None:
     """Each trial's NMSE, each channel's, and the channel delays removed."""
     if not trials:
         return
-    table = Table(title=title)
+    table = Table(title=Text(title))
     for col in ("trial", "role", "NMSE %", "channels: NMSE %", "delays removed"):
         table.add_column(col, justify="right")
     for t in trials:
         channels = ", ".join(f"{c} {100 * v:.4g}" for c, v in t.nmse_per_channel.items())
         delays = ", ".join(f"{c} {1e3 * d:.2f} ms" for c, d in t.delays_s.items()) or "–"
-        table.add_row(t.name, t.role, f"{100 * t.phi:.4g}", channels, delays)
-    console.print(table)
+        table.add_row(Text(t.name), t.role, f"{100 * t.phi:.4g}", Text(channels), Text(delays))
+    (out or console).print(table)
     for t in trials:
         for note in t.notes:
-            console.print(f"{t.name}: {note}", markup=False)
+            say(f"{t.name}: {note}", out=out)
 
 
 @app.command()
@@ -341,9 +438,14 @@ def run(
                          ] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
-    resume: Annotated[bool, typer.Option(help="Continue the unfinished runs stored in --out "
-                                              "(ib, ab, cmaes from their last checkpoint; "
-                                              "de, ga restart).")] = False,
+    resume: Annotated[bool, typer.Option(
+        "--resume", help="Continue the runs stored in --out, unfinished or interrupted (ib, ab, "
+        "cmaes from their last checkpoint; de, ga restart); refused, naming what changed, if "
+        "the case, its data files or the settings changed.")] = False,
+    restart: Annotated[bool, typer.Option(
+        "--restart", help="Discard the runs stored in --out (results.sqlite, summary.json, "
+        "fit.npz) and start over there, e.g. after a run that aborted or a change of the "
+        "case.")] = False,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address, e.g. "
                                                        "tcp://host:8786 (extra 'dask').")
                          ] = None,
@@ -358,21 +460,34 @@ def run(
     """Update the model of a case from its measured data: repeated runs, summary, plots.
 
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
-    so an interrupted or killed run continues with --resume.
+    so an interrupted or killed run continues with --resume; --restart starts over.
     """
     from femupdate.report.figures import write_run_plots
     from femupdate.runs import Execution
     from femupdate.workflow import run_case, with_data_directory
 
+    if resume and restart:
+        raise ConfigError("--resume and --restart exclude each other: --resume continues the "
+                          "runs stored in --out, --restart discards them and starts over")
     case = _load(case_file)
     if data is not None:
         case = with_data_directory(case, data)
     execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
-    result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals, workers=workers,
-                      resume=resume, execution=execution, keep_history=True)
+    try:
+        result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals,
+                          workers=workers, resume=resume, restart=restart,
+                          execution=execution, keep_history=True)
+    except KeyboardInterrupt:
+        words = ["femupdate", "run", str(case_file), "--out", str(out)]
+        for flag, value in (("--runs", runs), ("--seed", seed), ("--max-evals", max_evals),
+                            ("--data", data)):
+            if value is not None:
+                words += [flag, str(value)]
+        _resume_hint([*words, "--resume"])
+        raise SystemExit(130) from None
     write_run_plots(result, out)
     print_update_summary(result.summary)
-    console.print(f"results in {out.resolve()}")
+    say(f"results in {out.resolve()}")
     _write_json(json_path, result.summary.model_dump())
 
 
@@ -380,29 +495,63 @@ def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
     """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:
         return None
-    from femupdate.errors import ConfigError
-
     source = Path(text)
     raw = source.read_text() if source.is_file() else text
     try:
         data = json.loads(raw)
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{flag}: {text!r} is neither a JSON file nor a JSON object "
-                          f"({exc})") from None
+                          f"({exc}) (allowed: a JSON object {{name: value}}, or a file holding "
+                          "one)") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"{flag}: expected a JSON object {{name: value}}, got "
-                          f"{type(data).__name__}")
+        got = "null" if data is None else type(data).__name__
+        raise ConfigError(f"{flag}: expected a JSON object {{name: value}}, got {got} (allowed: "
+                          "a JSON object, or a file holding one)")
     return data
 
 
-def _read_params(text: str | None) -> dict[str, float] | None:
-    """Parameter values from a JSON object, a JSON file, or a summary.json (its best run)."""
-    data = _json_object("--params", text)
-    if data is None:
-        return None
-    if "best" in data:
+def _read_params(flag: str, text: str, case: Case) -> dict[str, float]:
+    """Values of every parameter of ``case`` from a JSON object, a JSON file, or a
+    summary.json (its best run); ConfigError naming the flag, the parameter and what is
+    allowed otherwise."""
+    from femupdate.case.build import check_parameter_values
+
+    data = _json_object(flag, text)
+    assert data is not None
+    if isinstance(data.get("best"), dict) and "params" in data["best"]:
         data = data["best"]["params"]
-    return {str(k): float(v) for k, v in data.items()}
+    return check_parameter_values(data, case.parameter_names, what=flag)
+
+
+def _outside_bounds(case: Case, values: dict[str, float]) -> list[str]:
+    """The values outside the case's bounds, in words (field, value, bounds)."""
+    out = []
+    for i, p in enumerate(case.parameters):
+        value = values[p.name]
+        if not p.lower <= value <= p.upper:
+            side = "lower" if value < p.lower else "upper"
+            out.append(f"{p.name} = {value:g} is outside its bounds [{p.lower:g}, "
+                       f"{p.upper:g}] (parameters[{i}].{side})")
+    return out
+
+
+#: Mode shapes printed by `femupdate modes` (all of them with --json).
+SHAPES_SHOWN = 6
+
+
+def _shapes_table(labels: list[str], shapes: np.ndarray, freqs: np.ndarray) -> Table:
+    """The first mode shapes, each scaled to a largest component of 1."""
+    k = min(SHAPES_SHOWN, shapes.shape[1])
+    table = Table(title=f"mode shapes of modes 1–{k} (undamped), each scaled to a largest "
+                        "component of ±1")
+    table.add_column("DOF", justify="left")
+    for i in range(k):
+        table.add_column(f"mode {i + 1}", justify="right")
+    scaled = shapes[:, :k] / np.where(np.abs(shapes[:, :k]).max(axis=0) > 0,
+                                      np.abs(shapes[:, :k]).max(axis=0), 1.0)
+    for label, row in zip(labels, scaled, strict=True):
+        table.add_row(label, *(f"{v:+.3f}" for v in row))
+    return table
 
 
 @app.command()
@@ -418,7 +567,7 @@ def modes(
     from femupdate.model.modes import damped_modes, natural_frequencies
 
     case = _load(case_file)
-    values = _read_params(params) or case.nominal()
+    values = case.nominal() if params is None else _read_params("--params", params, case)
     system = CaseModel(case).system(values)
     freqs, shapes = natural_frequencies(system)
     damped = damped_modes(system)
@@ -426,17 +575,34 @@ def modes(
                         + (" (friction elements stuck)" if not system.is_linear else ""))
     for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
         table.add_column(col, justify="right")
+    above = False
     for i, f in enumerate(freqs):
         fd = damped.damped_freqs_hz[i] if i < len(damped.freqs_hz) else float("nan")
         zeta = damped.damping_ratios[i] if i < len(damped.freqs_hz) else float("nan")
+        above |= bool(fd > f * (1 + 1e-9))
         table.add_row(str(i + 1), f"{f:.4f}", f"{fd:.4f}", f"{100 * zeta:.3f}")
     console.print(table)
+    if above:
+        say("f: undamped, from K and M; damped f and ζ: the complex modes of the damped model. "
+            "Its damping is not proportional (C is not a combination of M and K that the "
+            "undamped modes diagonalise), so the damped modes are not the undamped ones with "
+            "damping added: a damped frequency can exceed its undamped one.")
+    labels = list(system.dof_labels)
+    console.print(_shapes_table(labels, np.asarray(shapes), np.asarray(freqs)))
+    if shapes.shape[1] > SHAPES_SHOWN:
+        say(f"{shapes.shape[1] - SHAPES_SHOWN} more mode shapes with --json")
     _write_json(json_path, {
         "params": values, "frequencies_hz": freqs.tolist(),
         "damped_frequencies_hz": np.asarray(damped.damped_freqs_hz).tolist(),
         "damping_ratios": np.asarray(damped.damping_ratios).tolist(),
-        "dof_labels": list(system.dof_labels), "mode_shapes": shapes.tolist(),
+        "dof_labels": labels, "mode_shapes": shapes.tolist(),
     })
+
+
+#: Sensor errors `femupdate synth` adds to noisy records unless told otherwise (as the bridge
+#: benchmark): offsets up to this (m/s²), drifts up to this (m/s² per s).
+SYNTH_OFFSET = 0.05
+SYNTH_DRIFT = 0.01
 
 
 @app.command()
@@ -461,7 +627,7 @@ def validate(
     case = _load(case_file)
     if data is not None:
         case = with_data_directory(case, data)
-    values = _read_params(params)
+    values = _read_params("--params", params, case)
     result = validate_case(case, values)
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
     if out is not None:
@@ -482,12 +648,13 @@ def synth(
     truth: Annotated[str, typer.Option(help="Truth parameter values: a JSON object or file.")],
     out: Annotated[Path, typer.Option("--out", help="Directory for the records.")],
     seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.")] = 0,
-    snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel.")
-                   ] = 0.02,
+    snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel; 0: "
+                                       "noise-free records.")] = 0.02,
     duration: Annotated[float, typer.Option(min=0.01, help="Record length, s (model scale).")
                         ] = 4.6,
-    rate: Annotated[float | None, typer.Option(help="Sampling rate, Hz (default: the case's, "
-                                                    "else 1035).")] = None,
+    rate: Annotated[float | None, typer.Option(help="Sampling rate, Hz, in (0, 1e7] (default: "
+                                                    "the case's [data] rate, else 1035).")
+                    ] = None,
     pga: Annotated[float, typer.Option(help="Peak ground acceleration of the EC8 spectrum, g."
                                        )] = 0.25,
     motion: Annotated[Path | None, typer.Option(
@@ -495,32 +662,68 @@ def synth(
              "../shared/data/elcentro1940/...) instead of the EC8 artificial one.")] = None,
     length_scale: Annotated[float, typer.Option(help="Model length scale λ; time scales by √λ.")
                             ] = 1 / 50,
-    offset: Annotated[float, typer.Option(help="Accelerometer offsets up to this, m/s².")
-                      ] = 0.05,
-    drift: Annotated[float, typer.Option(help="Accelerometer drifts up to this, m/s² per s.")
-                     ] = 0.01,
+    offset: Annotated[float | None, typer.Option(
+        min=0.0, help=f"Accelerometer offsets up to this, m/s² (default: {SYNTH_OFFSET:g} with "
+        "noise, 0 with --snr 0).")] = None,
+    drift: Annotated[float | None, typer.Option(
+        min=0.0, help=f"Accelerometer drifts up to this, m/s² per s (default: {SYNTH_DRIFT:g} "
+        "with noise, 0 with --snr 0).")] = None,
 ) -> None:
-    """A virtual experiment: simulate a truth model and write what the sensors would record."""
+    """A virtual experiment: simulate a truth model and write what the sensors would record.
+
+    With --snr 0 and no --offset or --drift the records are exact (no sensor errors): the
+    truth then fits them to rounding. The sensor errors added are printed.
+    """
     from femupdate import virtual
 
     case = _load(case_file)
-    values = _read_params(truth)
-    assert values is not None  # truth is required
-    rate = rate or (case.data.rate if case.data is not None and case.data.rate else 1035.0)
+    values = _read_params("--truth", truth, case)
+    for problem in _outside_bounds(case, values):
+        say(f"warning: --truth: {problem} in {case.label}: an update of this case cannot reach "
+            "the truth", "yellow")
+    if rate is None:
+        rate = case.data.rate if case.data is not None and case.data.rate else 1035.0
+    elif not (math.isfinite(rate) and 0.0 < rate <= 1e7):
+        raise ConfigError(f"--rate: got {rate:g} (allowed: a sampling rate in (0, 1e7] Hz)")
+    offset = (SYNTH_OFFSET if snr > 0 else 0.0) if offset is None else offset
+    drift = (SYNTH_DRIFT if snr > 0 else 0.0) if drift is None else drift
     base = (None if motion is None
             else virtual.recorded_motion(motion, rate=rate, length_scale=length_scale))
     manifest = virtual.virtual_experiment(case, values, out, seed=seed, motion=base, snr=snr,
                                           offset=offset, drift=drift, duration=duration,
                                           rate=rate, pga_g=pga, length_scale=length_scale)
-    console.print(f"{manifest['motion']}; {manifest['samples']} samples at "
-                  f"{manifest['rate_hz']:g} Hz; noise {100 * snr:g} %")
-    console.print(f"wrote {', '.join(manifest['files'])}, truth.json, manifest.json in {out}")
+    say(f"{manifest['motion']}; {manifest['samples']} samples at {manifest['rate_hz']:g} Hz")
+    errors = [f"noise {100 * snr:g} % rms of each channel"] if snr > 0 else []
+    if offset > 0:
+        errors.append(f"offsets up to {offset:g} m/s²")
+    if drift > 0:
+        errors.append(f"drifts up to {drift:g} m/s² per s")
+    say("sensor errors added: " + (", ".join(errors) if errors else
+                                   "none (noise-free records: the truth fits them to rounding)"))
+    say(f"wrote {', '.join(manifest['files'])}, truth.json, manifest.json in {out}")
+
+
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
+    """femupdate's warnings as one line on the console (others as Python prints them)."""
+    if issubclass(category, FemupdateWarning):
+        say(f"warning: {message}", "yellow")
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
+_python_showwarning = warnings.showwarning
 
 
 def main() -> None:
-    """Console entry point: femupdate errors become a one-line message and exit code 2."""
+    """Console entry point: femupdate errors become a one-line message and exit code 2; Ctrl-C
+    a line and exit code 130."""
+    warnings.showwarning = _show_warning
     try:
         app()
     except FemupdateError as exc:
-        console.print(f"[red]error:[/red] {exc}")
+        console.print(Text("error: ", style="red") + Text(str(exc)), soft_wrap=True)
         raise SystemExit(2) from None
+    except KeyboardInterrupt:
+        say("interrupted", "yellow")
+        raise SystemExit(130) from None

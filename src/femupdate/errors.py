@@ -32,3 +32,8 @@ class MissingDependencyError(FemupdateError, ImportError):
 
 class StoreError(FemupdateError):
     """A results store that cannot be used: another case's, locked, corrupt, incompatible."""
+
+
+class FemupdateWarning(UserWarning):
+    """Something femupdate did or accepted that the user should know: records cut to their
+    overlap, a truth outside the bounds, a run in which no evaluation succeeded."""

@@ -1,4 +1,4 @@
-"""Measured data of a case, read and processed as the paper did (Zapico-Valle et al. 2010, §5).
+"""Measured data of a case, read and processed as the paper did (its §5.2; docs/method.md).
 
 files ─► Measurement (SI units, one time base, window) ─► channel delays removed ─► high-pass
 ─► the base input a_g and, per output channel, the target: relative displacement (channel −
@@ -11,6 +11,7 @@ A case may hold several trials (``[[trials]]``): each is read and processed on i
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -19,10 +20,11 @@ import numpy as np
 
 from femupdate.case import Case, Data, TrialSpec, format_value
 from femupdate.data import io, signal
-from femupdate.errors import ConfigError, DataError, FemupdateError
+from femupdate.errors import ConfigError, DataError, FemupdateError, FemupdateWarning
 from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
 
-__all__ = ["Experiment", "apply_delays", "load_experiment", "load_experiments", "process",
+__all__ = ["Experiment", "apply_delays", "data_files", "load_experiment", "load_experiments",
+           "process",
            "read_measurement"]
 
 #: Samples trimmed beyond those a shift leaves undefined: where the band-limited shift of
@@ -124,6 +126,94 @@ def _check_rates(case: Case, records: list[io.Measurement]) -> None:
                     "(or another rate) to resample all channels to one rate")
 
 
+def data_files(case: Case) -> dict[str, Path]:
+    """The files the case reads (every trial's): each ``file`` as written → its path."""
+    return {channel.file: case.data_path(channel, spec.data) for spec in case.trial_specs()
+            for channel in (spec.data.input, *spec.data.outputs)}
+
+
+def header_recipe(case: Case) -> str | None:
+    """The ``femupdate synth`` command in the case file's header comments, if it gives one.
+
+    Example case files say how their records are made (a virtual experiment); the command may
+    continue over comment lines ending in a backslash.
+    """
+    if case.source is None:
+        return None
+    try:
+        lines = Path(case.source).read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return None
+    parts: list[str] = []
+    for line in lines:
+        if not line.startswith("#"):
+            break  # the header ends at the first line that is not a comment
+        text = line.lstrip("#").strip()
+        if parts or text.startswith("femupdate synth "):
+            parts.append(text.removesuffix("\\").strip())
+            if not text.endswith("\\"):
+                break
+    return " ".join(parts) or None
+
+
+def _check_files(case: Case, data: Data) -> None:
+    """Every data file must exist: the missing ones are named with the fields that read them."""
+    fields: dict[Path, list[str]] = {}
+    channels = [("data.input", data.input)] + [(f"data.outputs[{i}]", c)
+                                               for i, c in enumerate(data.outputs)]
+    for where, channel in channels:
+        fields.setdefault(case.data_path(channel, data), []).append(f"{where}.file")
+    missing = {path: where for path, where in fields.items() if not path.is_file()}
+    if not missing:
+        return
+    listing = "; ".join(f"{path} ({', '.join(where)})" for path, where in missing.items())
+    directory = (f"data.directory = {data.directory!r}" if data.directory is not None
+                 else "no data.directory: the case file's folder")
+    recipe = header_recipe(case)
+    hint = (f"the case file's header says how to make them: {recipe}" if recipe is not None
+            else "check [data] directory and the file names, or point the run at the records "
+                 "with --data DIR")
+    raise DataError(f"{case.label}: data file not found: {listing}; {directory}, relative to "
+                    f"the case file's folder; {hint}")
+
+
+def _check_overlap(case: Case, records: list[io.Measurement], used: io.Measurement,
+                   rate: float | None) -> None:
+    """Warn when alignment dropped samples of a file: only the files' overlap is used.
+
+    One sample is not worth a word: aligning two clocks that differ by more than half a sample
+    drops it from one end of each record.
+    """
+    n = used.n_samples
+    if rate is None:  # the records keep their samples: compare the counts
+        cut = any(rec.n_samples > n + 1 for rec in records)
+    else:  # resampled: compare the durations
+        cut = any(float(rec.t[-1] - rec.t[0]) - (n - 1) / rate > 2.5 / rate for rec in records)
+    if not cut:
+        return
+    spans = {rec.source: (rec.n_samples, float(rec.t[0]), float(rec.t[-1])) for rec in records}
+    listing = ", ".join(f"{source}: {k} samples, t = {a:.6g} … {b:.6g} s"
+                        for source, (k, a, b) in spans.items())
+    warnings.warn(f"{case.label}: the data files differ in length ({listing}); only their "
+                  f"overlap is used: {n} samples, {(n - 1) / used.rate:.6g} s (allowed: "
+                  "records of the same test; set [data] window to choose the part used)",
+                  FemupdateWarning, stacklevel=3)
+
+
+def _check_motion(case: Case, data: Data, merged: io.Measurement) -> None:
+    """Refuse channels without motion: φ would be the same for every parameter value."""
+    channels = [("input", "data.input", data.input)] + [
+        (c.label, f"data.outputs[{i}]", c) for i, c in enumerate(data.outputs)]
+    for name, where, channel in channels:
+        if not np.any(merged[name]):
+            what = ("the table did not move: the model has no input, and every parameter value "
+                    "predicts the same response (φ = 1)" if name == "input" else
+                    "this sensor did not move: its error (NMSE) is undefined")
+            raise DataError(f"{case.data_path(channel, data)}: column {channel.column!r} "
+                            f"({where}) is 0 in every sample used: {what} (allowed: a record "
+                            "with motion; check the column and [data] window)")
+
+
 def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
     """The input and output channels of a trial's ``data`` (default the case's ``[data]``) in
     m/s² on one time base, windowed.
@@ -131,11 +221,15 @@ def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
     The input channel is named ``"input"``; outputs by their labels. With
     ``[preprocess] resample_hz`` every record is resampled to that rate before alignment;
     without it, all files must have the same rate. Times are record times (0 at the first
-    sample common to all files).
+    sample common to all files). Missing files are named with the fields that read them (and
+    the command that makes them, when the case file's header gives one); records that span
+    different times are cut to their overlap with a warning
+    (:class:`~femupdate.errors.FemupdateWarning`); a channel that is 0 throughout is refused.
     """
     data = data or case.data
     if data is None:
         raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
+    _check_files(case, data)
     specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
     records = []
     notes: list[str] = []
@@ -149,12 +243,14 @@ def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
     if rate is None:
         _check_rates(case, records)
     aligned = io.align(*records, rate=rate)
+    _check_overlap(case, records, aligned[0], rate)
     merged = io.Measurement(
         aligned[0].t, {k: v for m in aligned for k, v in m.channels.items()},
         {k: "m/s2" for m in aligned for k in m.channels}, str(case.data_directory(data)),
     )
     if data.window is not None:
         merged = merged.window(*data.window)
+    _check_motion(case, data, merged)
     return replace(merged, notes=tuple(notes))
 
 
@@ -293,6 +389,12 @@ def load_experiment(case: Case, trial: TrialSpec | None = None) -> Experiment:
     start_record = float(measurement.t[0])
     notes: list[str] = list(measurement.notes)
     pre = case.preprocess
+    rate = measurement.rate
+    if pre.highpass_hz >= rate / 2:
+        raise ConfigError(f"{case.label}: preprocess.highpass_hz: got {pre.highpass_hz:g} Hz "
+                          f"for data at {rate:.6g} Hz (the rate of "
+                          f"{case.data_path(data.input)}) (allowed: 0 (off) or below the "
+                          f"Nyquist frequency {rate / 2:.6g} Hz)")
     labels = tuple(c.label for c in data.outputs)
     wanted = {c.label: c.delay for c in data.outputs}
     low, high = pre.delay_band_hz

@@ -1,4 +1,5 @@
-"""The error function φ (METHOD.md §1, §8): normalised mean squared error over channels.
+"""The error function φ (the paper's Eq. 1 and §5.2; docs/method.md): normalised mean squared
+error over channels.
 
     φ = Σ_i w_i [ Σ_j (ŷ_ij − y_ij)² / Σ_j y_ij² ] / Σ_i w_i          (Eq. 1; w_i = 1)
 
@@ -97,7 +98,7 @@ class ErrorFunction:
     weights : array_like, shape (n_channels,), optional
         Per-channel weights.
     experimental_parameters : bool
-        Fit c0 + c1·t per channel (displacement only, METHOD.md §8).
+        Fit c0 + c1·t per channel (displacement only: docs/method.md §7).
 
     Notes
     -----

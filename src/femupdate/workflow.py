@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
-from femupdate.errors import FemupdateError
-from femupdate.experiment import Experiment, load_experiments
+from femupdate.errors import ConfigError, FemupdateError
+from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.results import (
     Best,
     Fit,
@@ -32,7 +32,9 @@ from femupdate.results import (
     write_summary,
 )
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
+from femupdate.runs.changes import file_hashes
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
+from femupdate.runs.store import FILENAME, ResultsStore, discard
 from femupdate.update import TrialProblem, UpdateProblem
 
 #: Without a target φ_s, a run counts as successful when its φ is within this factor of the
@@ -208,6 +210,64 @@ def optimizer_options(case: Case) -> dict[str, Any]:
     return options
 
 
+def check_search_options(case: Case) -> None:
+    """The method of ``[search]`` accepts its options; ConfigError naming the field if not."""
+    from femupdate.optimize.minimize import start
+
+    try:
+        start(_nothing, case.bounds, case.search.method, seed=0,
+              **optimizer_options(case)).optimizer.close()
+    except ConfigError as exc:
+        raise ConfigError(f"{case.label}: search.options: {exc}") from None
+
+
+def _nothing(x: np.ndarray) -> float:
+    return 0.0
+
+
+#: What a results directory holds besides the store: replaced when a run starts over.
+RESULT_FILES = ("summary.json", "fit.npz")
+
+
+def start_over(out_dir: Path) -> None:
+    """Discard the results store and the results of ``out_dir`` (``femupdate run --restart``).
+
+    Only femupdate's own files go: the store (refused if it is not one, or in use), and
+    ``summary.json`` and ``fit.npz``.
+    """
+    discard(out_dir)
+    for name in RESULT_FILES:
+        (out_dir / name).unlink(missing_ok=True)
+
+
+def _stored_wall(out_dir: Path | None) -> float | None:
+    """Wall time of every session of the store in ``out_dir`` (None: no store there, or one
+    that does not record it)."""
+    if out_dir is None or not (out_dir / FILENAME).is_file():
+        return None
+    with ResultsStore.open(out_dir, read_only=True) as store:
+        wall = store.meta().get("wall_s")
+    return None if wall is None else float(wall)
+
+
+def _no_success(case: Case, problem: UpdateProblem, outcomes: Sequence[RunOutcome]) -> None:
+    """Refuse to summarise runs in which no evaluation succeeded, with the model's reason."""
+    if any(np.isfinite(o.fun) for o in outcomes):
+        return
+    reason = next((o.failure for o in outcomes if o.failure), None)
+    if reason is None:
+        reason = "the model diverged at every point tried"
+        try:
+            problem.simulate(outcomes[0].x)
+        except FemupdateError as exc:
+            reason = str(exc)
+    raise FemupdateError(
+        f"{case.label}: no evaluation of any run succeeded (φ was inf or NaN at all "
+        f"{sum(o.nfev for o in outcomes):,} points tried), so there is no best model: "
+        f"{reason}. Fix the case, then start over in the same output directory with "
+        f"--restart")
+
+
 def run_case(
     case: Case,
     out_dir: Path | None = None,
@@ -217,6 +277,7 @@ def run_case(
     max_evals: int | None = None,
     workers: int | None = None,
     resume: bool = False,
+    restart: bool = False,
     execution: Execution | None = None,
     keep_history: bool = False,
     sensitivities: bool = True,
@@ -235,8 +296,11 @@ def run_case(
     runs, seed, max_evals, workers : int or None
         Override the case's ``[search]`` (None: the case's).
     resume : bool
-        Continue the unfinished runs of the store in ``out_dir`` (refused for a store of
-        another case or other settings).
+        Continue the unfinished runs of the store in ``out_dir`` (refused, naming what changed,
+        for a store of another case, other data files or other settings).
+    restart : bool
+        Discard the store and results in ``out_dir`` first and start over (not with
+        ``resume``).
     execution : Execution or None
         Scheduler, progress bar, log, chunks (:class:`femupdate.runs.Execution`); its
         ``workers`` is replaced by ``workers`` or the case's.
@@ -247,6 +311,10 @@ def run_case(
     experiments : sequence of Experiment or None
         The case's processed trials when the caller has already loaded them.
     """
+    if resume and restart:
+        raise ConfigError("--resume and --restart exclude each other: continue the runs in the "
+                          "output directory, or discard them and start over")
+    check_search_options(case)
     problem = UpdateProblem(case, experiments or load_experiments(case))
     search = case.search
     workers = search.workers if workers is None else workers
@@ -257,20 +325,27 @@ def run_case(
     start = time.perf_counter()
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
+        if restart:
+            start_over(out_dir)
     outcomes = run_all(
         problem, problem.bounds, search.method,
         runs=runs, seed=seed, max_evals=max_evals, f_target=search.f_target,
         options=optimizer_options(case),
         store_dir=out_dir, resume=resume,
-        identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names),
+        identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
+                              data=file_hashes(data_files(case))),
         execution=execution,
         keep_history=keep_history,
     )
+    _no_success(case, problem, outcomes)
+    # Over every session of the store: a resumed set counts the time of its earlier ones.
+    stored = _stored_wall(out_dir)
+    wall = time.perf_counter() - start if stored is None else stored
     settings = {"runs": runs, "seed": seed, "max_evals": max_evals, "f_target": search.f_target,
                 "method": search.method, "options": optimizer_options(case),
                 "workers": workers, "scheduler": execution.scheduler}
-    summary = summarize(problem, outcomes, time.perf_counter() - start, search.f_target,
-                        settings, sensitivities=sensitivities)
+    summary = summarize(problem, outcomes, wall, search.f_target, settings,
+                        sensitivities=sensitivities)
     fits = trial_fits(problem, summary.best.params)
     if out_dir is not None:
         write_summary(summary, out_dir)

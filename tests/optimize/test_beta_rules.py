@@ -1,4 +1,5 @@
-"""The update rules of IB and AB (METHOD.md §4-5), step by step against hand computations."""
+"""The update rules of IB and AB (the paper's §2.2.3–2.2.4; docs/method.md §4–5), step by
+step against hand computations."""
 
 from __future__ import annotations
 

@@ -146,7 +146,8 @@ def test_resume_is_refused_for_other_settings_or_another_case(tmp_path: Path) ->
     kw = dict(runs=1, seed=0, max_evals=100, store_dir=tmp_path, case_dict={"case": "a"})
     run_all(PROBLEM, BOUNDS, "ab", **kw)
     before = (tmp_path / FILENAME).read_bytes()
-    with pytest.raises(StoreError, match="another case"):
+    with pytest.raises(StoreError, match=r"the case changed since its runs started: case: "
+                                          r"'a' → 'b'.*--restart"):
         run_all(PROBLEM, BOUNDS, "ab", resume=True, **{**kw, "case_dict": {"case": "b"}})
     with pytest.raises(StoreError, match=r"written with method = 'ab'.*'ib'"):
         run_all(PROBLEM, BOUNDS, "ib", resume=True, **kw)

@@ -1,8 +1,8 @@
 """The paper's bridge as femupdate builds it: frequencies, mass, and its four integrators.
 
-References: the paper's measured frequencies (METHOD.md §8), the nominal mass of the deck and
-the added masses, the exact discretisation (first-order hold) for the linear bridge, and the
-second-order convergence of central differences and Newmark towards it.
+References: the paper's measured frequencies (its §5.2; docs/method.md §8.2), the nominal
+mass of the deck and the added masses, the exact discretisation (first-order hold) for the
+linear bridge, and the second-order convergence of central differences and Newmark towards it.
 """
 
 from __future__ import annotations

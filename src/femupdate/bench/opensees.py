@@ -19,8 +19,8 @@ ours, term by term:
 (``GimmeMCK``): they equal femupdate's to rounding.
 
 The base motion. ``UniformExcitation`` counts the mass of the Timoshenko beams twice in its load
-(OpenSeesPy 3.7.1.2, 2-D and 3-D ``ElasticTimoshenkoBeam`` with ``-cMass``; pitfalls.md §2 saw it
-with the 2-D ``elasticBeamColumn``): the static response to a constant ``a_g`` is
+(OpenSeesPy 3.7.1.2, 2-D and 3-D ``ElasticTimoshenkoBeam`` with ``-cMass``; the 2-D
+``elasticBeamColumn`` with ``-mass`` does the same): the static response to a constant ``a_g`` is
 ``K⁻¹ (M + M_beam) r a_g``, 44 % too large on the bridge, while ``M`` itself is right. So the
 default excitation (``excitation="nodal"``) applies the load of the relative-motion equations,
 ``-M r a_g(t)``, as nodal forces in a ``Plain`` pattern, with ``M`` as OpenSees assembled it;

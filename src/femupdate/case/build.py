@@ -162,8 +162,9 @@ def check_parameter_values(values: object, names: tuple[str, ...],
     missing = [n for n in names if n not in values]
     unknown = [str(n) for n in values if n not in names]
     if missing or unknown:
-        raise ConfigError(f"{what}: missing {missing}, unknown {unknown} (allowed: exactly the "
-                          f"parameters {list(names)})")
+        wrong = "; ".join(f"{word} {listed}" for word, listed in (("missing", missing),
+                                                                 ("unknown", unknown)) if listed)
+        raise ConfigError(f"{what}: {wrong} (allowed: exactly the parameters {list(names)})")
     out = {}
     for name in names:
         value = values[name]

@@ -252,6 +252,14 @@ def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
             issues.append((f"{path}.dof", f"{out.node}.{out.dof} is fixed by "
                            f"{fixed[out.node, out.dof]}: it moves with the table",
                            "a free DOF of the model"))
+        elif out.dof == "rz":
+            unit = out.unit or data.unit
+            translations = ", ".join(repr(d) for d in dofs if d != "rz")
+            issues.append((f"{path}.dof", f"got 'rz', a rotation: its acceleration is in "
+                           f"rad/s², but the records are linear accelerations (unit = "
+                           f"{unit!r}, in m/s² once read)",
+                           f"a translation DOF: {translations}; femupdate reads no angular "
+                           "accelerations"))
     return issues
 
 

@@ -283,7 +283,8 @@ class Preprocess(Section):
 
 
 class ObjectiveOptions(Section):
-    """``[objective]``: what the error function compares (METHOD.md §1, §8)."""
+    """``[objective]``: what the error function compares (the paper's §2.1 and §5.2;
+    docs/method.md)."""
 
     quantity: Literal["displacement", "acceleration"] = "displacement"
     experimental_parameters: bool = True

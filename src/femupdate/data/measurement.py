@@ -2,8 +2,9 @@
 
 A `Measurement` is validated when built: finite values, equal lengths, a strictly increasing
 uniform time vector. Missing samples (NaN or empty fields) are refused with their count and
-first position, or filled by linear interpolation over short gaps on request
-(``on_nan="interpolate"``). `align`, `resample` and `combine` bring records to one time base.
+first position, or, from Python, filled by linear interpolation over short gaps on request
+(``on_nan="interpolate"``, `fill_gaps`); the messages speak to a case file's user, who cleans
+the file. `align`, `resample` and `combine` bring records to one time base.
 """
 
 from __future__ import annotations
@@ -179,8 +180,9 @@ def check_finite(y: np.ndarray, what: str, source: str) -> None:
     if bad.any():
         first = int(np.flatnonzero(bad)[0])
         raise DataError(f"{source}: {what} has {int(bad.sum())} non-finite samples (NaN or "
-                        f"inf), the first at sample {first}; fill them with fill_gaps() or read "
-                        f"with on_nan='interpolate'")
+                        f"inf), the first at sample {first} (allowed: finite numbers); clean the "
+                        f"file: fill the missing samples (e.g. by linear interpolation) or cut "
+                        f"the record before them")
 
 
 def check_uniform(t: np.ndarray, source: str, rtol: float,
@@ -191,17 +193,20 @@ def check_uniform(t: np.ndarray, source: str, rtol: float,
         i = int(np.flatnonzero(step <= 0)[0]) + 1
         at = where.format(i=i, line=None if lines is None else lines[i])
         raise DataError(f"{source}: time is not strictly increasing at {at} "
-                        f"(t = {t[i - 1]!r} then {t[i]!r})")
+                        f"(t = {float(t[i - 1]):.10g} s then {float(t[i]):.10g} s) (allowed: "
+                        f"strictly increasing sample times); clean the file: remove repeated or "
+                        f"out-of-order rows")
     typical = np.median(step)  # robust: a gap does not shift it
     dev = np.abs(step - typical) / typical
     if (dev > rtol).any():
         i = int(np.argmax(dev > rtol)) + 1
         at = where.format(i=i, line=None if lines is None else lines[i])
         raise DataError(f"{source}: time vector is not uniform: the step ending at {at} is "
-                        f"{step[i - 1]:.6g} s, the median step is {typical:.6g} s (allowed "
-                        f"relative "
-                        f"deviation {rtol:g}); a gap or jitter in the record: resample it or "
-                        f"raise time_rtol")
+                        f"{float(step[i - 1]):.6g} s, the median step is {float(typical):.6g} s "
+                        f"(allowed: steps within {rtol:g} of the median, relative); a gap or "
+                        f"jitter in the record: clean the file (fill the gap, or resample the "
+                        f"record to a uniform time base), or use the part before or after it "
+                        f"in its own file")
 
 
 # --------------------------------------------------------------------------- missing samples
@@ -255,8 +260,9 @@ def apply_nan_policy(y: np.ndarray, on_nan: NanPolicy, max_gap: int, name: str, 
         return fill_gaps(y, max_gap, name=f"column {name!r}", source=source)
     first = int(np.flatnonzero(bad)[0])
     raise DataError(f"{source}: column {name!r} has {int(bad.sum())} missing samples (empty or "
-                    f"NaN), the first at line {lines[first]}; read with on_nan='interpolate' to "
-                    f"fill gaps of up to max_gap={max_gap} samples")
+                    f"NaN), the first at line {lines[first]} (allowed: a number in every row); "
+                    f"clean the file: fill the missing samples (e.g. by linear interpolation) "
+                    f"or cut the record before them")
 
 
 def check_nan_policy(on_nan: str, max_gap: int) -> None:

@@ -1,4 +1,5 @@
-"""Signal processing of measured records (METHOD.md §8), as pure functions on arrays.
+"""Signal processing of measured records (the paper's §5.2; docs/method.md §7), as pure
+functions on arrays.
 
 Samples are on axis 0 throughout: a signal is (n,) or (n, n_channels).
 

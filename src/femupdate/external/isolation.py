@@ -57,7 +57,7 @@ _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 def _child_env() -> dict[str, str]:
     """The parent's environment, this femupdate first on the path, one BLAS thread
-    (pitfalls.md §1: the processes already use the cores) unless the user set otherwise."""
+    (the processes already use the cores) unless the user set otherwise."""
     env = dict(os.environ)
     src = str(Path(femupdate.__file__).resolve().parents[1])
     env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)

@@ -1,4 +1,5 @@
-"""The elasto-slip (Jenkins) friction law of METHOD.md §8 (Eqs. 19–21).
+"""The elasto-slip (Jenkins) friction law of Zapico-Valle et al. 2010, §5.3 (Eqs. 19–21;
+docs/method.md §8.3).
 
 A spring of stiffness ``k_r`` in series with a Coulomb slider of slip force ``f_u``. With the
 element deformation ``y`` and the slip offset ``y_r`` (the slider's accumulated slip), the spring

@@ -4,7 +4,8 @@ cube.
 The initial mean is uniform at random in the box, σ0 = 0.5 (half the box), λ = 5 by default,
 pycma's default strategy otherwise (without mirrored sampling). Bounds by resampling: each
 candidate outside [0, 1]^n is redrawn from the same distribution until it lies inside (a
-truncated Gaussian). pycma's ``BoundPenalty`` is not used (broken in cma 4.5: pitfalls.md §4),
+truncated Gaussian). pycma's ``BoundPenalty`` is not used (in cma 4.5 it computes
+the penalty on points already clipped into the box, so it is always zero),
 nor ``BoundTransform``.
 """
 

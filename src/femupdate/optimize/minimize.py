@@ -43,6 +43,10 @@ METHODS: dict[str, Factory] = {
     "ga": make_ga,
 }
 
+#: Added to the result's message when every evaluation failed (φ NaN or inf).
+NO_SUCCESS = ("no evaluation succeeded: fun returned NaN or inf at every point tried, so x is "
+              "not a minimum")
+
 #: φ(x) of a point in original units.
 ScalarFunction = Callable[[np.ndarray], float]
 #: ``map(fun, rows)``: evaluates the rows lazily, in order.
@@ -84,6 +88,10 @@ def parse_bounds(bounds: Sequence[tuple[float, float]] | Bounds) -> tuple[np.nda
             raise ConfigError(f"bounds[{i}] = ({lo!r}, {hi!r}): both must be finite")
         if not lo < hi:
             raise ConfigError(f"bounds[{i}] = ({lo!r}, {hi!r}): low must be < high")
+        if not math.isfinite(hi - lo):
+            raise ConfigError(f"bounds[{i}] = ({lo!r}, {hi!r}): the interval is too wide, its "
+                              f"length high − low overflows (allowed: high − low at most "
+                              f"{np.finfo(float).max:.4g}; rescale the parameter)")
     return low.copy(), high.copy()
 
 
@@ -265,12 +273,15 @@ class MinimizeState:
             status, message = status_and_message(stop)
         else:
             status, message = -1, "not finished"
+        failed = self.nfev > 0 and not math.isfinite(self.best_f)
+        if failed:
+            message += f"; {NO_SUCCESS}"
         return OptimizeResult(
             x=self.best_x.copy(),
             fun=self.best_f,
             nfev=self.nfev,
             nit=self.nit,
-            success=is_success(stop, self.f_target),
+            success=is_success(stop, self.f_target) and not failed,
             status=int(status),
             message=message,
             stop=stop,
@@ -372,7 +383,7 @@ def minimize(
         evaluation: counted, treated as +inf. Anything but a real number (a string, a bool)
         is a ConfigError; an exception propagates, with a note giving x.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
-        Finite, low < high, one pair per parameter.
+        Finite, low < high, one pair per parameter, high − low finite (not overflowing).
     method : {"ab", "ib", "cmaes", "de", "ga"}
         See ``METHODS``; each validates its own ``options``.
     seed : None, int, SeedSequence or Generator
@@ -402,7 +413,9 @@ def minimize(
     scipy.optimize.OptimizeResult
         ``x, fun, nfev, nit`` (ask/tell steps), ``success`` (as scipy: the search ended by its
         own convergence criteria, not the budget; with an ``f_target``: it was reached),
-        ``status`` (:class:`~femupdate.optimize.termination.Status`), ``message``, ``stop``
+        ``status`` (:class:`~femupdate.optimize.termination.Status`), ``message`` (which says
+        so, with ``success`` False and a ``RuntimeWarning``, when no evaluation succeeded),
+        ``stop``
         (every criterion that fired, with its value), ``method``, ``restarts`` (how many times
         the optimizer started afresh: its option ``restarts``), ``nfail`` (evaluations that
         failed, φ = inf) and ``failure`` (why the first did, when ``fun`` has an attribute
@@ -438,4 +451,9 @@ def minimize(
     finally:
         close_map()
         state.optimizer.close()
-    return state.result()
+    result = state.result()
+    if not math.isfinite(result.fun):
+        warnings.warn(f"minimize({method!r}): {NO_SUCCESS} ({result.nfev} evaluations; "
+                      f"stopped by {', '.join(result.stop) or 'nothing'})", RuntimeWarning,
+                      stacklevel=2)
+    return result

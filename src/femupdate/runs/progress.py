@@ -1,8 +1,12 @@
 """Progress of a set of runs: a rich progress bar and/or a JSON-lines log.
 
-The bar shows runs finished out of the total, the best φ so far over all runs, the evaluations
-done and the evaluations per second of this session. The log (``log_json``) gets one JSON
-object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run finished),
+Given each run's budget, the bar moves with the evaluations: its length is the evaluation budget
+of the set (runs × ``max_evals``; a run that ends early, at its target or by a stopping
+criterion, completes its share at once), so it advances with every chunk, and the time left is
+estimated from the pace of this session. Beside it: runs finished out of the total, the best φ so
+far over all runs, the evaluations done, the time elapsed and left (fitting 80 columns). Without a
+budget it counts finished runs and shows the evaluations per second. The log (``log_json``) gets
+one JSON object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run finished),
 ``end``; each with ``time`` (Unix seconds) and ``elapsed`` (seconds since start), and where it
 applies ``run``, ``nfev``, ``best_phi`` (null when not finite) and ``status``. The file is
 appended to, so a resumed set continues the same log.
@@ -22,10 +26,13 @@ from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    ProgressColumn,
     TaskID,
     TextColumn,
     TimeElapsedColumn,
+    TimeRemainingColumn,
 )
+from rich.text import Text
 
 
 def _finite_or_none(value: float) -> float | None:
@@ -47,12 +54,17 @@ class RunProgress:
         Append one JSON line per event to this file.
     console : rich.console.Console or None
         Where the bar goes (default: standard error).
+    max_evals : int or None
+        The budget of each run: the bar then measures evaluations (of ``total_runs ×
+        max_evals``) and shows the time left; None: it measures finished runs.
     """
 
     def __init__(self, total_runs: int, *, label: str = "runs", quiet: bool = False,
                  log_json: str | os.PathLike[str] | None = None,
-                 console: Console | None = None) -> None:
+                 console: Console | None = None, max_evals: int | None = None) -> None:
         self.total_runs = total_runs
+        self.max_evals = max_evals
+        self.budget_done = 0  # evaluations, plus the unused budget of finished runs
         self.label = label
         self.quiet = quiet
         self.log_path = None if log_json is None else Path(log_json)
@@ -75,11 +87,16 @@ class RunProgress:
         self.close()
 
     def start(self, *, runs_done: int = 0, evals: int = 0, best_phi: float = math.inf,
-              **extra: Any) -> None:
-        """Begin (with what earlier sessions already did, when resuming)."""
+              budget_done: int | None = None, **extra: Any) -> None:
+        """Begin (with what earlier sessions already did, when resuming).
+
+        ``budget_done``: the share of the budget used already (evaluations of unfinished runs
+        plus ``max_evals`` per finished run); default ``evals``.
+        """
         self.runs_done = runs_done
         self.evals = evals
         self.best_phi = best_phi
+        self.budget_done = evals if budget_done is None else budget_done
         self._t0 = time.perf_counter()
         if self.log_path is not None:
             self.log_path.parent.mkdir(parents=True, exist_ok=True)
@@ -87,18 +104,35 @@ class RunProgress:
         self._write("start", runs=self.total_runs, runs_done=runs_done, nfev=evals,
                     best_phi=_finite_or_none(best_phi), **extra)
         if not self.quiet:
-            self._bar = Progress(
-                TextColumn("{task.description}"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TextColumn("runs · best φ {task.fields[best]} · {task.fields[evals]} evals · "
-                           "{task.fields[rate]} evals/s"),
-                TimeElapsedColumn(),
-                console=self.console or Console(stderr=True),
-            )
+            console = self.console or Console(stderr=True)
+            by_evals = self.max_evals is not None
+            if by_evals:
+                # Compact, to fit 80 columns: the label goes on its own line above the bar, and
+                # the pace shows as the time left (the rate is in the log).
+                console.print(Text(f"{self.label}: {self.total_runs} runs of at most "
+                                   f"{self.max_evals:,} evaluations"), soft_wrap=True)
+                columns: tuple[ProgressColumn, ...] = (
+                    BarColumn(bar_width=10),
+                    TextColumn("{task.fields[runs]} runs · best φ {task.fields[best]} · "
+                               "{task.fields[evals]} evals"),
+                    TimeElapsedColumn(),
+                    TimeRemainingColumn(),
+                    TextColumn("left"),
+                )
+            else:
+                columns = (
+                    TextColumn("{task.description}"),
+                    BarColumn(),
+                    MofNCompleteColumn(),
+                    TextColumn("runs · best φ {task.fields[best]} · {task.fields[evals]} evals "
+                               "· {task.fields[rate]} evals/s"),
+                    TimeElapsedColumn(),
+                )
+            self._bar = Progress(*columns, console=console)
             self._bar.start()
-            self._task = self._bar.add_task(self.label, total=self.total_runs,
-                                            completed=runs_done, **self._fields())
+            total, completed = self._extent()
+            self._task = self._bar.add_task(self.label, total=total, completed=completed,
+                                            **self._fields())
 
     def close(self) -> None:
         """Stop the bar, log ``end`` and close the log (idempotent)."""
@@ -119,6 +153,7 @@ class RunProgress:
         """Run ``run`` advanced by ``new_evals`` to ``nfev`` evaluations, best φ ``best_phi``."""
         self.evals += new_evals
         self.session_evals += new_evals
+        self.budget_done += new_evals
         self.best_phi = min(self.best_phi, best_phi)
         self._write("chunk", run=run, nfev=nfev, best_phi=_finite_or_none(best_phi))
         self._refresh()
@@ -126,10 +161,12 @@ class RunProgress:
     def run_done(self, run: int, nfev: int, best_phi: float, status: str) -> None:
         """Run ``run`` finished (after its last :meth:`chunk`)."""
         self.runs_done += 1
+        if self.max_evals is not None:  # its unused budget is done too
+            self.budget_done += max(self.max_evals - nfev, 0)
         self.best_phi = min(self.best_phi, best_phi)
         self._write("run", run=run, nfev=nfev, best_phi=_finite_or_none(best_phi),
                     status=status)
-        self._refresh(advance=1)
+        self._refresh()
 
     # -- internals ---------------------------------------------------------------------------
 
@@ -138,13 +175,21 @@ class RunProgress:
         elapsed = time.perf_counter() - self._t0
         return self.session_evals / elapsed if elapsed > 0 else 0.0
 
+    def _extent(self) -> tuple[int, int]:
+        """(total, completed) of the bar: evaluations of the budget, or runs."""
+        if self.max_evals is None:
+            return self.total_runs, self.runs_done
+        return self.total_runs * self.max_evals, self.budget_done
+
     def _fields(self) -> dict[str, str]:
         best = "–" if not math.isfinite(self.best_phi) else f"{self.best_phi:.3e}"
-        return {"best": best, "evals": f"{self.evals:,}", "rate": f"{self.rate():,.0f}"}
+        return {"best": best, "evals": f"{self.evals:,}", "rate": f"{self.rate():,.0f}",
+                "runs": f"{self.runs_done}/{self.total_runs}"}
 
-    def _refresh(self, advance: int = 0) -> None:
+    def _refresh(self) -> None:
         if self._bar is not None and self._task is not None:
-            self._bar.update(self._task, advance=advance, **self._fields())
+            total, completed = self._extent()
+            self._bar.update(self._task, total=total, completed=completed, **self._fields())
 
     def _write(self, event: str, **fields: Any) -> None:
         if self._log is None:

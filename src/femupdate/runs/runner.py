@@ -103,11 +103,15 @@ class CaseIdentity:
         Its fingerprint (default: the SHA-256 of ``case_dict``).
     names : sequence of str or None
         Parameter names (``params`` in each stored result).
+    data : mapping or None
+        Content hash of each data file the case reads (file → SHA-256): a resume on changed
+        data is refused, naming the file.
     """
 
     case_dict: Mapping[str, Any] | None = None
     fingerprint: str | None = None
     names: Sequence[str] | None = None
+    data: Mapping[str, str] | None = None
 
 
 def run_all(
@@ -191,7 +195,7 @@ def run_all(
     with open_executor(execution.workers, execution.scheduler, executor=execution.executor,
                        capacity=execution.workers,
                        connect_timeout=execution.connect_timeout) as ex:
-        store = _open_store(store_dir, resume, identity.case_dict, fingerprint, settings,
+        store = _open_store(store_dir, resume, identity, fingerprint, settings,
                             ignore=("entropy",) if seed is None else ())
         try:
             return _run_store(fun, spec, ex, store, root, runs, execution, names, keep_history,
@@ -235,10 +239,12 @@ def _run_store(fun: Callable[[np.ndarray], float], spec: RunSpec, ex: RunExecuto
     rows = store.runs()
     best = min((r.best_phi for r in rows if r.best_phi is not None), default=math.inf)
     with RunProgress(runs, label=execution.label or spec.method, quiet=execution.quiet,
-                     log_json=execution.log_json) as progress:
+                     log_json=execution.log_json, max_evals=spec.max_evals) as progress:
         progress.start(runs_done=len(outcomes), evals=sum(r.nfev for r in rows),
                        best_phi=best, method=spec.method, resumed=resumed,
-                       store=None if store.path is None else str(store.path))
+                       store=None if store.path is None else str(store.path),
+                       budget_done=sum(spec.max_evals if r.run in outcomes else r.nfev
+                                       for r in rows))
         if pending:
             _advance_all(fun, spec, pending, ex, store, progress, outcomes, execution, names,
                          on_outcome)
@@ -255,17 +261,18 @@ def _positive_int(name: str, value: Any) -> int:
 
 
 def _open_store(store_dir: str | os.PathLike[str] | None, resume: bool,
-                case_dict: Mapping[str, Any] | None, fingerprint: str,
+                identity: CaseIdentity, fingerprint: str,
                 settings: Mapping[str, Any], ignore: Sequence[str]) -> ResultsStore:
     if store_dir is None:
-        return ResultsStore.memory(case_dict=case_dict, fingerprint=fingerprint,
+        return ResultsStore.memory(case_dict=identity.case_dict, fingerprint=fingerprint,
                                    settings=settings)
     path = os.path.join(os.fspath(store_dir), FILENAME)
     if resume and os.path.isfile(path) and os.path.getsize(path) > 0:
         return ResultsStore.open(store_dir, fingerprint=fingerprint, settings=settings,
-                                 ignore=ignore)
-    return ResultsStore.create(store_dir, case_dict=case_dict, fingerprint=fingerprint,
-                               settings=settings)
+                                 ignore=ignore, case_dict=identity.case_dict,
+                                 data=identity.data)
+    return ResultsStore.create(store_dir, case_dict=identity.case_dict, fingerprint=fingerprint,
+                               settings=settings, data=identity.data)
 
 
 def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: list[_Pending],

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 #: A parameter within this fraction of its search range from a bound sits at the bound: an
-#: improper minimum (METHOD.md §2).
+#: improper minimum (the paper's §2.1; docs/method.md §2).
 BOUND_TOL = 1e-3
 
 
@@ -76,8 +76,9 @@ def at_bounds(x: np.ndarray, bounds: Sequence[tuple[float, float]],
               names: Sequence[str]) -> dict[str, str]:
     """The parameters of search point ``x`` that sit at a bound: name → "lower" or "upper".
 
-    A run that ends with any is at an improper minimum (METHOD.md §2), the typical failure of
-    a bounded search, unless the bound is where the parameter physically is.
+    A run that ends with any is at an improper minimum (the paper's §2.1; docs/method.md §2),
+    the typical failure of a bounded search, unless the bound is where the parameter physically
+    is.
     """
     lower, upper = np.asarray(bounds, dtype=float).T
     flags = bound_flags((np.asarray(x, dtype=float) - lower) / (upper - lower))

@@ -1,14 +1,22 @@
 """The results store of a set of runs: one SQLite database, ``DIR/results.sqlite``.
 
-It holds the case and its fingerprint, the software versions, every run (seed, status, final
+It holds the case and its fingerprint, the content hashes of the data files the case reads,
+the software versions, the wall time of all sessions so far, every run (seed, status, final
 result), every evaluation (x, φ, wall time) and the latest optimizer-state checkpoint of each
-unfinished run. The evaluations, the optimizer trace and the checkpoint of one chunk are written
-in ONE transaction, so after a crash the store holds exactly the evaluations up to the last
-checkpoint: a resumed run neither repeats nor loses one (``PRIMARY KEY (run, eval)`` guards it).
+unfinished run. A resume is refused, with the field or file named, when the case, its data
+files or the settings changed. The evaluations, the optimizer trace and the checkpoint of one
+chunk are written in ONE transaction, so after a crash the store holds exactly the evaluations
+up to the last checkpoint: a resumed run neither repeats nor loses one (``PRIMARY KEY (run,
+eval)`` guards it).
 
 Only one process writes a store at a time: it holds an exclusive ``flock`` on
 ``DIR/results.sqlite.lock`` (released by the kernel even when the process is killed), and the
 lock file names its pid for the error message of the next one.
+
+Why this file is long (about 650 lines): it is the one module that speaks SQL. The schema, the
+opening checks (each refusal says what differs and what to do; the wording of the differences is
+in :mod:`femupdate.runs.changes`), the atomic chunk writes, the readers and the lock share the
+connection and the table layout; split up, each part would need the others' private SQL.
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import StoreError
+from femupdate.runs.changes import SETTING_WORDS, case_changes, data_changes, short
 from femupdate.runs.lock import StoreLock as _Lock
 
 #: Bumped whenever the tables change incompatibly.
@@ -183,13 +192,20 @@ class ResultsStore:
         self._conn = conn
         self.path = path
         self._lock = lock
+        self._t0 = time.perf_counter()  # this session's start
+        self._wall_before = 0.0  # wall time of the sessions before it
 
     # -- opening -------------------------------------------------------------------------------
 
     @classmethod
     def create(cls, directory: str | os.PathLike[str], *, case_dict: Mapping[str, Any] | None,
-               fingerprint: str, settings: Mapping[str, Any]) -> ResultsStore:
-        """A new store in ``directory`` (created if needed); StoreError if one is there."""
+               fingerprint: str, settings: Mapping[str, Any],
+               data: Mapping[str, str] | None = None) -> ResultsStore:
+        """A new store in ``directory`` (created if needed); StoreError if one is there.
+
+        ``data``: content hash of each data file the case reads (file → SHA-256), checked by
+        a resume.
+        """
         path = Path(directory) / FILENAME
         path.parent.mkdir(parents=True, exist_ok=True)
         lock = _Lock.acquire(path)
@@ -198,13 +214,13 @@ class ResultsStore:
                 _check_header(path)
                 raise StoreError(
                     f"{path.parent} already holds a results store ({path.name}), left untouched: "
-                    f"pass --resume (resume=True) to continue its runs, or choose another output "
-                    f"directory"
+                    f"add --resume to continue its runs, or --restart to discard them and start "
+                    f"over, or choose another output directory (--out)"
                 )
             conn = _connect(path)
             _configure(conn)
             store = cls(conn, path, lock)
-            store._initialise(case_dict, fingerprint, settings)
+            store._initialise(case_dict, fingerprint, settings, data)
         except BaseException:
             lock.release()
             raise
@@ -213,7 +229,8 @@ class ResultsStore:
     @classmethod
     def open(cls, directory: str | os.PathLike[str], *, fingerprint: str | None = None,
              settings: Mapping[str, Any] | None = None, ignore: Sequence[str] = (),
-             read_only: bool = False) -> ResultsStore:
+             read_only: bool = False, case_dict: Mapping[str, Any] | None = None,
+             data: Mapping[str, str] | None = None) -> ResultsStore:
         """Open an existing store to continue it, checking that it belongs to this case.
 
         Parameters
@@ -228,13 +245,19 @@ class ResultsStore:
         read_only : bool
             Only to read (a report, or watching a set that is running): no lock taken, and a
             store written by another femupdate version is accepted if its schema is the same.
+        case_dict : mapping or None
+            The case: when the fingerprint differs, the message names the fields that changed.
+        data : mapping or None
+            Content hash of each data file (file → SHA-256); refused when a file the store
+            recorded changed or is no longer read (None, or a store that recorded none: not
+            checked).
 
         Raises
         ------
         StoreError
             No store there, a file that is not a results store (left untouched), a store locked
-            by another process, written by another schema or femupdate version, another case or
-            other settings.
+            by another process, written by another schema or femupdate version, another case,
+            other data or other settings.
         """
         path = Path(directory) / FILENAME
         if not path.is_file():
@@ -246,7 +269,8 @@ class ResultsStore:
             store = cls(conn, path, None)
             try:
                 meta = store._read_meta_checked()
-                store._check_compatible(meta, fingerprint, settings, ignore, versions=False)
+                store._check_compatible(meta, fingerprint, settings, ignore, versions=False,
+                                        case_dict=case_dict, data=data)
             except BaseException:
                 conn.close()
                 raise
@@ -256,8 +280,10 @@ class ResultsStore:
             conn = _connect(path)
             store = cls(conn, path, lock)
             meta = store._read_meta_checked()
-            store._check_compatible(meta, fingerprint, settings, ignore)
+            store._check_compatible(meta, fingerprint, settings, ignore, case_dict=case_dict,
+                                    data=data)
             _configure(conn)  # the first write, after every check
+            store._wall_before = float(meta.get("wall_s", 0.0))
         except BaseException:
             if "conn" in locals():
                 conn.close()
@@ -275,14 +301,17 @@ class ResultsStore:
         return store
 
     def _initialise(self, case_dict: Mapping[str, Any] | None, fingerprint: str,
-                    settings: Mapping[str, Any]) -> None:
+                    settings: Mapping[str, Any],
+                    data: Mapping[str, str] | None = None) -> None:
         meta = {
             "schema_version": SCHEMA_VERSION,
             "fingerprint": fingerprint,
             "case": case_dict,
+            "data": None if data is None else dict(data),
             "settings": dict(settings),
             "versions": software_versions(),
             "created": time.time(),
+            "wall_s": 0.0,
         }
         with self.transaction() as cur:
             # One statement at a time: executescript() would COMMIT the open transaction.
@@ -310,14 +339,17 @@ class ResultsStore:
 
     def _check_compatible(self, meta: Mapping[str, Any], fingerprint: str | None,
                           settings: Mapping[str, Any] | None, ignore: Sequence[str], *,
-                          versions: bool = True) -> None:
+                          versions: bool = True, case_dict: Mapping[str, Any] | None = None,
+                          data: Mapping[str, str] | None = None) -> None:
         where = self.path.parent if self.path is not None else "the store"
+        over = ("start over in it with --restart (its runs are discarded), or choose another "
+                "output directory (--out)")
+        keep = f"nothing was changed: {over}"
         if meta["schema_version"] != SCHEMA_VERSION:
             raise StoreError(
                 f"{where} was written with results-store schema {meta['schema_version']}, this "
                 f"femupdate reads schema {SCHEMA_VERSION}; resume it with the femupdate that "
-                f"wrote it ({meta.get('versions', {}).get('femupdate', '?')}) or start over in "
-                f"another output directory"
+                f"wrote it ({meta.get('versions', {}).get('femupdate', '?')}), or {over}"
             )
         theirs = meta.get("versions", {}).get("femupdate")
         ours = software_versions()["femupdate"]
@@ -326,15 +358,21 @@ class ResultsStore:
             # continue differently, and the runs would no longer be repeatable.
             raise StoreError(
                 f"{where} was written by femupdate {theirs}, this is femupdate {ours}: runs "
-                f"cannot be resumed across versions; use femupdate {theirs}, or start over in "
-                f"another output directory"
+                f"cannot be resumed across versions; use femupdate {theirs}, or {over}"
             )
         if fingerprint is not None and meta.get("fingerprint") != fingerprint:
-            raise StoreError(
-                f"{where} was written by another case (fingerprint "
-                f"{str(meta.get('fingerprint'))[:12]}…, this case {fingerprint[:12]}…); nothing "
-                f"was changed: choose another output directory for this case"
-            )
+            changes = case_changes(meta.get("case"), case_dict)
+            what = ("the case changed since its runs started: " + "; ".join(changes)
+                    if changes else
+                    f"it was written by another case (fingerprint "
+                    f"{str(meta.get('fingerprint'))[:12]}…, this case {fingerprint[:12]}…)")
+            raise StoreError(f"{where}: cannot resume: {what}; {keep}")
+        stored_data = meta.get("data")
+        if data is not None and stored_data:
+            changed = data_changes(stored_data, data)
+            if changed:
+                raise StoreError(f"{where}: cannot resume: the data changed since its runs "
+                                 f"started: {'; '.join(changed)}; {keep}")
         if settings is not None:
             stored = meta.get("settings", {})
             new = json.loads(to_json(dict(settings)))  # compare in the stored (JSON) form
@@ -343,10 +381,16 @@ class ResultsStore:
                     continue
                 if stored.get(key) != new.get(key):
                     raise StoreError(
-                        f"{where} was written with {key} = {stored.get(key)!r}, this run asks "
-                        f"for {key} = {new.get(key)!r}; nothing was changed: resume with the "
-                        f"same settings, or choose another output directory"
+                        f"{where}: cannot resume: it was written with {key} = "
+                        f"{short(stored.get(key))}, this run asks for {key} = "
+                        f"{short(new.get(key))}"
+                        + (f" ({SETTING_WORDS[key]})" if key in SETTING_WORDS else "")
+                        + f"; resume with the same settings, or {keep}"
                     )
+
+    def wall_s(self) -> float:
+        """Wall time of the runs over every session so far, this one up to now (s)."""
+        return self._wall_before + (time.perf_counter() - self._t0)
 
     # -- plumbing ------------------------------------------------------------------------------
 
@@ -505,12 +549,39 @@ class ResultsStore:
             if done:
                 cur.execute("DELETE FROM checkpoints WHERE run = ?", (chunk.run,))
             best = chunk.best_phi if math.isfinite(chunk.best_phi) else None
+            cur.execute("INSERT OR REPLACE INTO meta (key, value) VALUES ('wall_s', ?)",
+                        (to_json(self.wall_s()),))
             cur.execute(
                 "UPDATE runs SET status = ?, nfev = ?, nit = ?, best_phi = ?, wall_s = ?, "
                 "result = ?, updated = ? WHERE run = ?",
                 ("done" if done else "running", chunk.nfev, chunk.nit, best, chunk.run_wall_s,
                  None if chunk.result is None else to_json(dict(chunk.result)), now, chunk.run),
             )
+
+
+def discard(directory: str | os.PathLike[str]) -> bool:
+    """Delete the results store in ``directory`` to start over there; whether there was one.
+
+    Only a femupdate results store is deleted (with its WAL files), under its lock: a store in
+    use by another process, or a file that is not a store, is refused (StoreError) and left.
+    """
+    path = Path(directory) / FILENAME
+    if not path.exists():
+        return False
+    lock = _Lock.acquire(path)
+    try:
+        if path.stat().st_size > 0:
+            _check_header(path)
+            conn = sqlite3.connect(path.resolve().as_uri() + "?mode=ro", uri=True)
+            try:
+                ResultsStore(conn, path, None)._read_meta_checked()
+            finally:
+                conn.close()
+        for suffix in ("", "-wal", "-shm"):
+            Path(f"{path}{suffix}").unlink(missing_ok=True)
+    finally:
+        lock.release()
+    return True
 
 
 def _connect(path: Path) -> sqlite3.Connection:

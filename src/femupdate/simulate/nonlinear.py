@@ -1,4 +1,5 @@
-"""Central differences with elasto-slip friction elements (METHOD.md §8, Eqs. 19–21).
+"""Central differences with elasto-slip friction elements (Zapico-Valle et al. 2010, §5.3,
+Eqs. 19–21).
 
     M ÿ + C ẏ + K y + B_fᵀ f_D(B_f y) = -M r a_g(t) + f(t)
 
