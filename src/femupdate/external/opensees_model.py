@@ -9,8 +9,8 @@ The base motion is applied one of two ways:
 
 - ``excitation="uniform"``: OpenSees's ``UniformExcitation``. Some elements count their own
   mass twice in its load: ``ElasticTimoshenkoBeam`` (2-D, ``-mass`` with or without
-  ``-cMass``) and the 2-D ``elasticBeamColumn`` with ``-mass`` (OpenSeesPy 3.7.1.2). So before the first analysis in a process the load is checked: one tiny
-  step under a unit step of base acceleration from rest must give every output the relative
+  ``-cMass``) and the 2-D ``elasticBeamColumn`` with ``-mass`` (OpenSeesPy 3.7.1.2). So
+  before the first analysis in a process the load is checked: one tiny step under a unit step of base acceleration from rest must give every output the relative
   acceleration ``-r`` (``-1`` along the motion); otherwise a ConfigError stops the run and says
   to use ``"nodal"`` (switch the check off with ``check_base_load=False`` when the model has
   mass coupled to supports, where ``-r`` is not expected).
