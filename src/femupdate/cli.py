@@ -224,7 +224,8 @@ def bench_simulate(
 def report(
     results: Annotated[Path, typer.Argument(help="A results directory (femupdate run --out).")],
 ) -> None:
-    """Write a self-contained HTML report (and its PNGs) of a results directory."""
+    """Write RESULTS/report.html: one self-contained HTML file (figures embedded, no external
+    files, opens offline) of a results directory."""
     from femupdate.report.html import write_report
 
     with console.status("writing the report…"):
