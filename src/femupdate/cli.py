@@ -268,7 +268,8 @@ def bench_simulate(
 def report(
     results: Annotated[Path, typer.Argument(help="A results directory (femupdate run --out).")],
 ) -> None:
-    """Write a self-contained HTML report (and its PNGs) of a results directory."""
+    """Write RESULTS/report.html: one self-contained HTML file (figures embedded, no external
+    files, opens offline) of a results directory."""
     from femupdate.report.html import write_report
 
     with console.status("writing the report…"):
@@ -631,13 +632,16 @@ def validate(
     result = validate_case(case, values)
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
     if out is not None:
-        from femupdate.report.figures import plot_fit
+        from femupdate.report.figures import plot_fit, save_png
 
         out.mkdir(parents=True, exist_ok=True)
         (out / "validation.json").write_text(json.dumps(result.to_dict(), indent=2) + "\n")
+        records = {t.name: t for t in result.trials}
         for fit in result.fits:
-            plot_fit(fit.t, fit.measured, fit.predicted, out / f"fit-{fit.trial}.png",
-                     labels=[f"{c} [{fit.unit}]" for c in fit.channels])
+            nmse = [100.0 * records[fit.trial].nmse_per_channel[c] for c in fit.channels]
+            save_png(plot_fit(fit.t, fit.measured, fit.predicted, channels=fit.channels,
+                              unit=fit.unit, nmse_percent=nmse,
+                              title=f"{fit.trial} ({fit.role})"), out / f"fit-{fit.trial}.png")
         console.print(f"validation in {out.resolve()}")
     _write_json(json_path, result.to_dict())
 

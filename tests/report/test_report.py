@@ -1,5 +1,6 @@
-"""``write_report``: the HTML holds summary.json's numbers, every image exists and decodes, values
-at a bound are flagged, and what cannot be drawn is said."""
+"""``write_report``: one self-contained HTML file that holds summary.json's numbers, every image
+embedded and decodable, values at a bound flagged, the truth of a virtual experiment beside the
+estimates, and what cannot be drawn said."""
 
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from femupdate.report.html import (
 )
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+DATA_PNG = "data:image/png;base64,"
 
 
 class Page(HTMLParser):
@@ -32,6 +34,9 @@ class Page(HTMLParser):
     def __init__(self, text: str) -> None:
         super().__init__()
         self.images: list[str] = []
+        self.figures: list[str] = []
+        #: Every src= and href= of the page.
+        self.links: list[str] = []
         self.tables: dict[str, list[list[tuple[str, str]]]] = {}
         self.ids: set[str] = set()
         self._table: str | None = None
@@ -43,6 +48,9 @@ class Page(HTMLParser):
         a = dict(attrs)
         if a.get("id"):
             self.ids.add(a["id"] or "")
+        self.links += [v or "" for k, v in attrs if k in ("src", "href")]
+        if tag == "figure":
+            self.figures.append((a.get("id") or "").removeprefix("figure-"))
         if tag == "img":
             self.images.append(a["src"] or "")
         elif tag == "table" and a.get("id"):
@@ -86,16 +94,6 @@ def assert_printed(cell: str, value: float, digits: int = 4) -> None:
     assert math.isclose(number(cell), value, rel_tol=rtol, abs_tol=1e-300), (cell, value)
 
 
-@pytest.fixture(scope="module")
-def report(results_dir: Path) -> Path:
-    return write_report(results_dir)
-
-
-@pytest.fixture(scope="module")
-def summary(results_dir: Path) -> dict:
-    return json.loads((results_dir / "summary.json").read_text())
-
-
 # ----------------------------------------------------------------------------- pure functions
 
 
@@ -137,19 +135,49 @@ def test_spectrum_limit() -> None:
 # ----------------------------------------------------------------------------- the report
 
 
-def test_every_image_exists_and_is_a_png(report: Path) -> None:
+def decode_png(src: str) -> np.ndarray:
+    """An embedded image back as pixels (rows, columns, channels)."""
+    import base64
+    import io
+
     from matplotlib.image import imread
 
-    page, _ = parse(report)
+    assert src.startswith(DATA_PNG), src[:40]
+    data = base64.b64decode(src.removeprefix(DATA_PNG), validate=True)
+    assert data[:8] == PNG_SIGNATURE
+    return imread(io.BytesIO(data), format="png")
+
+
+def assert_self_contained(page: Page, text: str) -> None:
+    """Every src= and href= is a data URI or an anchor on the page; nothing else is loaded."""
+    for link in page.links:
+        assert link.startswith(("data:", "#")), link[:60]
+        if link.startswith("#"):
+            assert link[1:] in page.ids, link
+    for tag in ("<link", "<script", "<iframe", "<object", "<embed", "url(", "@import"):
+        assert tag not in text.lower(), tag
+
+
+def test_every_image_is_embedded_and_decodes(report: Path) -> None:
+    page, text = parse(report)
     assert report.name == "report.html"
-    expected = {"phi", "beta", "parameters", "spread", "fit", "spectra", "correlation"}
-    assert {Path(src).stem for src in page.images} == expected
+    assert set(page.figures) == {"phi", "beta", "parameters", "spread", "fit", "spectra",
+                                 "correlation"}
+    assert len(page.images) == len(page.figures)
     for src in page.images:
-        assert src.startswith("report/") and not Path(src).is_absolute()
-        path = report.parent / src
-        assert path.read_bytes()[:8] == PNG_SIGNATURE, src
-        image = imread(path)
-        assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100, src
+        image = decode_png(src)
+        assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
+    assert_self_contained(page, text)
+    assert not (report.parent / "report").exists()  # no figure files beside the page
+
+
+def test_the_page_alone_is_the_whole_report(report: Path, tmp_path: Path) -> None:
+    # Moved away from its results directory, the page has everything it shows.
+    alone = tmp_path / "alone.html"
+    alone.write_bytes(report.read_bytes())
+    page, text = parse(alone)
+    assert_self_contained(page, text)
+    assert "results.sqlite" not in "".join(page.links)
 
 
 def test_runs_table_holds_the_summary(report: Path, summary: dict) -> None:
@@ -195,6 +223,7 @@ def test_case_section_and_escaping(report: Path) -> None:
     assert params["k2"]["scale"][0] == "log" and number(params["k2"]["upper"][0]) == 5000.0
     assert params["c1"]["unit"][0] == "N·s/m"
     assert "numpy" in text and "<script" not in text  # versions from the store; no JavaScript
+    assert "Rayleigh" not in text  # the model has none
 
 
 def test_identifiability_section(report: Path) -> None:
@@ -207,6 +236,7 @@ def test_identifiability_section(report: Path) -> None:
     assert "undetermined" in page.ids
 
 
+@pytest.mark.usefixtures("tables_only")
 def test_parameters_at_a_bound_are_flagged(copy_results: Callable[[], Path]) -> None:
     out = copy_results()
     path = out / "summary.json"
@@ -226,6 +256,7 @@ def test_parameters_at_a_bound_are_flagged(copy_results: Callable[[], Path]) -> 
     assert "improper" in page.ids
 
 
+@pytest.mark.usefixtures("tables_only")
 def test_restarts_are_shown_with_the_stop(copy_results: Callable[[], Path]) -> None:
     out = copy_results()
     path = out / "summary.json"
@@ -245,20 +276,20 @@ def test_without_store_or_fit_the_report_says_what_it_could_not_draw(
     (out / "results.sqlite").unlink()
     (out / "fit.npz").unlink()
     summary = json.loads((out / "summary.json").read_text())
-    stale = out / "report" / "phi.png"  # from an earlier report that had the store
+    stale = out / "report" / "phi.png"  # a figure file of an earlier version's report
     stale.parent.mkdir()
     stale.write_bytes(PNG_SIGNATURE)
 
     page, text = parse(write_report(out))
-    assert not stale.exists()
+    assert not stale.parent.exists()
     assert "missing" in page.ids
     assert "results.sqlite" in text and "fit.npz" in text
     for what in ("φ against evaluations", "a, b and σ against step",
                  "measured against predicted time histories and spectra"):
         assert f"{what} not drawn" in text
-    assert {Path(s).stem for s in page.images} == {"spread", "correlation"}
+    assert set(page.figures) == {"spread", "correlation"}
     for src in page.images:
-        assert (out / src).read_bytes()[:8] == PNG_SIGNATURE
+        decode_png(src)
     row = page.rows("frequencies")[0]
     assert_printed(row["best model [Hz]"][0], summary["best"]["frequencies_hz"][0])
 

@@ -10,10 +10,11 @@ The base motion is applied one of two ways:
 - ``excitation="uniform"``: OpenSees's ``UniformExcitation``. Some elements count their own
   mass twice in its load: ``ElasticTimoshenkoBeam`` (2-D, ``-mass`` with or without
   ``-cMass``) and the 2-D ``elasticBeamColumn`` with ``-mass`` (OpenSeesPy 3.7.1.2). So
-  before the first analysis in a process the load is checked: one tiny step under a unit step of base acceleration from rest must give every output the relative
-  acceleration ``-r`` (``-1`` along the motion); otherwise a ConfigError stops the run and says
-  to use ``"nodal"`` (switch the check off with ``check_base_load=False`` when the model has
-  mass coupled to supports, where ``-r`` is not expected).
+  before the first analysis in a process the load is checked: one tiny step under a unit
+  step of base acceleration from rest must give every output the relative acceleration
+  ``-r`` (``-1`` along the motion); otherwise a ConfigError stops the run and says to use
+  ``"nodal"`` (switch the check off with ``check_base_load=False`` when the model has mass
+  coupled to supports, where ``-r`` is not expected).
 - ``excitation="nodal"``: the load of the relative-motion equations, ``-M r a_g(t)``, as nodal
   forces, ``M`` as OpenSees assembles it (``GimmeMCK``) and ``r`` the unit vector of the
   direction on every free DOF. Exact for any element mass, but mass coupled by elements to

@@ -1,93 +1,48 @@
-"""The report's figures (PNG) beyond those of one run: every run's φ, the Beta trace, the spread
-of the parameters, Fourier spectra and the correlation heat map. Matplotlib only in here and in
-``figures``.
+"""The report's figures beyond the paper's Figs. 2–5 (:mod:`femupdate.report.figures`): the
+spread of the parameters over the runs, Fourier spectra and the correlation heat map. Each
+returns a matplotlib ``Figure`` whose size does not grow without bound with the number of
+parameters.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from femupdate.report.figures import _pyplot, _save, best_so_far
+from femupdate.report.canvas import new_figure
+from femupdate.report.figures import MAX_FIT_CHANNELS
 
-#: Above this many runs the φ plot shows no legend (it would hide the lines).
-MAX_LEGEND_RUNS = 12
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+#: Up to this many parameters the spread is drawn as box plots with a label each.
+MAX_BOXES = 30
 #: Above this many parameters the heat map shows no numbers in its cells.
 MAX_ANNOTATED = 12
+#: Above this many parameters only every k-th gets a tick label.
+MAX_TICK_LABELS = 40
 
 
-def plot_phi_runs(
-    histories: Sequence[np.ndarray],
-    labels: Sequence[str],
-    path: Path,
-    *,
-    highlight: int | None = None,
-    title: str = "",
-) -> Path:
-    """φ_m (best so far) of every run against evaluations, log scale (the paper's Fig. 2).
-
-    Parameters
-    ----------
-    histories : sequence of ndarray
-        φ of every evaluation of each run (non-finite values are failed evaluations).
-    labels : sequence of str
-        One per run, for the legend.
-    highlight : int or None
-        Position in ``histories`` of the run drawn thick and black (the best).
-    """
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.8, 4.0))
-    for i, (fun, label) in enumerate(zip(histories, labels, strict=True)):
-        f = best_so_far(np.asarray(fun, dtype=float))
-        # A log axis cannot show φ = 0 (an exact fit): those points are left out.
-        f = np.where(f > 0, f, np.nan)
-        style = {"color": "k", "lw": 1.8, "zorder": 3} if i == highlight else {"lw": 0.9}
-        ax.semilogy(np.arange(1, f.size + 1), f, label=label, **style)
-    ax.set_xlabel("evaluation")
-    ax.set_ylabel("φ_m")
-    ax.set_title(title or "error function, best so far")
-    ax.grid(True, which="both", alpha=0.3)
-    if len(histories) <= MAX_LEGEND_RUNS:
-        ax.legend(fontsize=7, ncol=2)
-    return _save(fig, path)
-
-
-def plot_beta_trace(history: dict[str, np.ndarray], names: Sequence[str], path: Path) -> Path:
-    """Beta parameters a and b of every parameter and the step size σ against step (Fig. 3).
-
-    ``history`` holds ``a`` and ``b`` (steps × parameters) and ``sigma`` (steps,) as traced by
-    the IB and AB optimizers.
-    """
-    plt = _pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(12.0, 3.8))
-    a = np.asarray(history["a"], dtype=float)
-    steps = np.arange(1, a.shape[0] + 1)
-    for key, ax in zip(("a", "b"), axes[:2], strict=True):
-        values = np.asarray(history[key], dtype=float)
-        for j, name in enumerate(names):
-            ax.semilogy(steps, values[:, j], lw=0.9, label=name)
-        ax.set_title(key)
-    sigma = np.asarray(history["sigma"], dtype=float)
-    axes[2].semilogy(np.arange(1, sigma.size + 1), sigma, "k-", lw=0.9)
-    axes[2].set_title("σ")
-    for ax in axes:
-        ax.set_xlabel("step")
-        ax.grid(True, which="both", alpha=0.3)
-    axes[1].legend(fontsize=7, ncol=2)
-    return _save(fig, path)
+def _tick_labels(names: Sequence[str]) -> tuple[np.ndarray, list[str]]:
+    """Positions (from 0) and labels of at most :data:`MAX_TICK_LABELS` ticks."""
+    step = max(1, int(np.ceil(len(names) / MAX_TICK_LABELS)))
+    idx = np.arange(0, len(names), step)
+    return idx, [names[i] for i in idx]
 
 
 def plot_spread(
     positions: np.ndarray,
     names: Sequence[str],
-    path: Path,
     *,
     success: np.ndarray | None = None,
     truth: np.ndarray | None = None,
-) -> Path:
-    """Box plots of the parameters over the successful runs, normalised to their bounds.
+) -> Figure:
+    """The parameters of every run between their bounds: box plots over the successful runs.
+
+    Above :data:`MAX_BOXES` parameters the boxes give way to the runs' dots and their median
+    (one artist each), with every k-th parameter named.
 
     Parameters
     ----------
@@ -99,90 +54,136 @@ def plot_spread(
     truth : ndarray, shape (n,), optional
         Normalised true values, drawn as diamonds.
     """
-    plt = _pyplot()
     positions = np.atleast_2d(np.asarray(positions, dtype=float))
     ok = np.ones(positions.shape[0], bool) if success is None else np.asarray(success, bool)
     n = len(names)
-    fig, ax = plt.subplots(figsize=(max(4.0, 0.9 * n + 1.5), 4.0))
+    fig = new_figure(min(12.0, max(4.5, 0.45 * n + 2.0)), 4.2)
+    ax = fig.add_subplot()
     slots = np.arange(1, n + 1)
-    good = positions[ok]
-    if good.shape[0]:
+    good, bad = positions[ok], positions[~ok]
+    if good.shape[0] and n <= MAX_BOXES:
         ax.boxplot(good, positions=slots, widths=0.5, showfliers=False)
+    elif good.shape[0]:
+        ax.plot(slots, np.median(good, axis=0), "_", color="C1", ms=8, mew=1.5,
+                label="median")
+    if good.shape[0]:
         # Deterministic jitter: the runs of one parameter side by side, not on top.
         offsets = np.linspace(-0.12, 0.12, good.shape[0]) if good.shape[0] > 1 else np.zeros(1)
-        for j in range(n):
-            ax.plot(slots[j] + offsets, good[:, j], "o", ms=3.5, color="C0", alpha=0.7)
-    bad = positions[~ok]
-    for j in range(n):
-        if bad.shape[0]:
-            ax.plot(np.full(bad.shape[0], slots[j] + 0.25), bad[:, j], "x", color="C3", ms=5)
+        ax.plot((slots[None, :] + offsets[:, None]).ravel(), good.ravel(), "o", ms=3.0,
+                color="C0", alpha=0.7, label="successful runs")
+    if bad.shape[0]:
+        ax.plot(np.broadcast_to(slots + 0.25, bad.shape).ravel(), bad.ravel(), "x",
+                color="C3", ms=4, label="unsuccessful runs")
     if truth is not None:
-        ax.plot(slots, truth, "D", color="k", ms=5, mfc="none", label="truth")
-        ax.legend(fontsize=7, loc="upper right")
+        ax.plot(slots, truth, "D", color="k", ms=4.5, mfc="none", label="truth")
+    ax.legend(fontsize=7, loc="upper right")
     ax.axhspan(-0.05, 0.0, color="0.85", zorder=0)
     ax.axhspan(1.0, 1.05, color="0.85", zorder=0)
     ax.set_ylim(-0.05, 1.05)
-    ax.set_xticks(slots, list(names), rotation=45 if n > 6 else 0, fontsize=8)
-    ax.set_ylabel("position between bounds (0 = lower, 1 = upper)")
+    ax.set_xlim(0.3, n + 0.7)
+    idx, labels = _tick_labels(names)
+    ax.set_xticks(slots[idx], labels, rotation=45 if n > 6 else 0, fontsize=8)
+    ax.set_ylabel("position between bounds [−]\n(0 lower, 1 upper)")
     ax.grid(True, axis="y", alpha=0.3)
-    return _save(fig, path)
+    return fig
 
 
 def plot_spectra(
     f: np.ndarray,
     measured: np.ndarray,
     predicted: np.ndarray,
-    path: Path,
     *,
     labels: Sequence[str],
     f_max: float | None = None,
     marks: Sequence[float] = (),
-    ylabel: str = "Fourier amplitude",
-) -> Path:
+    truth_marks: Sequence[float] = (),
+    title: str = "Fourier amplitude",
+) -> Figure:
     """Fourier amplitude spectra of measured and predicted channels, one panel each.
 
     ``measured`` and ``predicted`` are (frequencies, channels), as
-    :func:`femupdate.data.signal.fourier_amplitude` returns them; ``marks`` are frequencies
-    (e.g. the model's natural frequencies) drawn as dotted vertical lines.
+    :func:`femupdate.data.signal.fourier_amplitude` returns them; ``marks`` (the model's
+    natural frequencies) are drawn as dotted vertical lines, ``truth_marks`` (the truth
+    model's) as dashed ones. The first :data:`MAX_FIT_CHANNELS` channels are drawn.
     """
-    plt = _pyplot()
+    from matplotlib.lines import Line2D
+
     measured = np.asarray(measured, dtype=float).reshape(len(f), -1)
     predicted = np.asarray(predicted, dtype=float).reshape(len(f), -1)
-    k = measured.shape[1]
+    k = min(measured.shape[1], MAX_FIT_CHANNELS)
     top = f_max if f_max is not None else float(f[-1])
-    fig, axes = plt.subplots(k, 1, figsize=(7.2, 2.4 * k + 0.6), sharex=True, squeeze=False)
-    for j in range(k):
-        ax = axes[j, 0]
-        ax.plot(f, measured[:, j], "k-", lw=1.0, label="measured")
-        ax.plot(f, predicted[:, j], "r--", lw=0.9, label="predicted")
+    fig = new_figure(7.6, 2.3 * k + 0.9)
+    axes = fig.subplots(k, 1, sharex=True, squeeze=False)[:, 0]
+    for j, ax in enumerate(axes):
+        ax.plot(f, measured[:, j], "k-", lw=0.9)
+        ax.plot(f, predicted[:, j], "r--", lw=0.9)
         for mark in marks:
             if 0.0 < mark <= top:
-                ax.axvline(mark, color="0.4", ls=":", lw=0.8)
+                ax.axvline(mark, color="0.4", ls=":", lw=0.9)
+        for mark in truth_marks:
+            if 0.0 < mark <= top:
+                ax.axvline(mark, color="C2", ls="--", lw=0.8)
         ax.set_ylabel(labels[j], fontsize=8)
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=8)
-    axes[-1, 0].set_xlabel("frequency [Hz]")
-    axes[-1, 0].set_xlim(0.0, top)
-    fig.suptitle(ylabel, fontsize=9)
-    return _save(fig, path)
+    axes[-1].set_xlabel("frequency [Hz]")
+    axes[-1].set_xlim(0.0, top)
+    handles = [Line2D([], [], color="k", lw=0.9, label="measured"),
+               Line2D([], [], color="r", ls="--", lw=0.9, label="predicted")]
+    if len(marks):
+        handles.append(Line2D([], [], color="0.4", ls=":", lw=0.9,
+                              label="natural frequencies,\nbest model"))
+    if len(truth_marks):
+        handles.append(Line2D([], [], color="C2", ls="--", lw=0.8,
+                              label="natural frequencies,\ntruth"))
+    fig.legend(handles=handles, loc="outside right center", fontsize=7)
+    more = f" (first {k} of {measured.shape[1]} channels)" if measured.shape[1] > k else ""
+    fig.suptitle(title + more, fontsize=9)
+    return fig
 
 
-def plot_correlation(correlations: np.ndarray, names: Sequence[str], path: Path) -> Path:
+def plot_correlation(correlations: np.ndarray, names: Sequence[str]) -> Figure:
     """Heat map of the correlation matrix of the parameter estimates (−1 blue, +1 red)."""
-    plt = _pyplot()
     corr = np.asarray(correlations, dtype=float)
+    # Rounding can put a correlation a hair outside [−1, 1]; a non-finite one is left blank.
+    corr = np.where(np.isfinite(corr), np.clip(corr, -1.0, 1.0), np.nan)
     n = len(names)
-    size = max(3.6, 0.55 * n + 2.0)
-    fig, ax = plt.subplots(figsize=(size + 0.8, size))
-    image = ax.imshow(corr, cmap="RdBu_r", vmin=-1.0, vmax=1.0)
-    ax.set_xticks(range(n), list(names), rotation=45 if n > 4 else 0, fontsize=8)
-    ax.set_yticks(range(n), list(names), fontsize=8)
+    size = min(10.0, max(3.6, 0.55 * n + 2.0))
+    fig = new_figure(size + 0.8, size)
+    ax = fig.add_subplot()
+    from matplotlib import colormaps
+
+    cmap = colormaps["RdBu_r"].with_extremes(bad="0.8")
+    image = ax.imshow(corr, cmap=cmap, vmin=-1.0, vmax=1.0, interpolation="nearest")
+    idx, labels = _tick_labels(names)
+    ax.set_xticks(idx, labels, rotation=45 if n > 4 else 0, fontsize=8 if n <= 20 else 6)
+    ax.set_yticks(idx, labels, fontsize=8 if n <= 20 else 6)
     if n <= MAX_ANNOTATED:
         for i in range(n):
             for j in range(n):
                 value = corr[i, j]
                 ax.text(j, i, f"{value:.2f}", ha="center", va="center", fontsize=7,
                         color="w" if abs(value) > 0.6 else "k")
-    fig.colorbar(image, ax=ax, shrink=0.8, label="correlation")
+    fig.colorbar(image, ax=ax, shrink=0.8, label="correlation [−]")
     ax.set_title("correlation of the parameter estimates", fontsize=9)
-    return _save(fig, path)
+    return fig
+
+
+def plot_trial_nmse(trials: dict[str, dict[str, float]]) -> Figure:
+    """NMSE (%) of every channel in each validation trial, bars grouped by trial (log)."""
+    names = list(trials)
+    channels = sorted({c for values in trials.values() for c in values})
+    fig = new_figure(min(12.0, max(5.0, 0.6 * len(names) * max(1, len(channels)) + 2.0)), 3.8)
+    ax = fig.add_subplot()
+    width = 0.8 / max(1, len(channels))
+    for c, channel in enumerate(channels):
+        values = [trials[t].get(channel, np.nan) for t in names]
+        ax.bar(np.arange(len(names)) + (c - (len(channels) - 1) / 2) * width, values, width,
+               label=channel)
+    ax.set_yscale("log")
+    ax.set_xticks(np.arange(len(names)), names, fontsize=8)
+    ax.set_ylabel("NMSE [%]")
+    ax.set_title("validation: the best model on each trial", fontsize=9)
+    if len(channels) <= MAX_ANNOTATED:
+        ax.legend(fontsize=7, ncol=2)
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    return fig
