@@ -105,6 +105,13 @@ def test_run_reports_every_trial_and_validate_reproduces_it(records: Path,
     assert {f.trial for f in checked.fits} == {"a", "b", "c"}
     (fit_c,) = [f for f in result.fits if f.trial == "c"]
     assert fit_c.role == "validate" and fit_c.phi == pytest.approx(by_name["c"].phi)
+    # the report gives each trial's NMSE
+    from femupdate.report.html import write_report
+
+    text = write_report(tmp_path / "out").read_text()
+    for name, role in (("a", "fit"), ("b", "fit"), ("c", "validate")):
+        assert f"{name} ({role})" in text
+    assert f"{100 * by_name['c'].phi:.4g}"[:4] in text
 
 
 CASE_FILE = """\

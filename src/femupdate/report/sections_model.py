@@ -212,13 +212,12 @@ def section_identifiability(ctx: Context, page: Page) -> str:
 
 
 def validation_trials(summary: Summary) -> dict[str, dict[str, float]]:
-    """The best model's NMSE (fraction) on each validation trial: trial → channel → NMSE.
-
-    ``femupdate run`` fits one record and validates on none: the summary holds no trials yet,
-    so this is empty. It is the one place to read them once the summary carries them.
-    """
-    del summary
-    return {}
+    """The best model's NMSE (fraction) on each trial of a case of several, fitted or
+    validated: "trial (role)" → "all" and each channel → NMSE. Empty for one trial."""
+    if len(summary.trials) < 2:
+        return {}
+    return {f"{t.name} ({t.role})": {"all": t.phi, **t.nmse_per_channel}
+            for t in summary.trials}
 
 
 def section_validation(trials: Mapping[str, Mapping[str, float]], page: Page) -> str:
@@ -226,8 +225,9 @@ def section_validation(trials: Mapping[str, Mapping[str, float]], page: Page) ->
     from femupdate.report.plots import plot_trial_nmse
 
     if not trials:
-        return note("No validation trials: the best model was fitted to one record and is not "
-                    "compared here with records it was not fitted to.")
+        return note("No validation trials: the case has one trial, the record the model was "
+                    "fitted to ([[trials]] with role = \"validate\" add records it is only "
+                    "compared with).")
     channels = sorted({c for values in trials.values() for c in values})
     rows = [[td(esc(name)), *(td(num(100.0 * values[c]) if c in values else "–", "num")
                               for c in channels)]
@@ -236,7 +236,8 @@ def section_validation(trials: Mapping[str, Mapping[str, float]], page: Page) ->
                trials.items()}
     return "\n".join([
         table(["trial", *(f"{c}: NMSE %" for c in channels)], rows, table_id="validation",
-              caption="NMSE of the best model on each validation trial"),
+              caption="NMSE of the best model on each trial, fitted or validated ("
+                      "\"all\": the trial's NMSE over its channels)"),
         page.figure(plot_trial_nmse(percent), "validation",
                     "NMSE of the best model on each validation trial, per channel (log)"),
     ])
