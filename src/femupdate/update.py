@@ -8,6 +8,7 @@ repeated runs in worker processes.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from femupdate.model.system import System
 from femupdate.objective import Objective
 from femupdate.simulate import prepare
 from femupdate.simulate.response import Response
+
+if TYPE_CHECKING:
+    from femupdate.evaluation import Evaluator
 
 
 class UpdateProblem:
@@ -50,6 +54,7 @@ class UpdateProblem:
             [self.structure.dof_index(c.node, c.dof) for c in case.data.outputs], dtype=np.int64
         )
         self._r_out = self.structure.influence_vector(self.direction)[self.outputs]
+        self._evaluator: Evaluator | None = None
         self.objective = Objective(
             experiment.target,
             t=experiment.t,
@@ -105,7 +110,32 @@ class UpdateProblem:
             return self._highpass(response.displacement)
         return self._highpass(response.acceleration)
 
+    # -- φ: compiled (femupdate.evaluation), and the reference it is tested against ----------
+
     def __call__(self, x: np.ndarray) -> float:
+        """φ(x), by the compiled evaluator (equal to `phi_reference` to rounding)."""
+        return self.evaluator(x)
+
+    def evaluate_batch(self, X: np.ndarray) -> np.ndarray:
+        """φ of every row of ``X`` (k, n) in one compiled loop (bit for bit k calls)."""
+        return self.evaluator.batch(X)
+
+    @property
+    def evaluator(self) -> Evaluator:
+        """The compiled evaluator, built at first use (in each process)."""
+        if self._evaluator is None:
+            from femupdate.evaluation import evaluator_for
+
+            self._evaluator = evaluator_for(self)
+        return self._evaluator
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_evaluator"] = None  # buffers, rebuilt where the problem is unpickled
+        return state
+
+    def phi_reference(self, x: np.ndarray) -> float:
+        """φ(x) through the simulator, the prediction and the objective, step by step."""
         try:
             response = self.simulate(x)
         except SimulationError:

@@ -1,0 +1,272 @@
+"""φ(x) of an update problem in one compiled call, with preallocated buffers: :class:`Evaluator`.
+
+One evaluation is: search point → physical values → M, C, K (:mod:`.assembly`) → the
+integrator's preparation and its time loop with the prediction's processing and the comparison
+fused in (:mod:`.exact`, :mod:`.central`) → φ (:func:`.processing.finish`). A batch of k points
+is one compiled loop over them (:meth:`Evaluator.batch`); a single point is a batch of one, so
+the two give the same bits.
+
+What the compiled path does not cover is evaluated by the reference (``UpdateProblem``'s
+simulator path), point by point: Newmark, a damping matrix the undamped modes do not
+diagonalise under central differences, an ill-conditioned eigenvector matrix in the exact
+discretisation (the simulator's dense fallback), parameter values out of range or a mass matrix
+that is not positive definite (the reference raises the ModelError that says which element).
+A zero-phase high-pass of the prediction is applied by scipy between the compiled simulation
+and the compiled comparison.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numba import njit
+
+from femupdate.data import signal
+from femupdate.evaluation import central, exact
+from femupdate.evaluation.assembly import ASSEMBLY_OK, AssemblyPlan, assemble, plan_assembly
+from femupdate.evaluation.processing import Post, process_and_compare
+
+if TYPE_CHECKING:
+    from femupdate.update import UpdateProblem
+
+__all__ = ["Evaluator", "Matrices", "evaluator_for"]
+
+#: Status per evaluated point (besides a value of φ).
+DONE = 0
+REFERENCE = 1  # evaluate this point with the reference path
+
+_QUANTITIES = {"relative_acceleration": exact.RELATIVE_ACCELERATION,
+               "displacement": exact.DISPLACEMENT,
+               "absolute_acceleration": exact.ABSOLUTE_ACCELERATION}
+
+
+@dataclass(frozen=True)
+class Matrices:
+    """Buffers of the assembled system (written at every evaluation)."""
+
+    p: np.ndarray
+    M: np.ndarray
+    minv: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    load: np.ndarray
+    kr: np.ndarray
+    fu: np.ndarray
+
+    @classmethod
+    def empty(cls, n_params: int, n: int, n_friction: int) -> Matrices:
+        return cls(np.empty(n_params), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
+                   np.empty((n, n)), np.empty(n), np.empty(n_friction), np.empty(n_friction))
+
+
+# ------------------------------------------------------------------------ compiled batches
+
+
+@njit(cache=True)
+def _exact_one(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
+               minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+               kr: np.ndarray, fu: np.ndarray, ag: np.ndarray, r_out: np.ndarray,
+               outputs: np.ndarray, dt: float, quantity: int, work: exact.ExactWork,
+               post: Post, y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray,
+               raw: bool) -> tuple[float, int]:
+    """(φ, status) of one point with the exact discretisation (``raw``: stop at the outputs,
+    left in ``y``, φ NaN)."""
+    if assemble(plan, x, p, M, minv, C, K, load, kr, fu) != ASSEMBLY_OK:
+        return np.nan, REFERENCE
+    code, m = exact.prepare_modal(M, minv, K, C, load, r_out, outputs, dt, quantity, work)
+    if code != exact.MODAL_OK:
+        return np.nan, REFERENCE
+    if exact.run_modal(ag, m, work, y):
+        return np.inf, DONE
+    if raw:
+        return np.nan, DONE
+    return process_and_compare(post, y, per_channel, zi), DONE
+
+
+@njit(cache=True)
+def _exact_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
+                 minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+                 kr: np.ndarray, fu: np.ndarray, ag: np.ndarray, r_out: np.ndarray,
+                 outputs: np.ndarray, dt: float, quantity: int, work: exact.ExactWork,
+                 post: Post, y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray,
+                 raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
+    """φ of every row of X with the exact discretisation (status REFERENCE: not done here)."""
+    for row in range(X.shape[0]):
+        phi[row], status[row] = _exact_one(X[row], plan, p, M, minv, C, K, load, kr, fu, ag,
+                                           r_out, outputs, dt, quantity, work, post, y,
+                                           per_channel, zi, raw)
+
+
+@njit(cache=True)
+def _central_one(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
+                 minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+                 kr: np.ndarray, fu: np.ndarray, fi: np.ndarray, fj: np.ndarray,
+                 ag: np.ndarray, r_out: np.ndarray, outputs: np.ndarray, h: float,
+                 substeps: int, quantity: int, work: central.CentralWork, post: Post,
+                 y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray,
+                 raw: bool) -> tuple[float, int]:
+    """(φ, status) of one point with central differences (``raw`` as :func:`_exact_one`)."""
+    if assemble(plan, x, p, M, minv, C, K, load, kr, fu) != ASSEMBLY_OK:
+        return np.nan, REFERENCE
+    code, active = central.prepare_central(M, K, C, load, minv, kr, fu, fi, fj, outputs, h,
+                                           ag[0], work)
+    if code == central.NOT_DIAGONAL:
+        return np.nan, REFERENCE
+    if code == central.UNSTABLE:
+        return np.inf, DONE  # the simulator refuses the step: a failed evaluation
+    if central.run_central(ag, substeps, h, quantity, r_out, active, work, y):
+        return np.inf, DONE
+    if raw:
+        return np.nan, DONE
+    return process_and_compare(post, y, per_channel, zi), DONE
+
+
+@njit(cache=True)
+def _central_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
+                   minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+                   kr: np.ndarray, fu: np.ndarray, fi: np.ndarray, fj: np.ndarray,
+                   ag: np.ndarray, r_out: np.ndarray, outputs: np.ndarray, h: float,
+                   substeps: int, quantity: int, work: central.CentralWork, post: Post,
+                   y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray, raw: bool,
+                   phi: np.ndarray, status: np.ndarray) -> None:
+    """φ of every row of X with central differences (status REFERENCE: not done here)."""
+    for row in range(X.shape[0]):
+        phi[row], status[row] = _central_one(X[row], plan, p, M, minv, C, K, load, kr, fu, fi,
+                                             fj, ag, r_out, outputs, h, substeps, quantity,
+                                             work, post, y, per_channel, zi, raw)
+
+
+# ------------------------------------------------------------------------ the evaluator
+
+
+class Evaluator:
+    """φ of an :class:`~femupdate.update.UpdateProblem`, compiled, with its own buffers.
+
+    Build it with :func:`evaluator_for`; call it like the problem (``ev(x)``) or on a batch
+    (``ev.batch(X)``). Not thread-safe (the buffers are shared by the calls); each process
+    builds its own.
+
+    Parameters
+    ----------
+    problem : UpdateProblem
+        The problem; its reference path evaluates the points the compiled path leaves.
+    """
+
+    def __init__(self, problem: UpdateProblem) -> None:
+        case = problem.case
+        exp = problem.experiment
+        structure = problem.structure
+        self._reference: Callable[[np.ndarray], float] = problem.phi_reference
+        self.method = problem.method
+        names = case.parameter_names
+        self.plan = plan_assembly(structure, names, [p.scale == "log" for p in case.parameters],
+                                  problem.direction, case.nominal())
+        n = self.plan.n
+        fr = structure.assemble(case.nominal(), problem.direction).friction
+        self.n_friction = 0 if fr is None else fr.count
+        self.fi = (np.zeros(0, dtype=np.int64) if fr is None
+                   else np.ascontiguousarray(fr.dof_i, dtype=np.int64))
+        self.fj = (np.zeros(0, dtype=np.int64) if fr is None
+                   else np.ascontiguousarray(fr.dof_j, dtype=np.int64))
+        self.mats = Matrices.empty(len(names), n, self.n_friction)
+        self.outputs = np.ascontiguousarray(problem.outputs, dtype=np.int64)
+        self.r_out = np.ascontiguousarray(problem._r_out, dtype=float)
+        self.ag = np.ascontiguousarray(problem._ag, dtype=float)
+        self.dt = float(exp.dt)
+        self.substeps = int(problem.substeps)
+        if problem.integrate:
+            what = "relative_acceleration"
+        elif exp.quantity == "displacement":
+            what = "displacement"
+        else:
+            what = "absolute_acceleration"
+        self.quantity = _QUANTITIES[what]
+        pre = case.preprocess
+        sos = np.zeros((0, 6))
+        if problem.filter:
+            sos = signal._butter_highpass(pre.highpass_order, float(pre.highpass_hz),
+                                          float(1.0 / exp.dt))
+        self._sos = np.ascontiguousarray(sos, dtype=float)
+        # A zero-phase filter needs the whole record: scipy filters between the simulation
+        # and the comparison, which then has no filter of its own.
+        self.zero_phase = bool(problem.filter and pre.zero_phase)
+        self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
+                          problem.integrate, self.dt)
+        self.supported = self.method in ("exact", "nonlinear", "central_difference")
+        n_out = self.outputs.size
+        if self.method == "exact":
+            self.work: Any = exact.exact_work(n, n_out)
+        else:
+            self.work = central.central_work(n, self.n_friction, n_out)
+        self.y = np.empty((n_out, self.ag.size))
+        self.per_channel = np.empty(n_out)
+        self.zi = np.empty(2 * self._sos.shape[0])
+
+    # -- evaluation ------------------------------------------------------------------------
+
+    def __call__(self, x: np.ndarray) -> float:
+        """φ(x), as ``UpdateProblem.phi_reference`` (to rounding: see the module docstring)."""
+        return float(self.batch(np.asarray(x, dtype=float)[None, :])[0])
+
+    def batch(self, X: np.ndarray) -> np.ndarray:
+        """φ of every row of ``X`` (k, n_params) in one compiled loop; the same values, bit
+        for bit, as k single calls."""
+        X = np.ascontiguousarray(X, dtype=float)
+        if X.ndim != 2:
+            raise ValueError(f"X must have shape (k, n_params), got {X.shape}")
+        phi = np.empty(X.shape[0])
+        status = np.full(X.shape[0], REFERENCE, dtype=np.int64)
+        if self.supported and self.zero_phase:
+            for row in range(X.shape[0]):
+                phi[row], status[row] = self._zero_phase(X[row])
+        elif self.supported:
+            self._run(X, False, phi, status)
+        for row in np.flatnonzero(status == REFERENCE):
+            phi[row] = self._reference(X[row])
+        return phi
+
+    def _run(self, X: np.ndarray, raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
+        m = self.mats
+        args = (self.plan, m.p, m.M, m.minv, m.C, m.K, m.load, m.kr, m.fu)
+        tail = (self.work, self.post, self.y, self.per_channel, self.zi, raw, phi, status)
+        if self.method == "exact":
+            _exact_batch(X, *args, self.ag, self.r_out, self.outputs, self.dt, self.quantity,
+                         *tail)
+        else:
+            _central_batch(X, *args, self.fi, self.fj, self.ag, self.r_out, self.outputs,
+                           self.dt / self.substeps, self.substeps, self.quantity, *tail)
+
+    def _zero_phase(self, x: np.ndarray) -> tuple[float, int]:
+        """(φ, status) when the prediction is filtered forward and backward (``sosfiltfilt``)."""
+        phi = np.empty(1)
+        status = np.empty(1, dtype=np.int64)
+        self._run(x[None, :], True, phi, status)
+        if status[0] != DONE or not np.isnan(phi[0]):  # to the reference, or inf
+            return float(phi[0]), int(status[0])
+        import scipy.signal
+
+        y = np.ascontiguousarray(scipy.signal.sosfiltfilt(self._sos, self.y, axis=1))
+        return float(process_and_compare(self.post, y, self.per_channel, self.zi)), DONE
+
+
+def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float) -> Post:
+    """The processing and comparison of an ``Objective``'s target, as the kernels use them."""
+    projected = bool(obj.with_experimental_parameters)
+    n, nc = obj.target.shape
+    return Post(
+        sos=np.ascontiguousarray(sos, dtype=float), integrate=bool(integrate), dt=float(dt),
+        target=np.ascontiguousarray(obj.target.T, dtype=float),
+        q=np.ascontiguousarray(obj._q.T if projected else np.zeros((2, n)), dtype=float),
+        qty=np.ascontiguousarray(obj._qty if projected else np.zeros((2, nc)), dtype=float),
+        energy=np.ascontiguousarray(obj._perp_energy if projected else obj._energy,
+                                    dtype=float),
+        weights=np.ascontiguousarray(obj.weights, dtype=float), projected=projected,
+    )
+
+
+def evaluator_for(problem: UpdateProblem) -> Evaluator:
+    """The compiled evaluator of ``problem`` (see :class:`Evaluator`)."""
+    return Evaluator(problem)
