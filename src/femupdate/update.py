@@ -7,6 +7,7 @@ repeated runs in worker processes.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -25,6 +26,12 @@ if TYPE_CHECKING:
     from femupdate.evaluation import Evaluator
 
 
+#: Environment variable: ``reference`` makes every UpdateProblem built without ``compiled``
+#: evaluate φ step by step (simulator, prediction, objective), to time or check the compiled
+#: evaluator against it.
+EVALUATOR_ENV = "FEMUPDATE_EVALUATOR"
+
+
 class UpdateProblem:
     """φ(x) of a case against its processed measurement.
 
@@ -34,9 +41,16 @@ class UpdateProblem:
         The validated case.
     experiment : Experiment
         The processed measured data (:func:`femupdate.experiment.load_experiment`).
+    compiled : bool or None
+        Evaluate φ with the compiled evaluator (:mod:`femupdate.evaluation`) or step by step
+        (`phi_reference`); None: compiled unless ``FEMUPDATE_EVALUATOR=reference``.
     """
 
-    def __init__(self, case: Case, experiment: Experiment) -> None:
+    def __init__(self, case: Case, experiment: Experiment, *,
+                 compiled: bool | None = None) -> None:
+        if compiled is None:
+            compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
+        self.compiled = bool(compiled)
         self.case = case
         self.experiment = experiment
         self.structure = build_structure(case.model)
@@ -114,10 +128,14 @@ class UpdateProblem:
 
     def __call__(self, x: np.ndarray) -> float:
         """φ(x), by the compiled evaluator (equal to `phi_reference` to rounding)."""
+        if not self.compiled:
+            return self.phi_reference(x)
         return self.evaluator(x)
 
     def evaluate_batch(self, X: np.ndarray) -> np.ndarray:
         """φ of every row of ``X`` (k, n) in one compiled loop (bit for bit k calls)."""
+        if not self.compiled:
+            return np.array([self.phi_reference(x) for x in np.asarray(X, dtype=float)])
         return self.evaluator.batch(X)
 
     @property

@@ -46,7 +46,7 @@ class ExactWork(NamedTuple):
 
     ``coef`` rows: Re e, Im e, Re g, Im g, Re c1, Im c1 of each kept mode (g = e c1 + c0);
     ``wr``/``wi`` the output weights (n_out, 2n) on Re w and −Im w; ``feed`` the weight of
-    ``a_k`` per output.
+    ``a_k`` per output; ``base`` the table's share subtracted from it (relative accelerations).
     """
 
     at: np.ndarray  # (2n, 2n) the state matrix, transposed, for dgeev
@@ -59,6 +59,7 @@ class ExactWork(NamedTuple):
     wr: np.ndarray  # (n_out, 2n)
     wi: np.ndarray  # (n_out, 2n)
     feed: np.ndarray  # (n_out,)
+    base: np.ndarray  # (n_out,)
     state: np.ndarray  # (2, 2n) Re w, Im w
 
 
@@ -75,7 +76,7 @@ def exact_work(n: int, n_out: int) -> ExactWork:
         at=np.empty((size, size)), eig_re=np.empty(size), eig_im=np.empty(size),
         vrt=np.empty((size, size)), work=np.empty(geev_lwork(size)), vr=np.empty((size, size)),
         coef=np.empty((6, cap)), wr=np.empty((n_out, cap)), wi=np.empty((n_out, cap)),
-        feed=np.empty(n_out), state=np.empty((2, cap)),
+        feed=np.empty(n_out), base=np.empty(n_out), state=np.empty((2, cap)),
     )
 
 
@@ -211,12 +212,11 @@ def prepare_modal(M: np.ndarray, minv: np.ndarray, K: np.ndarray, C: np.ndarray,
         b[i] = -s
     n_out = outputs.shape[0]
     for o in range(n_out):
-        if quantity == RELATIVE_ACCELERATION:
-            work.feed[o] = b[outputs[o]]
-        elif quantity == ABSOLUTE_ACCELERATION:
-            work.feed[o] = r_out[o] + b[outputs[o]]
-        else:
-            work.feed[o] = 0.0
+        # Relative accelerations as the reference forms them, absolute minus r a_g: the two
+        # round alike (when the table's share dominates, its rounding dominates both).
+        acceleration = quantity != DISPLACEMENT
+        work.feed[o] = r_out[o] + b[outputs[o]] if acceleration else 0.0
+        work.base[o] = r_out[o] if quantity == RELATIVE_ACCELERATION else 0.0
     m = 0
     j = 0
     while j < size:
@@ -263,7 +263,8 @@ def prepare_modal(M: np.ndarray, minv: np.ndarray, K: np.ndarray, C: np.ndarray,
 
 @njit(cache=True, fastmath={"contract", "reassoc"})
 def _recursion(a: np.ndarray, coef: np.ndarray, wr: np.ndarray, wi: np.ndarray,
-               feed: np.ndarray, m: int, state: np.ndarray, y: np.ndarray) -> bool:
+               feed: np.ndarray, base: np.ndarray, m: int, state: np.ndarray,
+               y: np.ndarray) -> bool:
     """Run the modal filters over the input ``a``; ``y[o, k]`` gets output o at sample k.
 
     Returns whether the solution diverged (the final modal state is not finite or beyond
@@ -283,7 +284,7 @@ def _recursion(a: np.ndarray, coef: np.ndarray, wr: np.ndarray, wi: np.ndarray,
             s = 0.0
             for j in range(m):
                 s += wr[o, j] * xr[j] - wi[o, j] * xi[j]
-            y[o, k] = s + feed[o] * ak
+            y[o, k] = (s + feed[o] * ak) - base[o] * ak
         for j in range(m):
             er = coef[0, j]
             ei = coef[1, j]
@@ -300,4 +301,4 @@ def _recursion(a: np.ndarray, coef: np.ndarray, wr: np.ndarray, wi: np.ndarray,
 def run_modal(a: np.ndarray, m: int, work: ExactWork, y: np.ndarray) -> bool:
     """The prepared filters (:func:`prepare_modal`) over input ``a``: the raw outputs into
     ``y`` (n_out, n_samples). Returns whether the solution diverged."""
-    return _recursion(a, work.coef, work.wr, work.wi, work.feed, m, work.state, y)
+    return _recursion(a, work.coef, work.wr, work.wi, work.feed, work.base, m, work.state, y)
