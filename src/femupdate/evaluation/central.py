@@ -48,7 +48,7 @@ class CentralWork(NamedTuple):
     ``modal`` rows: a, b, g (the modal recurrence ``η⁺ = a η − b η⁻ + g a_g − Pᵀ f``);
     ``yf`` (n_f, n) element deformations from η, ``pf`` (n_f, n) element forces into η⁺,
     ``po`` (n_out, n) output DOFs from η; ``law`` rows k_r, f_u, f_u / k_r of the elements that
-    carry force (the first ``n_active``).
+    carry force (the first ``active``; the other rows are zero).
     """
 
     a: np.ndarray  # (n, n) work copies for LAPACK
@@ -165,6 +165,11 @@ def prepare_central(M: np.ndarray, K: np.ndarray, C: np.ndarray, load: np.ndarra
         work.law[1, active] = fu[e]
         work.law[2, active] = fu[e] / kr[e]
         active += 1
+    # Rows of elements without force stay zero: a kernel that runs every row (the written-out
+    # one) then computes a zero force for them.
+    work.yf[active:] = 0.0
+    work.pf[active:] = 0.0
+    work.law[:, active:] = 0.0
     for o in range(outputs.shape[0]):
         for i in range(n):
             work.po[o, i] = phi[i, outputs[o]]

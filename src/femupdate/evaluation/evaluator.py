@@ -65,25 +65,36 @@ class Matrices:
 # ------------------------------------------------------------------------ compiled batches
 
 
+#: What :func:`exact_setup` and :func:`central_setup` leave to do: run the prepared kernel.
+RUN = 2
+
+
 @njit(cache=True)
-def _exact_one(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
-               minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
-               kr: np.ndarray, fu: np.ndarray, ag: np.ndarray, r_out: np.ndarray,
-               outputs: np.ndarray, dt: float, quantity: int, work: exact.ExactWork,
-               post: Post, y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray,
-               raw: bool) -> tuple[float, int]:
-    """(φ, status) of one point with the exact discretisation (``raw``: stop at the outputs,
-    left in ``y``, φ NaN)."""
+def exact_setup(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
+                minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+                kr: np.ndarray, fu: np.ndarray, r_out: np.ndarray, outputs: np.ndarray,
+                dt: float, quantity: int, work: exact.ExactWork) -> tuple[int, int]:
+    """Assembly and modal preparation of one point: (status, modes to run).
+
+    Status ``RUN``: the filters are prepared in ``work``; ``REFERENCE``: not compiled.
+    """
     if assemble(plan, x, p, M, minv, C, K, load, kr, fu) != ASSEMBLY_OK:
-        return np.nan, REFERENCE
+        return REFERENCE, 0
     code, m = exact.prepare_modal(M, minv, K, C, load, r_out, outputs, dt, quantity, work)
     if code != exact.MODAL_OK:
-        return np.nan, REFERENCE
-    if exact.run_modal(ag, m, work, y):
-        return np.inf, DONE
+        return REFERENCE, 0
+    return RUN, m
+
+
+@njit(cache=True)
+def compare(diverged: bool, raw: bool, post: Post, y: np.ndarray, per_channel: np.ndarray,
+            zi: np.ndarray) -> float:
+    """φ after a simulation: inf if it diverged, NaN for ``raw`` (outputs left in y)."""
+    if diverged:
+        return np.inf
     if raw:
-        return np.nan, DONE
-    return process_and_compare(post, y, per_channel, zi), DONE
+        return np.nan
+    return process_and_compare(post, y, per_channel, zi)
 
 
 @njit(cache=True)
@@ -93,35 +104,37 @@ def _exact_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray
                  outputs: np.ndarray, dt: float, quantity: int, work: exact.ExactWork,
                  post: Post, y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray,
                  raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
-    """φ of every row of X with the exact discretisation (status REFERENCE: not done here)."""
+    """φ of every row of X with the exact discretisation (status REFERENCE: not done here;
+    ``raw``: stop at the outputs, left in ``y`` for one row, φ NaN)."""
     for row in range(X.shape[0]):
-        phi[row], status[row] = _exact_one(X[row], plan, p, M, minv, C, K, load, kr, fu, ag,
-                                           r_out, outputs, dt, quantity, work, post, y,
-                                           per_channel, zi, raw)
+        phi[row] = np.nan
+        status[row], m = exact_setup(X[row], plan, p, M, minv, C, K, load, kr, fu, r_out,
+                                     outputs, dt, quantity, work)
+        if status[row] == RUN:
+            phi[row] = compare(exact.run_modal(ag, m, work, y), raw, post, y, per_channel, zi)
+            status[row] = DONE
 
 
 @njit(cache=True)
-def _central_one(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
-                 minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
-                 kr: np.ndarray, fu: np.ndarray, fi: np.ndarray, fj: np.ndarray,
-                 ag: np.ndarray, r_out: np.ndarray, outputs: np.ndarray, h: float,
-                 substeps: int, quantity: int, work: central.CentralWork, post: Post,
-                 y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray,
-                 raw: bool) -> tuple[float, int]:
-    """(φ, status) of one point with central differences (``raw`` as :func:`_exact_one`)."""
+def central_setup(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
+                  minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+                  kr: np.ndarray, fu: np.ndarray, fi: np.ndarray, fj: np.ndarray,
+                  ag: np.ndarray, outputs: np.ndarray, h: float,
+                  work: central.CentralWork) -> tuple[float, int, int]:
+    """Assembly and preparation of one point for central differences: (φ, status, active).
+
+    Status ``RUN``: the recurrence is prepared in ``work`` (``active`` elements carry force);
+    ``DONE``: φ is known already (inf: an unstable step); ``REFERENCE``: not compiled.
+    """
     if assemble(plan, x, p, M, minv, C, K, load, kr, fu) != ASSEMBLY_OK:
-        return np.nan, REFERENCE
+        return np.nan, REFERENCE, 0
     code, active = central.prepare_central(M, K, C, load, minv, kr, fu, fi, fj, outputs, h,
                                            ag[0], work)
     if code == central.NOT_DIAGONAL:
-        return np.nan, REFERENCE
+        return np.nan, REFERENCE, 0
     if code == central.UNSTABLE:
-        return np.inf, DONE  # the simulator refuses the step: a failed evaluation
-    if central.run_central(ag, substeps, h, quantity, r_out, active, work, y):
-        return np.inf, DONE
-    if raw:
-        return np.nan, DONE
-    return process_and_compare(post, y, per_channel, zi), DONE
+        return np.inf, DONE, 0  # the simulator refuses the step: a failed evaluation
+    return np.nan, RUN, active
 
 
 @njit(cache=True)
@@ -134,9 +147,12 @@ def _central_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarr
                    phi: np.ndarray, status: np.ndarray) -> None:
     """φ of every row of X with central differences (status REFERENCE: not done here)."""
     for row in range(X.shape[0]):
-        phi[row], status[row] = _central_one(X[row], plan, p, M, minv, C, K, load, kr, fu, fi,
-                                             fj, ag, r_out, outputs, h, substeps, quantity,
-                                             work, post, y, per_channel, zi, raw)
+        phi[row], status[row], active = central_setup(X[row], plan, p, M, minv, C, K, load,
+                                                      kr, fu, fi, fj, ag, outputs, h, work)
+        if status[row] == RUN:
+            diverged = central.run_central(ag, substeps, h, quantity, r_out, active, work, y)
+            phi[row] = compare(diverged, raw, post, y, per_channel, zi)
+            status[row] = DONE
 
 
 # ------------------------------------------------------------------------ the evaluator
@@ -197,13 +213,38 @@ class Evaluator:
                           problem.integrate, self.dt)
         self.supported = self.method in ("exact", "nonlinear", "central_difference")
         n_out = self.outputs.size
+        self._central_batch: Callable[..., None] = _central_batch
+        self._exact_batch: Callable[..., None] = _exact_batch
         if self.method == "exact":
             self.work: Any = exact.exact_work(n, n_out)
+            self._write_exact_kernel(case.nominal(), problem)
         else:
             self.work = central.central_work(n, self.n_friction, n_out)
+            if self.n_friction and self.supported:
+                from femupdate.evaluation.codegen import friction_kernel
+
+                written = friction_kernel(n, self.n_friction, n_out)
+                if written is not None:
+                    self._central_batch = written.batch
         self.y = np.empty((n_out, self.ag.size))
         self.per_channel = np.empty(n_out)
         self.zi = np.empty(2 * self._sos.shape[0])
+
+    def _write_exact_kernel(self, nominal: dict[str, float], problem: UpdateProblem) -> None:
+        """Use the written-out modal filters when the nominal model has few modes."""
+        if not self.supported:
+            return
+        from femupdate.evaluation.codegen import MAX_EXACT_MODES, exact_kernel
+
+        m = self.mats
+        x = problem.case.to_search(nominal)
+        status, modes = exact_setup(x, self.plan, m.p, m.M, m.minv, m.C, m.K, m.load, m.kr,
+                                    m.fu, self.r_out, self.outputs, self.dt, self.quantity,
+                                    self.work)
+        if status == RUN and modes < MAX_EXACT_MODES:
+            written = exact_kernel(modes, self.outputs.size)
+            if written is not None:
+                self._exact_batch = written.batch
 
     # -- evaluation ------------------------------------------------------------------------
 
@@ -233,11 +274,11 @@ class Evaluator:
         args = (self.plan, m.p, m.M, m.minv, m.C, m.K, m.load, m.kr, m.fu)
         tail = (self.work, self.post, self.y, self.per_channel, self.zi, raw, phi, status)
         if self.method == "exact":
-            _exact_batch(X, *args, self.ag, self.r_out, self.outputs, self.dt, self.quantity,
-                         *tail)
+            self._exact_batch(X, *args, self.ag, self.r_out, self.outputs, self.dt,
+                              self.quantity, *tail)
         else:
-            _central_batch(X, *args, self.fi, self.fj, self.ag, self.r_out, self.outputs,
-                           self.dt / self.substeps, self.substeps, self.quantity, *tail)
+            self._central_batch(X, *args, self.fi, self.fj, self.ag, self.r_out, self.outputs,
+                                self.dt / self.substeps, self.substeps, self.quantity, *tail)
 
     def _zero_phase(self, x: np.ndarray) -> tuple[float, int]:
         """(φ, status) when the prediction is filtered forward and backward (``sosfiltfilt``)."""

@@ -1,0 +1,432 @@
+"""What one evaluation of φ(x) costs and where it goes (issue 14), before and after.
+
+    python benchmarks/evaluation_cost.py [--repeat N] [--no-run] [--no-opensees] [--data DIR]
+                                         [--json PATH]
+
+Four cases: the paper's viscous bridge (10 DOF, exact discretisation, 4,768 samples), the
+friction bridge (central differences with 10 substeps: 47,680 steps), the real one-storey
+shake-table test (``examples/minishake-1story/elcentro.toml``; skipped when its records are not
+found: ``--data`` or ``FEMUPDATE_DATA``) and a 3-DOF shear building on a synthetic record of
+7,500 samples compared in absolute accelerations. For each: the time of one evaluation by the
+step-by-step reference path (``UpdateProblem.phi_reference``: assembly, the simulator's
+preparation, its run, the prediction's processing, the objective) and by the compiled evaluator
+(``femupdate.evaluation``: the same stages, each timed alone, then the whole φ), the physical
+floor beside them (the bare modal recursion over the record, or the bare friction recurrence,
+compiled), then φ of batches of k points per evaluation. Times are medians (µs) over
+``--repeat`` calls cycling through random points of the search box, with one BLAS thread
+(threadpoolctl). With ``--no-run`` the end-to-end row is skipped: ``femupdate run`` on the
+viscous bridge, AB, one worker, 6,000 evaluations (noise-free records), wall time per
+evaluation from summary.json, for the reference path (``FEMUPDATE_EVALUATOR=reference``) and
+the compiled one, whose runs must end alike (same evaluations, φ to rounding). The friction row
+is compared with OpenSeesPy's central differences at the same substep when it is installed.
+The machine's load average is printed at the start and the end: the figures are only as quiet
+as the machine.
+
+The script runs against an older femupdate too (without ``femupdate.evaluation``): it then
+times the reference path only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numba import njit
+from threadpoolctl import threadpool_limits
+
+from femupdate.benchmarks import bridge
+from femupdate.case import Case, load_case, parse_case
+from femupdate.experiment import load_experiment
+from femupdate.simulate import prepare
+from femupdate.update import UpdateProblem
+
+try:
+    from femupdate.evaluation import central, exact
+    from femupdate.evaluation.assembly import assemble
+    from femupdate.evaluation.processing import process_and_compare
+except ImportError:  # a femupdate before issue 14: the reference path only
+    exact = None
+
+REPO = Path(__file__).resolve().parents[1]
+BATCHES = (1, 10, 100)
+N_POINTS = 64
+
+# --------------------------------------------------------------------------- the cases
+
+SHEAR_BUILDING = {
+    "case": {"name": "shear-building-3dof"},
+    "model": {"shear_building": {"masses": [1.2, 1.0, 0.8], "stiffnesses": ["k1", "k2", "k3"],
+                                 "dampers": ["c1", "c2", "c3"]}},
+    "parameters": (
+        [{"name": f"k{i}", "lower": 1e3, "upper": 2e4, "scale": "log"} for i in (1, 2, 3)]
+        + [{"name": f"c{i}", "lower": 0.0, "upper": 10.0} for i in (1, 2, 3)]),
+    "data": {"format": "csv", "directory": "data", "time_column": "t",
+             "input": {"file": "table.csv", "column": "table"},
+             "outputs": [{"file": "floors.csv", "column": f"a{i}", "node": f"F{i}",
+                          "dof": "ux"} for i in (1, 2, 3)]},
+    "preprocess": {"highpass_hz": 0.5},
+    "objective": {"quantity": "acceleration", "experimental_parameters": False},
+    "search": {"method": "ab", "runs": 1, "max_evals": 100},
+}
+SHEAR_TRUTH = {"k1": 6000.0, "k2": 5000.0, "k3": 4000.0, "c1": 2.0, "c2": 1.5, "c3": 1.0}
+SHEAR_SAMPLES, SHEAR_RATE = 7500, 250.0
+
+
+def viscous_bridge(work: Path) -> UpdateProblem:
+    return bridge.viscous_problem(work / "viscous", seed=0, snr=0.0)
+
+
+def friction_bridge(work: Path) -> UpdateProblem:
+    data = work / "friction"
+    case = parse_case(bridge.bridge_case("friction", "narrow", directory=str(data)),
+                      source=data / "friction-narrow.toml")
+    bridge._ensure_records(case, bridge.truth("friction"), data, seed=0, snr=0.0)
+    return UpdateProblem(case, load_experiment(case))
+
+
+def shear_building(work: Path) -> UpdateProblem:
+    from femupdate.virtual import virtual_experiment
+
+    data = work / "shear"
+    spec = json.loads(json.dumps(SHEAR_BUILDING))
+    spec["data"]["directory"] = str(data)
+    case = parse_case(spec, source=data / "shear.toml")
+    if not (data / "floors.csv").exists():
+        virtual_experiment(case, SHEAR_TRUTH, data, seed=1, rate=SHEAR_RATE,
+                           duration=(SHEAR_SAMPLES - 1) / SHEAR_RATE, snr=0.02)
+    return UpdateProblem(case, load_experiment(case))
+
+
+def minishake(data_dir: Path | None) -> UpdateProblem | str:
+    """The real case, or why it is skipped."""
+    from femupdate.benchmarks.minishake import find_data
+    from femupdate.workflow import with_data_directory
+
+    try:
+        folder = find_data(data_dir)
+    except Exception as exc:  # any reason to skip is printed
+        return f"skipped: {exc}"
+    case: Case = with_data_directory(load_case(REPO / "examples/minishake-1story/elcentro.toml"),
+                                     folder)
+    return UpdateProblem(case, load_experiment(case))
+
+
+# --------------------------------------------------------------------------- timing
+
+
+def median_us(fn: Callable[[int], object], repeat: int) -> float:
+    """Median wall time (µs) of ``fn(i)`` over ``repeat`` calls, i cycling the points."""
+    fn(0)
+    times = np.empty(repeat)
+    for i in range(repeat):
+        t0 = time.perf_counter()
+        fn(i)
+        times[i] = time.perf_counter() - t0
+    return float(np.median(times) * 1e6)
+
+
+def points(problem: UpdateProblem, n: int = N_POINTS, seed: int = 0) -> np.ndarray:
+    low, high = np.array(problem.bounds).T
+    return low + (high - low) * np.random.default_rng(seed).random((n, low.size))
+
+
+def reference_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[str, float]:
+    """Median µs of each stage of the step-by-step path, and of the whole φ."""
+    n = len(X)
+    systems = [problem.system(x) for x in X]
+    kw = {"method": problem.method, "outputs": problem.outputs,
+          "substeps": problem.substeps}
+    sims = [prepare(s, problem.experiment.dt, **kw) for s in systems]
+    responses = [sim.run(problem._ag) for sim in sims]
+    predictions = [problem.prediction(r) for r in responses]
+    heavy = max(1, repeat // (10 if problem.method != "exact" else 1))
+    return {
+        "assembly": median_us(lambda i: problem.system(X[i % n]), repeat),
+        "prepare": median_us(lambda i: prepare(systems[i % n], problem.experiment.dt, **kw),
+                             repeat),
+        "simulation": median_us(lambda i: sims[i % n].run(problem._ag), heavy),
+        "processing": median_us(lambda i: problem.prediction(responses[i % n]), repeat),
+        "objective": median_us(lambda i: problem.objective(predictions[i % n]), repeat),
+        "total": median_us(lambda i: problem.phi_reference(X[i % n]), heavy),
+    }
+
+
+def compiled_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[str, float]:
+    """Median µs of each compiled stage called alone (each with its own call overhead), and
+    of the whole φ through ``UpdateProblem.__call__``."""
+    ev = problem.evaluator
+    m = ev.mats
+    n = len(X)
+    exact_path = ev.method == "exact"
+    heavy = max(1, repeat // (10 if not exact_path else 1))
+
+    def assembly(i: int) -> int:
+        return assemble(ev.plan, X[i % n], m.p, m.M, m.minv, m.C, m.K, m.load, m.kr, m.fu)
+
+    def prep(i: int) -> tuple[int, int]:
+        if exact_path:
+            return exact.prepare_modal(m.M, m.minv, m.K, m.C, m.load, ev.r_out, ev.outputs,
+                                       ev.dt, ev.quantity, ev.work)
+        return central.prepare_central(m.M, m.K, m.C, m.load, m.minv, m.kr, m.fu, ev.fi,
+                                       ev.fj, ev.outputs, ev.dt / ev.substeps, ev.ag[0],
+                                       ev.work)
+
+    assembly(0)
+    code, size = prep(0)
+
+    def simulate(i: int) -> bool:
+        if exact_path:
+            return exact.run_modal(ev.ag, size, ev.work, ev.y)
+        return central.run_central(ev.ag, ev.substeps, ev.dt / ev.substeps, ev.quantity,
+                                   ev.r_out, size, ev.work, ev.y)
+
+    simulate(0)
+    raw = ev.y.copy()
+
+    def refill(i: int) -> None:
+        np.copyto(ev.y, raw)
+
+    def post(i: int) -> float:
+        np.copyto(ev.y, raw)
+        return process_and_compare(ev.post, ev.y, ev.per_channel, ev.zi)
+
+    copy_us = median_us(refill, repeat)
+    out = {
+        "assembly": median_us(assembly, repeat),
+        "prepare": median_us(lambda i: (assembly(i), prep(i))[1], repeat)
+        - median_us(assembly, repeat),
+        "simulation": median_us(simulate, heavy),
+        "processing+objective": median_us(post, repeat) - copy_us,
+        "total": median_us(lambda i: problem(X[i % n]), heavy),
+        "status": int(code),
+    }
+    return out
+
+
+def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[int, float]:
+    """Median µs per evaluation of φ over batches of k points."""
+    heavy = problem.method != "exact"
+    out = {}
+    for k in BATCHES:
+        if heavy and k > 10:
+            continue
+        reps = max(3, repeat // k // (10 if heavy else 1))
+        blocks = [np.roll(np.resize(X, (max(k, len(X)), X.shape[1])), -j * k, axis=0)[:k]
+                  for j in range(4)]
+        out[k] = median_us(lambda i, blocks=blocks: problem.evaluate_batch(blocks[i % 4]),
+                           reps) / k
+    return out
+
+
+@njit(cache=True)
+def _modal_floor(a: np.ndarray, er: np.ndarray, ei: np.ndarray, g: np.ndarray) -> float:
+    """The bare modal recursion: m complex first-order filters over the record."""
+    m = er.shape[0]
+    xr = np.zeros(m)
+    xi = np.zeros(m)
+    for k in range(a.shape[0]):
+        ak = a[k]
+        for j in range(m):
+            r = er[j] * xr[j] - ei[j] * xi[j] + g[j] * ak
+            xi[j] = er[j] * xi[j] + ei[j] * xr[j] + g[j] * ak
+            xr[j] = r
+    return xr[0]
+
+
+@njit(cache=True)
+def _friction_floor(a: np.ndarray, substeps: int, coef: np.ndarray, yf: np.ndarray,
+                    pf: np.ndarray, law: np.ndarray) -> float:
+    """The bare modal central-difference recurrence with the elasto-slip law, no outputs."""
+    n = coef.shape[1]
+    nf = yf.shape[0]
+    prev = np.zeros(n)
+    cur = np.zeros(n)
+    nxt = np.zeros(n)
+    slip = np.zeros(nf)
+    for k in range(a.shape[0] - 1):
+        for j in range(substeps):
+            u = a[k] + j * (a[k + 1] - a[k]) / substeps
+            for i in range(n):
+                nxt[i] = coef[0, i] * cur[i] - coef[1, i] * prev[i] + coef[2, i] * u
+            for e in range(nf):
+                y = 0.0
+                for i in range(n):
+                    y += yf[e, i] * cur[i]
+                r = min(max(slip[e], y - law[2, e]), y + law[2, e])
+                slip[e] = r
+                f = min(max(law[0, e] * (y - r), -law[1, e]), law[1, e])
+                for i in range(n):
+                    nxt[i] -= pf[e, i] * f
+            prev, cur, nxt = cur, nxt, prev
+    return cur[0]
+
+
+def physical_floor(problem: UpdateProblem, repeat: int) -> tuple[float, str]:
+    """(µs, what) of the bare recurrence of the case (module docstring)."""
+    ag = np.ascontiguousarray(problem._ag, dtype=float)
+    n = problem.structure.n_dof
+    if problem.method == "exact":
+        lam = -0.05 * np.arange(1, n + 1) + 1j * 60.0 * np.arange(1, n + 1)
+        e = np.exp(lam * problem.experiment.dt)
+        args = (ag, e.real.copy(), e.imag.copy(), np.full(n, 1e-3))
+        return (median_us(lambda i: _modal_floor(*args), repeat),
+                f"{n} complex modal recursions x {ag.size:,} samples")
+    sub = problem.substeps
+    nf = problem.evaluator.n_friction
+    rng = np.random.default_rng(0)
+    coef = np.vstack([np.full(n, 1.99), np.full(n, 0.999), np.full(n, 1e-8)])
+    law = np.vstack([np.full(nf, 1e5), np.full(nf, 20.0), np.full(nf, 2e-4)])
+    args = (ag, sub, coef, rng.standard_normal((nf, n)) * 1e-3,
+            rng.standard_normal((nf, n)) * 1e-9, law)
+    return (median_us(lambda i: _friction_floor(*args), max(3, repeat // 10)),
+            f"{n} modes + {nf} elasto-slip elements x {(ag.size - 1) * sub:,} steps")
+
+
+def opensees_ratio(problem: UpdateProblem, repeat: int) -> dict[str, Any] | None:
+    """OpenSeesPy's central differences on the friction bridge at the case's substep."""
+    try:
+        from femupdate.benchmarks.opensees import OpenSeesPeer, import_opensees
+
+        ops = import_opensees()
+    except Exception:  # not installed: no comparison
+        return None
+    values = problem.values(problem.case.to_search(bridge.truth("friction")))
+    peer = OpenSeesPeer(problem.case.model, values, ops=ops)
+    ag = np.ascontiguousarray(problem._ag, dtype=float)
+    reps = max(3, min(5, repeat // 20))
+    us = median_us(lambda i: peer.run(ag, problem.experiment.dt, method="central_difference",
+                                      substeps=problem.substeps,
+                                      outputs=list(problem.outputs)), reps)
+    return {"opensees_cd_us": us, "substeps": problem.substeps, "repeat": reps}
+
+
+# --------------------------------------------------------------------------- end to end
+
+
+def end_to_end(work: Path, evaluator: str) -> dict[str, Any]:
+    """``femupdate run`` on the viscous bridge: AB, 1 worker, 6,000 evaluations."""
+    os.environ["FEMUPDATE_EVALUATOR"] = evaluator
+    try:
+        t0 = time.perf_counter()
+        summary = bridge.run_bridge_benchmark("viscous", "narrow", "ab", runs=1, workers=1,
+                                              max_evals=6000, snr=0.0,
+                                              work_dir=work / f"e2e-{evaluator}")
+        total = time.perf_counter() - t0
+    finally:
+        os.environ.pop("FEMUPDATE_EVALUATOR", None)
+    nfev = sum(r["nfev"] for r in summary["runs"])
+    run = summary["runs"][0]
+    return {"evaluator": evaluator, "wall_s": summary["wall_s"], "evaluations": nfev,
+            "ms_per_evaluation": 1e3 * summary["wall_s"] / nfev, "benchmark_s": total,
+            "phi": run["phi"], "nfev": run["nfev"], "x": run["x"]}
+
+
+# --------------------------------------------------------------------------- report
+
+
+def _fmt(us: float | None) -> str:
+    if us is None:
+        return "–"
+    return f"{us / 1e3:,.2f} ms" if us >= 1e3 else f"{us:,.1f} µs"
+
+
+def print_case(name: str, samples: str, ref: dict[str, float], new: dict[str, float] | None,
+               floor: tuple[float, str], batches: dict[int, float] | None) -> None:
+    print(f"\n{name} ({samples})")
+    cols = ("assembly", "prepare", "simulation", "processing", "objective", "total")
+    print(f"  {'path':10s}" + "".join(f"{c:>14s}" for c in cols))
+    print(f"  {'reference':10s}" + "".join(f"{_fmt(ref[c]):>14s}" for c in cols))
+    if new is not None:
+        row = [new["assembly"], new["prepare"], new["simulation"],
+               new["processing+objective"], None, new["total"]]
+        print(f"  {'compiled':10s}" + "".join(f"{_fmt(v):>14s}" for v in row)
+              + "   (processing and objective fused)")
+        print(f"  speed-up {ref['total'] / new['total']:.1f}x; floor {_fmt(floor[0])} "
+              f"({floor[1]}); compiled total / floor {new['total'] / floor[0]:.1f}")
+    if batches:
+        print("  batches: " + ", ".join(f"k = {k}: {_fmt(v)} per evaluation"
+                                        for k, v in batches.items()))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=400, help="timed calls per stage")
+    parser.add_argument("--no-run", action="store_true", help="skip the femupdate run rows")
+    parser.add_argument("--no-opensees", action="store_true", help="skip OpenSeesPy")
+    parser.add_argument("--data", type=Path, default=None,
+                        help="shared data directory (holding minishake_1story/)")
+    parser.add_argument("--work", type=Path, default=None, help="where records are written")
+    parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    args = parser.parse_args()
+    work = args.work or Path(tempfile.gettempdir()) / "femupdate-evaluation-cost"
+    work.mkdir(parents=True, exist_ok=True)
+    results: dict[str, Any] = {"load_start": os.getloadavg(), "cases": {}}
+    print(f"load average at start: {results['load_start']}; one BLAS thread; medians")
+    with threadpool_limits(1):
+        cases: dict[str, Callable[[], UpdateProblem | str]] = {
+            "viscous bridge": lambda: viscous_bridge(work),
+            "friction bridge": lambda: friction_bridge(work),
+            "minishake 1-storey (real)": lambda: minishake(args.data),
+            "3-DOF shear building": lambda: shear_building(work),
+        }
+        for name, build in cases.items():
+            problem = build()
+            if isinstance(problem, str):
+                print(f"\n{name}: {problem}")
+                results["cases"][name] = problem
+                continue
+            X = points(problem)
+            samples = f"{problem._ag.size:,} samples, {problem.method}"
+            if problem.method != "exact":
+                samples += f", {problem.substeps} substeps"
+            ref = reference_stages(problem, X, args.repeat)
+            new = compiled_stages(problem, X, args.repeat) if exact is not None else None
+            batches = batch_rows(problem, X, args.repeat) if exact is not None else None
+            floor = physical_floor(problem, args.repeat) if exact is not None else (np.nan, "")
+            print_case(name, samples, ref, new, floor, batches)
+            row: dict[str, Any] = {"samples": int(problem._ag.size), "method": problem.method,
+                                   "reference_us": ref, "compiled_us": new,
+                                   "batch_us_per_evaluation": batches,
+                                   "floor_us": floor[0], "floor": floor[1]}
+            if name == "friction bridge" and not args.no_opensees:
+                peer = opensees_ratio(problem, args.repeat)
+                if peer is not None and new is not None:
+                    peer["ratio_to_compiled_phi"] = peer["opensees_cd_us"] / new["total"]
+                    print(f"  OpenSeesPy central differences x{peer['substeps']}: "
+                          f"{_fmt(peer['opensees_cd_us'])} per simulation = "
+                          f"{peer['ratio_to_compiled_phi']:,.0f}x one compiled φ")
+                row["opensees"] = peer
+            results["cases"][name] = row
+        if not args.no_run:
+            print("\nfemupdate run, viscous bridge, AB, 1 worker, 6,000 evaluations:")
+            runs = [end_to_end(work, "reference")] if exact is None else [
+                end_to_end(work, "reference"), end_to_end(work, "compiled")]
+            for r in runs:
+                print(f"  {r['evaluator']:10s} wall {r['wall_s']:.2f} s / {r['evaluations']} "
+                      f"evaluations = {r['ms_per_evaluation']:.3f} ms per evaluation "
+                      f"(φ {r['phi']:.6g}, nfev {r['nfev']})")
+            if len(runs) == 2:
+                a, b = runs
+                same = a["nfev"] == b["nfev"] and a["x"] == b["x"]
+                rel = abs(a["phi"] - b["phi"]) / abs(a["phi"])
+                print(f"  same evaluations and end point: {same}; φ relative difference "
+                      f"{rel:.2e}; speed-up {a['wall_s'] / b['wall_s']:.1f}x")
+            results["end_to_end"] = runs
+            shutil.rmtree(work / "e2e-reference", ignore_errors=True)
+            shutil.rmtree(work / "e2e-compiled", ignore_errors=True)
+    results["load_end"] = os.getloadavg()
+    print(f"\nload average at end: {results['load_end']}")
+    if args.json is not None:
+        args.json.write_text(json.dumps(results, indent=2, default=float) + "\n")
+
+
+if __name__ == "__main__":
+    main()
