@@ -3,19 +3,25 @@
 Every objective option on virtual experiments with noise, offsets and drift (so that φ is a
 real misfit, not rounding): φ must equal ``UpdateProblem.phi_reference`` to 1e-12 relative.
 
-Two kinds of case are themselves defined less sharply than that. A linear model whose
-prediction is high-passed and then integrated twice (it is driven by the raw record, offsets
-and drift included, and the double integration amplifies the eigendecomposition's rounding of
-~1e-13): there the tolerance is the reference's own sensitivity to rounding, measured in the
-test — the largest relative change of the reference's φ when one parameter moves by one unit
-in the last place (2e-16 relative, physically nothing; 2e-12 causal, 1e-11 zero-phase on these
-records) — capped at 1e-10. And the frictional bridge, where stick-slip transitions amplify
-rounding along the record (a one-ulp change of one parameter moves the reference's φ by up to
-1.5e-11 on the paper-length record) and central differences at ten substeps form the
-accelerations as second differences that cancel four digits: compared to 1e-10 (differences
-of 1e-13 to 3e-12 measured, 5e-11 with a zero-phase filter of the prediction). A batch gives
-the single calls' values bit for bit. No timings here: ``benchmarks/evaluation_cost.py``
-measures them.
+Three kinds of point are themselves defined less sharply than that, and there the tolerance
+is the reference's own sensitivity to rounding, measured in the test: the largest relative
+change of the reference's φ when one parameter moves by one unit in the last place (2e-16
+relative, physically nothing), capped at 1e-10.
+
+- A linear model whose prediction is high-passed, then integrated twice: it is driven by the
+  raw record, offsets and drift included, and the double integration amplifies the
+  eigendecomposition's rounding of ~1e-13 (sensitivity 2e-12 causal, 1e-11 zero-phase).
+- Close to the minimum of noise-free records: φ (1e-6) is then a small difference of large
+  signals and its relative rounding grows as 1/√φ for both paths; the normalised residual √φ
+  agrees to 1e-14.
+- The frictional bridge, compared to 1e-10 outright: stick-slip transitions amplify rounding
+  along the record (one ulp of one parameter moves the reference's φ by up to 1.5e-11 on the
+  paper-length record) and central differences at ten substeps form accelerations as second
+  differences that cancel four digits (differences of 1e-13 to 3e-12 measured, 5e-11 with a
+  zero-phase filter of the prediction).
+
+A batch gives the single calls' values bit for bit. No timings here:
+``benchmarks/evaluation_cost.py`` measures them.
 """
 
 from __future__ import annotations
@@ -175,6 +181,25 @@ def test_friction_bridge_matches_the_reference(friction_spec: dict[str, Any],
                                                option: str) -> None:
     problem = _problem(friction_spec, FRICTION_OPTIONS[option])
     assert _max_relative_difference(problem, _points(problem, 4)) <= FRICTION_RTOL
+
+
+def test_near_a_noise_free_minimum_the_residual_matches(tmp_path: Path) -> None:
+    # Close to the truth of noise-free records φ is a small difference of large signals
+    # (1e-6 here): its relative rounding grows as 1/√φ for the reference as much as for the
+    # compiled path. The normalised residual √φ agrees to rounding, and φ to within the
+    # reference's own one-ulp sensitivity.
+    spec = bridge.bridge_case("viscous", directory=str(tmp_path))
+    truth = bridge.truth("viscous")
+    virtual_experiment(parse_case(spec, source="b.toml"), truth, tmp_path, seed=5,
+                       duration=1.0, snr=0.0, offset=0.0, drift=0.0)
+    problem = _problem(spec)
+    x0 = problem.case.to_search(truth)
+    X = x0 * (1.0 + 3e-4 * np.random.default_rng(2).standard_normal((4, x0.size)))
+    compiled = problem.evaluate_batch(X)
+    reference = np.array([problem.phi_reference(x) for x in X])
+    assert np.all((reference > 1e-9) & (reference < 1e-4))
+    assert np.max(np.abs(np.sqrt(compiled) - np.sqrt(reference))) < 1e-13
+    _assert_within_its_sensitivity(problem, X)
 
 
 def test_batches_give_the_single_values_bit_for_bit(viscous_spec: dict[str, Any],

@@ -24,6 +24,7 @@ exactly as an uninterrupted one.
 from __future__ import annotations
 
 import builtins
+import contextlib
 import math
 import os
 import pickle
@@ -48,6 +49,7 @@ from femupdate.runs.executors import (
     default_workers,
     limit_blas_threads,
     open_executor,
+    single_blas_thread,
 )
 from femupdate.runs.progress import RunProgress
 from femupdate.runs.store import FILENAME, ChunkRecord, ResultsStore, fingerprint_of
@@ -213,8 +215,9 @@ def iter_runs(tasks: Sequence[RunTask], workers: int = 1, executor: Executor | N
     if workers < 1:
         raise ConfigError(f"workers must be at least 1, got {workers}")
     if executor is None and workers == 1:
-        for task in tasks:
-            yield task()
+        with single_blas_thread():
+            for task in tasks:
+                yield task()
         return
     from concurrent.futures import as_completed
 
@@ -556,11 +559,15 @@ def run_all(
                        connect_timeout=connect_timeout) as ex:
         store = _open_store(store_dir, resume, case_dict, fingerprint, settings,
                             ignore=("entropy",) if seed is None else ())
+        # Runs in this process get one BLAS thread, as worker processes do (pitfalls.md §1:
+        # small dense algebra in a hot loop is many times slower with several).
+        blas = single_blas_thread() if ex.inline else contextlib.nullcontext()
         try:
-            return _run_store(fun, spec, ex, store, root, runs, quiet=quiet, log_json=log_json,
-                              label=label, chunk_evals=chunk_evals,
-                              chunk_seconds=float(chunk_seconds), names=names,
-                              keep_history=keep_history, on_outcome=on_outcome)
+            with blas:
+                return _run_store(fun, spec, ex, store, root, runs, quiet=quiet,
+                                  log_json=log_json, label=label, chunk_evals=chunk_evals,
+                                  chunk_seconds=float(chunk_seconds), names=names,
+                                  keep_history=keep_history, on_outcome=on_outcome)
         finally:
             store.close()
 
