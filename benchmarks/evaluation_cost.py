@@ -49,11 +49,9 @@ from femupdate.simulate import prepare
 from femupdate.update import UpdateProblem
 
 try:
-    from femupdate.evaluation import central, exact
-    from femupdate.evaluation.assembly import assemble
-    from femupdate.evaluation.processing import process_and_compare
+    import femupdate.evaluation as compiled_path
 except ImportError:  # a femupdate before issue 14: the reference path only
-    exact = None
+    compiled_path = None
 
 REPO = Path(__file__).resolve().parents[1]
 BATCHES = (1, 10, 100)
@@ -148,6 +146,8 @@ def reference_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict
     responses = [sim.run(problem._ag) for sim in sims]
     predictions = [problem.prediction(r) for r in responses]
     heavy = max(1, repeat // (10 if problem.method != "exact" else 1))
+    # (a femupdate before issue 14 has no phi_reference: its __call__ is that path)
+    reference = getattr(problem, "phi_reference", problem)
     return {
         "assembly": median_us(lambda i: problem.system(X[i % n]), repeat),
         "prepare": median_us(lambda i: prepare(systems[i % n], problem.experiment.dt, **kw),
@@ -155,60 +155,29 @@ def reference_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict
         "simulation": median_us(lambda i: sims[i % n].run(problem._ag), heavy),
         "processing": median_us(lambda i: problem.prediction(responses[i % n]), repeat),
         "objective": median_us(lambda i: problem.objective(predictions[i % n]), repeat),
-        "total": median_us(lambda i: problem.phi_reference(X[i % n]), heavy),
+        "total": median_us(lambda i: reference(X[i % n]), heavy),
     }
 
 
 def compiled_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[str, float]:
-    """Median µs of each compiled stage called alone (each with its own call overhead), and
-    of the whole φ through ``UpdateProblem.__call__``."""
+    """Median µs of each compiled stage called alone (each with its own call overhead:
+    ``Evaluator.stages``), and of the whole φ through ``UpdateProblem.__call__``."""
     ev = problem.evaluator
-    m = ev.mats
     n = len(X)
-    exact_path = ev.method == "exact"
-    heavy = max(1, repeat // (10 if not exact_path else 1))
+    stages = [ev.stages(x) for x in X[: min(n, 16)]]
+    heavy = max(1, repeat // (10 if ev.method != "exact" else 1))
 
-    def assembly(i: int) -> int:
-        return assemble(ev.plan, X[i % n], m.p, m.M, m.minv, m.C, m.K, m.load, m.kr, m.fu)
+    def timed(name: str, reps: int) -> float:
+        return median_us(lambda i: stages[i % len(stages)][name](), reps)
 
-    def prep(i: int) -> tuple[int, int]:
-        if exact_path:
-            return exact.prepare_modal(m.M, m.minv, m.K, m.C, m.load, ev.r_out, ev.outputs,
-                                       ev.dt, ev.quantity, ev.work)
-        return central.prepare_central(m.M, m.K, m.C, m.load, m.minv, m.kr, m.fu, ev.fi,
-                                       ev.fj, ev.outputs, ev.dt / ev.substeps, ev.ag[0],
-                                       ev.work)
-
-    assembly(0)
-    code, size = prep(0)
-
-    def simulate(i: int) -> bool:
-        if exact_path:
-            return exact.run_modal(ev.ag, size, ev.work, ev.y)
-        return central.run_central(ev.ag, ev.substeps, ev.dt / ev.substeps, ev.quantity,
-                                   ev.r_out, size, ev.work, ev.y)
-
-    simulate(0)
-    raw = ev.y.copy()
-
-    def refill(i: int) -> None:
-        np.copyto(ev.y, raw)
-
-    def post(i: int) -> float:
-        np.copyto(ev.y, raw)
-        return process_and_compare(ev.post, ev.y, ev.per_channel, ev.zi)
-
-    copy_us = median_us(refill, repeat)
-    out = {
-        "assembly": median_us(assembly, repeat),
-        "prepare": median_us(lambda i: (assembly(i), prep(i))[1], repeat)
-        - median_us(assembly, repeat),
-        "simulation": median_us(simulate, heavy),
-        "processing+objective": median_us(post, repeat) - copy_us,
+    copy_us = timed("copy", repeat)
+    return {
+        "assembly": timed("assembly", repeat),
+        "prepare": timed("prepare", repeat) - timed("assembly", repeat),
+        "simulation": timed("simulation", heavy),
+        "processing+objective": timed("compare", repeat) - copy_us,
         "total": median_us(lambda i: problem(X[i % n]), heavy),
-        "status": int(code),
     }
-    return out
 
 
 def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[int, float]:
@@ -269,25 +238,26 @@ def _friction_floor(a: np.ndarray, substeps: int, coef: np.ndarray, yf: np.ndarr
     return cur[0]
 
 
-def physical_floor(problem: UpdateProblem, repeat: int) -> tuple[float, str]:
-    """(µs, what) of the bare recurrence of the case (module docstring)."""
+def physical_floor(problem: UpdateProblem, x: np.ndarray, repeat: int) -> tuple[float, str]:
+    """(µs, what) of the bare recurrence of the case at point ``x``: its modal filters (or its
+    modal central differences with the elasto-slip law) over the record, coefficients as the
+    evaluator prepares them, no outputs, no processing, no comparison."""
+    ev = problem.evaluator
+    ev.stages(x)  # prepares the point in the evaluator's buffers
     ag = np.ascontiguousarray(problem._ag, dtype=float)
-    n = problem.structure.n_dof
+    w = ev.work
     if problem.method == "exact":
-        lam = -0.05 * np.arange(1, n + 1) + 1j * 60.0 * np.arange(1, n + 1)
-        e = np.exp(lam * problem.experiment.dt)
-        args = (ag, e.real.copy(), e.imag.copy(), np.full(n, 1e-3))
+        m = int(np.count_nonzero(w.coef[0] != 0.0))  # the kept modes (zero ones pad)
+        args = (ag, w.coef[0, :m].copy(), w.coef[1, :m].copy(), w.coef[2, :m].copy())
         return (median_us(lambda i: _modal_floor(*args), repeat),
-                f"{n} complex modal recursions x {ag.size:,} samples")
-    sub = problem.substeps
-    nf = problem.evaluator.n_friction
-    rng = np.random.default_rng(0)
-    coef = np.vstack([np.full(n, 1.99), np.full(n, 0.999), np.full(n, 1e-8)])
-    law = np.vstack([np.full(nf, 1e5), np.full(nf, 20.0), np.full(nf, 2e-4)])
-    args = (ag, sub, coef, rng.standard_normal((nf, n)) * 1e-3,
-            rng.standard_normal((nf, n)) * 1e-9, law)
+                f"{m} complex modal recursions x {ag.size:,} samples")
+    nf = int(np.count_nonzero(w.law[0]))
+    args = (ag, problem.substeps, w.modal.copy(), w.yf[:nf].copy(), w.pf[:nf].copy(),
+            w.law[:, :nf].copy())
+    n = w.modal.shape[1]
     return (median_us(lambda i: _friction_floor(*args), max(3, repeat // 10)),
-            f"{n} modes + {nf} elasto-slip elements x {(ag.size - 1) * sub:,} steps")
+            f"{n} modes + {nf} elasto-slip elements x {(ag.size - 1) * problem.substeps:,} "
+            "steps")
 
 
 def opensees_ratio(problem: UpdateProblem, repeat: int) -> dict[str, Any] | None:
@@ -329,6 +299,26 @@ def end_to_end(work: Path, evaluator: str) -> dict[str, Any]:
             "phi": run["phi"], "nfev": run["nfev"], "x": run["x"]}
 
 
+def _sphere(x: np.ndarray) -> float:
+    d = x - 0.3
+    return float(d @ d)
+
+
+def machinery_alone(work: Path) -> dict[str, Any]:
+    """The run machinery with a trivial φ: AB, 9 parameters, one worker, a results store,
+    6,000 evaluations in one run (restarted on the optimizer's own stop until done)."""
+    from femupdate.runs.runner import run_all
+
+    store = work / "machinery"
+    shutil.rmtree(store, ignore_errors=True)
+    t0 = time.perf_counter()
+    out = run_all(_sphere, [(0.0, 1.0)] * 9, "ab", runs=1, seed=0, max_evals=6000,
+                  options={"restarts": 1000}, store_dir=store)
+    wall = time.perf_counter() - t0
+    shutil.rmtree(store, ignore_errors=True)
+    return {"evaluations": out[0].nfev, "us_per_evaluation": 1e6 * wall / out[0].nfev}
+
+
 # --------------------------------------------------------------------------- report
 
 
@@ -344,7 +334,7 @@ def print_case(name: str, samples: str, ref: dict[str, float], new: dict[str, fl
     cols = ("assembly", "prepare", "simulation", "processing", "objective", "total")
     print(f"  {'path':10s}" + "".join(f"{c:>14s}" for c in cols))
     print(f"  {'reference':10s}" + "".join(f"{_fmt(ref[c]):>14s}" for c in cols))
-    if new is not None:
+    if new is not None and floor[1]:
         row = [new["assembly"], new["prepare"], new["simulation"],
                new["processing+objective"], None, new["total"]]
         print(f"  {'compiled':10s}" + "".join(f"{_fmt(v):>14s}" for v in row)
@@ -388,9 +378,12 @@ def main() -> None:
             if problem.method != "exact":
                 samples += f", {problem.substeps} substeps"
             ref = reference_stages(problem, X, args.repeat)
-            new = compiled_stages(problem, X, args.repeat) if exact is not None else None
-            batches = batch_rows(problem, X, args.repeat) if exact is not None else None
-            floor = physical_floor(problem, args.repeat) if exact is not None else (np.nan, "")
+            new = batches = None
+            floor: tuple[float, str] = (np.nan, "")
+            if compiled_path is not None:
+                new = compiled_stages(problem, X, args.repeat)
+                batches = batch_rows(problem, X, args.repeat)
+                floor = physical_floor(problem, X[0], args.repeat)
             print_case(name, samples, ref, new, floor, batches)
             row: dict[str, Any] = {"samples": int(problem._ag.size), "method": problem.method,
                                    "reference_us": ref, "compiled_us": new,
@@ -407,7 +400,7 @@ def main() -> None:
             results["cases"][name] = row
         if not args.no_run:
             print("\nfemupdate run, viscous bridge, AB, 1 worker, 6,000 evaluations:")
-            runs = [end_to_end(work, "reference")] if exact is None else [
+            runs = [end_to_end(work, "reference")] if compiled_path is None else [
                 end_to_end(work, "reference"), end_to_end(work, "compiled")]
             for r in runs:
                 print(f"  {r['evaluator']:10s} wall {r['wall_s']:.2f} s / {r['evaluations']} "
@@ -420,6 +413,10 @@ def main() -> None:
                 print(f"  same evaluations and end point: {same}; φ relative difference "
                       f"{rel:.2e}; speed-up {a['wall_s'] / b['wall_s']:.1f}x")
             results["end_to_end"] = runs
+            alone = machinery_alone(work)
+            print(f"  the run machinery alone (trivial φ, same settings): "
+                  f"{alone['us_per_evaluation']:.1f} µs per evaluation")
+            results["machinery_alone"] = alone
             shutil.rmtree(work / "e2e-reference", ignore_errors=True)
             shutil.rmtree(work / "e2e-compiled", ignore_errors=True)
     results["load_end"] = os.getloadavg()

@@ -215,6 +215,8 @@ class Evaluator:
         n_out = self.outputs.size
         self._central_batch: Callable[..., None] = _central_batch
         self._exact_batch: Callable[..., None] = _exact_batch
+        self._written: Any = None  # the written-out kernel's module (codegen), if used
+        self._written_modes = -1
         if self.method == "exact":
             self.work: Any = exact.exact_work(n, n_out)
             self._write_exact_kernel(case.nominal(), problem)
@@ -226,6 +228,7 @@ class Evaluator:
                 written = friction_kernel(n, self.n_friction, n_out)
                 if written is not None:
                     self._central_batch = written.batch
+                    self._written = written
         self.y = np.empty((n_out, self.ag.size))
         self.per_channel = np.empty(n_out)
         self.zi = np.empty(2 * self._sos.shape[0])
@@ -246,6 +249,7 @@ class Evaluator:
             written = exact_kernel(modes, self.outputs.size)
             if written is not None:
                 self._exact_batch = written.batch
+                self._written, self._written_modes = written, modes
 
     def _bind(self) -> None:
         """The batch kernel's arguments that never change, and buffers of a single call."""
@@ -301,6 +305,60 @@ class Evaluator:
         if entry is None:
             entry = self._entry[raw] = _entry_point(self._batch, args)
         entry(*args)
+
+    def stages(self, x: np.ndarray) -> dict[str, Callable[[], object]]:
+        """The compiled stages of φ(x) as separate calls, for timing them one by one.
+
+        ``assembly``, ``prepare`` (the eigenproblem and the kernel's coefficients, after an
+        assembly), ``simulation`` (the kernel φ uses, on the prepared point) and ``compare``
+        (processing and objective, on the simulated outputs); each call carries its own
+        dispatch overhead. The point must be one the compiled path evaluates.
+        """
+        m = self.mats
+        x = np.ascontiguousarray(x, dtype=float)
+        head = (x, self.plan, m.p, m.M, m.minv, m.C, m.K, m.load, m.kr, m.fu)
+        if self.method == "exact":
+            def setup() -> tuple[int, int]:
+                return exact_setup(*head, self.r_out, self.outputs, self.dt, self.quantity,
+                                   self.work)
+
+            status, size = setup()
+
+            def simulate() -> bool:
+                if size == self._written_modes:
+                    w = self.work
+                    return self._written.kernel(self.ag, w.coef, w.wr, w.wi, w.feed, w.base,
+                                                self.y)
+                return exact.run_modal(self.ag, size, self.work, self.y)
+        else:
+            h = self.dt / self.substeps
+
+            def setup() -> tuple[float, int, int]:
+                return central_setup(*head, self.fi, self.fj, self.ag, self.outputs, h,
+                                     self.work)
+
+            _, status, size = setup()
+
+            def simulate() -> bool:
+                if self._written is not None:
+                    w = self.work
+                    return self._written.kernel(self.ag, self.substeps, h, self.quantity,
+                                                self.r_out, w.modal, w.yf, w.pf, w.law, w.po,
+                                                w.eta0, self.y)
+                return central.run_central(self.ag, self.substeps, h, self.quantity,
+                                           self.r_out, size, self.work, self.y)
+        if status != RUN:
+            raise ValueError("this point is not evaluated by the compiled path")
+        simulate()
+        raw = self.y.copy()
+
+        def compare_() -> float:
+            np.copyto(self.y, raw)  # the comparison overwrites the outputs
+            return process_and_compare(self.post, self.y, self.per_channel, self.zi)
+
+        return {"assembly": lambda: assemble(self.plan, *head[:1], *head[2:]),
+                "prepare": setup, "simulation": simulate,
+                "compare": compare_, "copy": lambda: np.copyto(self.y, raw)}
 
     def _zero_phase(self, x: np.ndarray) -> tuple[float, int]:
         """(φ, status) when the prediction is filtered forward and backward (``sosfiltfilt``)."""
