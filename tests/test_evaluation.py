@@ -218,8 +218,19 @@ def test_a_pickled_problem_evaluates_the_same(viscous_spec: dict[str, Any]) -> N
     X = _points(problem, 3)
     before = problem.evaluate_batch(X)
     clone = pickle.loads(pickle.dumps(problem))
-    assert clone._evaluator is None  # buffers are rebuilt where it is unpickled
+    assert not clone._evaluators  # buffers are rebuilt where it is unpickled
     assert np.array_equal(clone.evaluate_batch(X), before)
+
+
+def test_threads_get_their_own_buffers(viscous_spec: dict[str, Any]) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    problem = _problem(viscous_spec)
+    X = _points(problem, 8, seed=3)
+    expected = problem.evaluate_batch(X)
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(problem, list(X) * 3))
+    assert np.array_equal(np.array(got), np.tile(expected, 3))
 
 
 @pytest.mark.parametrize("method", ["newmark", "central_difference"])

@@ -8,6 +8,7 @@ repeated runs in worker processes.
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -68,7 +69,7 @@ class UpdateProblem:
             [self.structure.dof_index(c.node, c.dof) for c in case.data.outputs], dtype=np.int64
         )
         self._r_out = self.structure.influence_vector(self.direction)[self.outputs]
-        self._evaluator: Evaluator | None = None
+        self._evaluators: dict[int, Evaluator] = {}
         self.objective = Objective(
             experiment.target,
             t=experiment.t,
@@ -140,16 +141,19 @@ class UpdateProblem:
 
     @property
     def evaluator(self) -> Evaluator:
-        """The compiled evaluator, built at first use (in each process)."""
-        if self._evaluator is None:
+        """The compiled evaluator, built at first use in each process and thread (it owns its
+        buffers: threads of one process, e.g. a Dask worker's, each get their own)."""
+        key = threading.get_ident()
+        evaluator = self._evaluators.get(key)
+        if evaluator is None:
             from femupdate.evaluation import evaluator_for
 
-            self._evaluator = evaluator_for(self)
-        return self._evaluator
+            evaluator = self._evaluators[key] = evaluator_for(self)
+        return evaluator
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_evaluator"] = None  # buffers, rebuilt where the problem is unpickled
+        state["_evaluators"] = {}  # buffers, rebuilt where the problem is unpickled
         return state
 
     def phi_reference(self, x: np.ndarray) -> float:
