@@ -1,7 +1,7 @@
 """What one evaluation of φ(x) costs and where it goes (issue 14), before and after.
 
-    python benchmarks/evaluation_cost.py [--repeat N] [--no-run] [--no-opensees] [--data DIR]
-                                         [--json PATH]
+    python benchmarks/evaluation_cost.py [--repeat N] [--no-run | --only-run] [--no-opensees]
+                                         [--data DIR] [--json PATH]
 
 Four cases: the paper's viscous bridge (10 DOF, exact discretisation, 4,768 samples), the
 friction bridge (central differences with 10 substeps: 47,680 steps), the real one-storey
@@ -23,7 +23,8 @@ The machine's load average is printed at the start and the end: the figures are 
 as the machine.
 
 The script runs against an older femupdate too (without ``femupdate.evaluation``): it then
-times the reference path only.
+times the reference path only (``PYTHONPATH=<old checkout>/src python
+benchmarks/evaluation_cost.py --only-run`` gives the end-to-end "before").
 """
 
 from __future__ import annotations
@@ -386,6 +387,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=400, help="timed calls per stage")
     parser.add_argument("--no-run", action="store_true", help="skip the femupdate run rows")
+    parser.add_argument("--only-run", action="store_true",
+                        help="only the femupdate run rows (e.g. against an older femupdate)")
     parser.add_argument("--no-opensees", action="store_true", help="skip OpenSeesPy")
     parser.add_argument("--data", type=Path, default=None,
                         help="shared data directory (holding minishake_1story/)")
@@ -404,6 +407,8 @@ def main() -> None:
             "3-DOF shear building": lambda: shear_building(work),
         }
         for name, build in cases.items():
+            if args.only_run:
+                break
             problem = build()
             if isinstance(problem, str):
                 print(f"\n{name}: {problem}")
