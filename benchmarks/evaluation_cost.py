@@ -7,20 +7,24 @@ Four cases: the paper's viscous bridge (10 DOF, exact discretisation, 4,768 samp
 friction bridge (central differences with 10 substeps: 47,680 steps), the real one-storey
 shake-table test (``examples/minishake-1story/elcentro.toml``; skipped when its records are not
 found: ``--data`` or ``FEMUPDATE_DATA``) and a 3-DOF shear building on a synthetic record of
-7,500 samples compared in absolute accelerations. For each: the time of one evaluation by the
-step-by-step reference path (``UpdateProblem.phi_reference``: assembly, the simulator's
-preparation, its run, the prediction's processing, the objective) and by the compiled evaluator
-(``femupdate.evaluation``: the same stages, each timed alone, then the whole φ), the physical
-floor beside them (the bare modal recursion over the record, or the bare friction recurrence,
-compiled), then φ of batches of k points per evaluation. Times are medians (µs) over
-``--repeat`` calls cycling through random points of the search box, with one BLAS thread
-(threadpoolctl). With ``--no-run`` the end-to-end row is skipped: ``femupdate run`` on the
-viscous bridge, AB, one worker, 6,000 evaluations (noise-free records), wall time per
-evaluation from summary.json, for the reference path (``FEMUPDATE_EVALUATOR=reference``) and
-the compiled one, whose runs must end alike (same evaluations, φ to rounding). The friction row
-is compared with OpenSeesPy's central differences at the same substep when it is installed.
-The machine's load average is printed at the start and the end: the figures are only as quiet
-as the machine.
+7,500 samples compared in absolute accelerations.
+
+For each case: one evaluation by the step-by-step reference path
+(``UpdateProblem.phi_reference``: assembly, the simulator's preparation, its run, the
+prediction's processing, the objective) and by the compiled evaluator (``femupdate.evaluation``:
+the same stages, each timed alone with its own call overhead, then the whole φ); the physical
+floor beside them (the bare modal recursion over the record, or the linear part of the friction
+recurrence, a lower bound, compiled, at the case's own coefficients); φ of batches of k points,
+per evaluation. Times are medians over ``--repeat`` calls cycling through random points of the
+search box, with one BLAS thread (threadpoolctl), wall time with the process's CPU time beside
+it: on a machine shared with other jobs, preemption inflates the first and not the second.
+
+Then (unless ``--no-run``) ``femupdate run`` end to end: the viscous bridge, AB, one worker,
+6,000 evaluations, noise-free records; wall time per evaluation from summary.json, for the
+reference path (``FEMUPDATE_EVALUATOR=reference``) and the compiled one, whose runs must end
+alike (same evaluations and end point, φ to rounding); and the run machinery alone (a trivial
+φ, same settings). The friction row is compared with OpenSeesPy's central differences at the
+same substep when it is installed. The load average is printed at the start and the end.
 
 The script runs against an older femupdate too (without ``femupdate.evaluation``): it then
 times the reference path only (``PYTHONPATH=<old checkout>/src python
@@ -230,37 +234,26 @@ def _modal_floor(a: np.ndarray, er: np.ndarray, ei: np.ndarray, g: np.ndarray) -
 
 
 @njit(cache=True)
-def _friction_floor(a: np.ndarray, substeps: int, coef: np.ndarray, yf: np.ndarray,
-                    pf: np.ndarray, law: np.ndarray) -> float:
-    """The bare modal central-difference recurrence with the elasto-slip law, no outputs."""
+def _central_floor(a: np.ndarray, substeps: int, coef: np.ndarray) -> float:
+    """The bare linear part of the modal central-difference recurrence over every step (the
+    friction elements only add to it: a lower bound)."""
     n = coef.shape[1]
-    nf = yf.shape[0]
     prev = np.zeros(n)
     cur = np.zeros(n)
     nxt = np.zeros(n)
-    slip = np.zeros(nf)
     for k in range(a.shape[0] - 1):
         for j in range(substeps):
             u = a[k] + j * (a[k + 1] - a[k]) / substeps
             for i in range(n):
                 nxt[i] = coef[0, i] * cur[i] - coef[1, i] * prev[i] + coef[2, i] * u
-            for e in range(nf):
-                y = 0.0
-                for i in range(n):
-                    y += yf[e, i] * cur[i]
-                r = min(max(slip[e], y - law[2, e]), y + law[2, e])
-                slip[e] = r
-                f = min(max(law[0, e] * (y - r), -law[1, e]), law[1, e])
-                for i in range(n):
-                    nxt[i] -= pf[e, i] * f
             prev, cur, nxt = cur, nxt, prev
     return cur[0]
 
 
 def physical_floor(problem: UpdateProblem, x: np.ndarray, repeat: int) -> tuple[float, str]:
-    """(µs, what) of the bare recurrence of the case at point ``x``: its modal filters (or its
-    modal central differences with the elasto-slip law) over the record, coefficients as the
-    evaluator prepares them, no outputs, no processing, no comparison."""
+    """(µs, what) of the bare recurrence of the case at point ``x``: its modal filters (or the
+    linear part of its modal central differences, a lower bound) over the record, coefficients
+    as the evaluator prepares them; no outputs, no processing, no comparison."""
     ev = problem.evaluator
     prepared = ev.stages(x)["prepare"]()  # the point, prepared in the evaluator's buffers
     ag = np.ascontiguousarray(problem._ag, dtype=float)
@@ -271,13 +264,11 @@ def physical_floor(problem: UpdateProblem, x: np.ndarray, repeat: int) -> tuple[
         args = (ag, w.coef[0, :m].copy(), w.coef[1, :m].copy(), w.coef[2, :m].copy())
         return (median_us(lambda i: _modal_floor(*args), repeat),
                 f"{m} complex modal recursions x {ag.size:,} samples")
-    nf = prepared[2]
-    args = (ag, problem.substeps, w.modal.copy(), w.yf[:nf].copy(), w.pf[:nf].copy(),
-            w.law[:, :nf].copy())
+    args = (ag, problem.substeps, w.modal.copy())
     n = w.modal.shape[1]
-    return (median_us(lambda i: _friction_floor(*args), max(3, repeat // 10)),
-            f"{n} modes + {nf} elasto-slip elements x {(ag.size - 1) * problem.substeps:,} "
-            "steps")
+    return (median_us(lambda i: _central_floor(*args), max(3, repeat // 10)),
+            f"{n} modal central-difference recursions x {(ag.size - 1) * problem.substeps:,} "
+            f"steps, without the {prepared[2]} friction elements")
 
 
 def opensees_ratio(problem: UpdateProblem, repeat: int) -> dict[str, Any] | None:
