@@ -203,10 +203,10 @@ def compiled_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[
 
 
 def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
-               ) -> dict[int, tuple[float, float]]:
+               ) -> dict[int | str, tuple[float, float]]:
     """Median µs per evaluation of φ over batches of k points: (wall, CPU)."""
     heavy = problem.method != "exact"
-    out = {}
+    out: dict[int | str, tuple[float, float]] = {}
     for k in BATCHES:
         if heavy and k > 10:
             continue
@@ -215,6 +215,10 @@ def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
                   for j in range(4)]
         wall = median_us(lambda i, blocks=blocks: problem.evaluate_batch(blocks[i % 4]), reps)
         out[k] = (wall / k, last_cpu_us() / k)
+        if k == 10:  # the same batches split over two threads (CPU: both threads)
+            wall = median_us(lambda i, blocks=blocks: problem.evaluate_batch(blocks[i % 4],
+                                                                             threads=2), reps)
+            out["10 x 2 threads"] = (wall / k, last_cpu_us() / k)
     return out
 
 
@@ -355,7 +359,8 @@ def _fmt(us: float | None) -> str:
 
 
 def print_case(name: str, samples: str, ref: dict[str, float], new: dict[str, float] | None,
-               floor: tuple[float, str], batches: dict[int, tuple[float, float]] | None
+               floor: tuple[float, str],
+               batches: dict[int | str, tuple[float, float]] | None
                ) -> None:
     print(f"\n{name} ({samples})")
     cols = ("assembly", "prepare", "simulation", "processing", "objective", "total")

@@ -211,6 +211,7 @@ def test_batches_give_the_single_values_bit_for_bit(viscous_spec: dict[str, Any]
         batch = problem.evaluate_batch(X)
         assert np.array_equal(single, batch)
         assert np.array_equal(problem.evaluate_batch(X[::-1])[::-1], batch)  # order-free
+        assert np.array_equal(problem.evaluate_batch(X, threads=2), batch)
 
 
 def test_a_pickled_problem_evaluates_the_same(viscous_spec: dict[str, Any]) -> None:

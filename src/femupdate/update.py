@@ -24,6 +24,8 @@ from femupdate.simulate import prepare
 from femupdate.simulate.response import Response
 
 if TYPE_CHECKING:
+    from concurrent.futures import ThreadPoolExecutor
+
     from femupdate.evaluation import Evaluator
 
 
@@ -70,6 +72,7 @@ class UpdateProblem:
         )
         self._r_out = self.structure.influence_vector(self.direction)[self.outputs]
         self._evaluators: dict[int, Evaluator] = {}
+        self._pool: ThreadPoolExecutor | None = None  # evaluate_batch's threads, when asked
         self.objective = Objective(
             experiment.target,
             t=experiment.t,
@@ -133,11 +136,24 @@ class UpdateProblem:
             return self.phi_reference(x)
         return self.evaluator(x)
 
-    def evaluate_batch(self, X: np.ndarray) -> np.ndarray:
-        """φ of every row of ``X`` (k, n) in one compiled loop (bit for bit k calls)."""
+    def evaluate_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
+        """φ of every row of ``X`` (k, n) in one compiled loop: bit for bit k single calls.
+
+        ``threads`` > 1 splits the rows over that many threads, each with its own evaluator
+        (the compiled loop releases the GIL); the values are the same.
+        """
+        X = np.asarray(X, dtype=float)
         if not self.compiled:
-            return np.array([self.phi_reference(x) for x in np.asarray(X, dtype=float)])
-        return self.evaluator.batch(X)
+            return np.array([self.phi_reference(x) for x in X])
+        if threads <= 1 or X.shape[0] < 2:
+            return self.evaluator.batch(X)
+        parts = np.array_split(X, min(threads, X.shape[0]))
+        if self._pool is None or self._pool._max_workers < len(parts):
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(len(parts), thread_name_prefix="femupdate-phi")
+        return np.concatenate(list(self._pool.map(lambda part: self.evaluator.batch(part),
+                                                  parts)))
 
     @property
     def evaluator(self) -> Evaluator:
@@ -154,6 +170,7 @@ class UpdateProblem:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_evaluators"] = {}  # buffers, rebuilt where the problem is unpickled
+        state["_pool"] = None
         return state
 
     def phi_reference(self, x: np.ndarray) -> float:

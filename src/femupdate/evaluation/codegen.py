@@ -133,7 +133,7 @@ def friction_source(n: int, n_friction: int, n_out: int) -> str:
     lines += [
         "",
         "",
-        "@njit(cache=True)",
+        "@njit(cache=True, nogil=True)",
         "def batch(X, plan, p, M, minv, C, K, load, kr, fu, fi, fj, ag, r_out, outputs, h,",
         "          substeps, quantity, work, post, y, per_channel, zi, raw, phi, status):",
         '    """evaluator._central_batch with this kernel."""',
@@ -195,7 +195,7 @@ def exact_source(m: int, n_out: int) -> str:
     lines += [
         "",
         "",
-        "@njit(cache=True)",
+        "@njit(cache=True, nogil=True)",
         "def batch(X, plan, p, M, minv, C, K, load, kr, fu, ag, r_out, outputs, dt, quantity,",
         "          work, post, y, per_channel, zi, raw, phi, status):",
         '    """evaluator._exact_batch with this kernel."""',

@@ -1,10 +1,12 @@
 """φ(x) of an update problem in one compiled call, with preallocated buffers: :class:`Evaluator`.
 
 One evaluation is: search point → physical values → M, C, K (:mod:`.assembly`) → the
-integrator's preparation and its time loop with the prediction's processing and the comparison
-fused in (:mod:`.exact`, :mod:`.central`) → φ (:func:`.processing.finish`). A batch of k points
-is one compiled loop over them (:meth:`Evaluator.batch`); a single point is a batch of one, so
-the two give the same bits.
+integrator's preparation (:mod:`.exact`, :mod:`.central`; LAPACK from :mod:`.lapack`) → its time
+loop, the raw outputs into a preallocated buffer (or a kernel written out for the size,
+:mod:`.codegen`) → the prediction's processing and the comparison, φ
+(:func:`.processing.process_and_compare`). A batch of k points is one compiled loop over them
+(:meth:`Evaluator.batch`, which releases the GIL: threads, each with its own evaluator, can
+share a batch); a single point is a batch of one, so the two give the same bits.
 
 What the compiled path does not cover is evaluated by the reference (``UpdateProblem``'s
 simulator path), point by point: Newmark, a damping matrix the undamped modes do not
@@ -97,7 +99,7 @@ def compare(diverged: bool, raw: bool, post: Post, y: np.ndarray, per_channel: n
     return process_and_compare(post, y, per_channel, zi)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _exact_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
                  minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
                  kr: np.ndarray, fu: np.ndarray, ag: np.ndarray, r_out: np.ndarray,
@@ -137,7 +139,7 @@ def central_setup(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarra
     return np.nan, RUN, active
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _central_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
                    minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
                    kr: np.ndarray, fu: np.ndarray, fi: np.ndarray, fj: np.ndarray,
