@@ -13,7 +13,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("_optional", "_parallel"),
     ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
-    ("objective", "case"),
+    ("objective", "case", "evaluation"),
     ("experiment", "virtual"),
     ("update",),
     ("identifiability", "results"),

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import AbstractContextManager
 from typing import Any
 
 
@@ -18,6 +19,15 @@ def limit_blas_threads() -> None:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
+
+
+def single_blas_thread() -> AbstractContextManager:
+    """One BLAS thread in this process while the context lasts (the previous limits restored
+    after): what :func:`limit_blas_threads` gives worker processes, for runs that execute in
+    the caller's process (one worker)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1)
 
 
 def default_workers() -> int:

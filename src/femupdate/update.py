@@ -11,8 +11,11 @@ residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, s
 from __future__ import annotations
 
 import math
+import os
+import threading
 import time
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,7 +30,15 @@ from femupdate.model.system import System
 from femupdate.objective import ErrorFunction
 from femupdate.simulate.response import Response
 
+if TYPE_CHECKING:
+    from femupdate.evaluation import Evaluator
+
 Point = np.ndarray | Mapping[str, float]
+
+#: Environment variable: ``reference`` makes every problem built without ``compiled`` evaluate
+#: φ step by step (simulator, prediction, error function), to time or check the compiled
+#: evaluator against it.
+EVALUATOR_ENV = "FEMUPDATE_EVALUATOR"
 
 
 class TrialProblem:
@@ -40,9 +51,16 @@ class TrialProblem:
         The validated case.
     experiment : Experiment
         The trial's processed data (:func:`femupdate.experiment.load_experiment`).
+    compiled : bool or None
+        Evaluate φ at search points with the compiled evaluator (:mod:`femupdate.evaluation`:
+        equal to the step-by-step path to rounding, several times faster) or step by step;
+        None: compiled unless ``FEMUPDATE_EVALUATOR=reference``. The compiled path covers
+        femupdate's own models scored over the whole trial; the rest (an external model, a
+        score window) is evaluated step by step.
     """
 
-    def __init__(self, case: Case, experiment: Experiment) -> None:
+    def __init__(self, case: Case, experiment: Experiment, *,
+                 compiled: bool | None = None) -> None:
         self.case = case
         self.experiment = experiment
         specs = case.trial_specs()
@@ -67,6 +85,11 @@ class TrialProblem:
                                           timeout=section.timeout, isolate=section.isolate)
         #: Why the last evaluation failed (None when it did not).
         self.last_failure: str | None = None
+        if compiled is None:
+            compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
+        whole = experiment.score.indices(experiment.t.size) == (0, experiment.t.size, 1)
+        self.compiled = bool(compiled) and self._runner is None and whole
+        self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
             experiment.target[score],
@@ -80,6 +103,72 @@ class TrialProblem:
     @property
     def name(self) -> str:
         return self.experiment.name
+
+    # What the compiled evaluator reads of its problem (femupdate.evaluation.Evaluator).
+
+    @property
+    def structure(self) -> Any:
+        return self.model.structure
+
+    @property
+    def method(self) -> str:
+        return self.model.method
+
+    @property
+    def direction(self) -> str:
+        return self.model.direction
+
+    @property
+    def substeps(self) -> int:
+        return self.model.substeps
+
+    @property
+    def outputs(self) -> np.ndarray:
+        return self.model.outputs
+
+    @property
+    def _r_out(self) -> np.ndarray:
+        return self.model.influence
+
+    @property
+    def evaluator(self) -> Evaluator:
+        """The compiled evaluator, built at first use in each process and thread (it owns its
+        buffers: threads of one process, e.g. a Dask worker's, each get their own)."""
+        key = threading.get_ident()
+        evaluator = self._evaluators.get(key)
+        if evaluator is None:
+            from femupdate.evaluation import evaluator_for
+
+            evaluator = self._evaluators[key] = evaluator_for(self)
+        return evaluator
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_evaluators": {}}  # buffers: rebuilt where unpickled
+
+    def phi_at(self, x: np.ndarray) -> float:
+        """φ at search point ``x``: compiled when it can be; a failed evaluation is then
+        repeated step by step, which says why (``last_failure``)."""
+        if not self.compiled:
+            return self.phi_reference(x)
+        phi = self.evaluator(x)
+        if not math.isfinite(phi):
+            return self.phi_reference(x)
+        self.last_failure = None
+        return phi
+
+    def phi_batch(self, X: np.ndarray) -> np.ndarray:
+        """φ at every row of ``X``: one compiled loop, bit for bit the single calls."""
+        if not self.compiled:
+            return np.array([self.phi_reference(x) for x in X])
+        out = self.evaluator.batch(X)
+        for i in np.flatnonzero(~np.isfinite(out)):  # why they failed, step by step
+            out[i] = self.phi_reference(X[i])
+        return out
+
+    def phi_reference(self, x: np.ndarray) -> float:
+        """φ at search point ``x`` through the simulator, the prediction and the error
+        function, step by step (what the compiled evaluator is tested against)."""
+        return self.phi(self.case.to_physical(np.asarray(x, dtype=float)))
 
     def simulate(self, values: Mapping[str, float]) -> Response:
         """Response of the model at ``values`` to the trial's base motion, at its outputs.
@@ -185,13 +274,16 @@ class UpdateProblem:
     experiments : Experiment or sequence of Experiment
         The processed data of its trials (:func:`femupdate.experiment.load_experiments`);
         trials with ``role = "validate"`` are kept in ``trials`` and never fitted.
+    compiled : bool or None
+        As :class:`TrialProblem`'s, for every trial.
     """
 
-    def __init__(self, case: Case, experiments: Experiment | Sequence[Experiment]) -> None:
+    def __init__(self, case: Case, experiments: Experiment | Sequence[Experiment], *,
+                 compiled: bool | None = None) -> None:
         if isinstance(experiments, Experiment):
             experiments = [experiments]
         self.case = case
-        self.trials = [TrialProblem(case, e) for e in experiments]
+        self.trials = [TrialProblem(case, e, compiled=compiled) for e in experiments]
         self.fitted = [t for t in self.trials if t.experiment.role == "fit"]
         if not self.fitted:
             raise ConfigError(f"{case.label}: no trial to fit (every trial has role = "
@@ -241,11 +333,46 @@ class UpdateProblem:
         return self.fitted[0].prediction(response)
 
     def __call__(self, x: np.ndarray) -> float:
-        values = self._physical(x)
-        if len(self.fitted) == 1:
-            return self.fitted[0].phi(values)
-        return math.fsum(share * t.phi(values) for share, t in zip(self._shares, self.fitted,
-                                                                   strict=True))
+        if isinstance(x, Mapping):
+            values = self._physical(x)
+            return self._combined([t.phi(values) for t in self.fitted])
+        x = np.asarray(x, dtype=float)
+        return self._combined([t.phi_at(x) for t in self.fitted])
+
+    def _combined(self, phis: Sequence[float]) -> float:
+        """φ of the case from its fitted trials' (their weighted mean)."""
+        if len(phis) == 1:
+            return phis[0]
+        return math.fsum(share * phi for share, phi in zip(self._shares, phis, strict=True))
+
+    def evaluate_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
+        """φ of every row of ``X`` (k, n), each trial's in one compiled loop: bit for bit k
+        single calls. ``threads`` > 1 splits the rows over threads, each with its own
+        evaluators (the compiled loop releases the GIL); the values are the same."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if threads > 1 and X.shape[0] > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            parts = np.array_split(X, min(threads, X.shape[0]))
+            with ThreadPoolExecutor(len(parts), thread_name_prefix="femupdate-phi") as pool:
+                return np.concatenate(list(pool.map(self.evaluate_batch, parts)))
+        phis = np.array([t.phi_batch(X) for t in self.fitted])
+        return np.array([self._combined(phis[:, i]) for i in range(X.shape[0])])
+
+    def phi_reference(self, x: np.ndarray) -> float:
+        """φ at search point ``x``, step by step (the compiled evaluator's reference)."""
+        x = np.asarray(x, dtype=float)
+        return self._combined([t.phi_reference(x) for t in self.fitted])
+
+    @property
+    def compiled(self) -> bool:
+        """Whether every fitted trial is evaluated by the compiled evaluator."""
+        return all(t.compiled for t in self.fitted)
+
+    @property
+    def evaluator(self) -> Evaluator:
+        """The first fitted trial's compiled evaluator (in this thread)."""
+        return self.fitted[0].evaluator
 
     @property
     def last_failure(self) -> str | None:

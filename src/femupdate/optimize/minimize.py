@@ -193,7 +193,13 @@ class MinimizeState:
             raise FemupdateError(f"the {self.method!r} optimizer proposed no candidates")
         fs = np.empty(k)
         evaluated = 0
-        results: Iterator[Any] = iter(map(fun, iter(x)))
+        batch = getattr(fun, "evaluate_batch", None)
+        if map is builtins.map and callable(batch) and k > 1:
+            # A population in one call of a function that evaluates batches (femupdate's
+            # update problems: one compiled loop), the values then taken in order as below.
+            results: Iterator[Any] = iter(np.asarray(batch(x), dtype=float).tolist())
+        else:
+            results = iter(map(fun, iter(x)))
         try:
             for i in range(k):
                 fs[i] = f = self._evaluate_next(results, x[i])

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from femupdate._parallel import process_pool
+from femupdate._parallel import process_pool, single_blas_thread
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
 from femupdate.runs.outcome import RunOutcome, outcome_of, run_seeds
@@ -63,8 +63,9 @@ def iter_runs(tasks: Sequence[RunTask], workers: int = 1, executor: Executor | N
     if workers < 1:
         raise ConfigError(f"workers must be at least 1, got {workers}")
     if executor is None and workers == 1:
-        for task in tasks:
-            yield task()
+        with single_blas_thread():  # as worker processes have
+            for task in tasks:
+                yield task()
         return
     from concurrent.futures import as_completed
 

@@ -13,6 +13,7 @@ store and the case they belong to, :class:`CaseIdentity`) and how they execute
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from collections import deque
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import Bounds
 
+from femupdate._parallel import single_blas_thread
 from femupdate.errors import ConfigError
 from femupdate.runs.chunks import ChunkResult, ChunkTask, RunSpec, advance_chunk
 from femupdate.runs.executors import (
@@ -197,9 +199,13 @@ def run_all(
                        connect_timeout=execution.connect_timeout) as ex:
         store = _open_store(store_dir, resume, identity, fingerprint, settings,
                             ignore=("entropy",) if seed is None else ())
+        # Runs in this process get one BLAS thread, as worker processes do: small dense
+        # algebra in a hot loop is many times slower with several.
+        blas = single_blas_thread() if ex.inline else contextlib.nullcontext()
         try:
-            return _run_store(fun, spec, ex, store, root, runs, execution, names, keep_history,
-                              on_outcome)
+            with blas:
+                return _run_store(fun, spec, ex, store, root, runs, execution, names,
+                                  keep_history, on_outcome)
         finally:
             store.close()
 
