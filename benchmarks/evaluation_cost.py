@@ -47,9 +47,9 @@ import numpy as np
 from numba import njit
 from threadpoolctl import threadpool_limits
 
-from femupdate.benchmarks import bridge
 from femupdate.case import Case, load_case, parse_case
 from femupdate.experiment import load_experiment
+from femupdate.problems import bridge
 from femupdate.simulate import prepare
 from femupdate.update import UpdateProblem
 
@@ -91,7 +91,7 @@ def friction_bridge(work: Path) -> UpdateProblem:
     data = work / "friction"
     case = parse_case(bridge.bridge_case("friction", "narrow", directory=str(data)),
                       source=data / "friction-narrow.toml")
-    bridge._ensure_records(case, bridge.truth("friction"), data, seed=0, snr=0.0)
+    bridge.ensure_records(case, bridge.truth("friction"), data, seed=0, snr=0.0)
     return UpdateProblem(case, load_experiment(case))
 
 
@@ -110,7 +110,11 @@ def shear_building(work: Path) -> UpdateProblem:
 
 def minishake(data_dir: Path | None) -> UpdateProblem | str:
     """The real case, or why it is skipped."""
-    from femupdate.benchmarks.minishake import find_data
+    import sys
+
+    sys.path.insert(0, str(REPO / "examples" / "minishake-1story"))
+    from study import find_data  # the real case's data finder, beside its example
+
     from femupdate.workflow import with_data_directory
 
     try:
@@ -160,21 +164,21 @@ def reference_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict
     """Median µs of each stage of the step-by-step path, and of the whole φ."""
     n = len(X)
     systems = [problem.system(x) for x in X]
-    kw = {"method": problem.method, "outputs": problem.outputs,
-          "substeps": problem.substeps}
+    kw = {"method": problem.fitted[0].method, "outputs": problem.fitted[0].outputs,
+          "substeps": problem.fitted[0].substeps}
     sims = [prepare(s, problem.experiment.dt, **kw) for s in systems]
-    responses = [sim.run(problem._ag) for sim in sims]
-    predictions = [problem.prediction(r) for r in responses]
-    heavy = max(1, repeat // (10 if problem.method != "exact" else 1))
+    responses = [sim.run(problem.fitted[0]._ag) for sim in sims]
+    predictions = [problem.fitted[0].prediction(r) for r in responses]
+    heavy = max(1, repeat // (10 if problem.fitted[0].method != "exact" else 1))
     # (a femupdate before issue 14 has no phi_reference: its __call__ is that path)
     reference = getattr(problem, "phi_reference", problem)
     return {
         "assembly": median_us(lambda i: problem.system(X[i % n]), repeat),
         "prepare": median_us(lambda i: prepare(systems[i % n], problem.experiment.dt, **kw),
                              repeat),
-        "simulation": median_us(lambda i: sims[i % n].run(problem._ag), heavy),
-        "processing": median_us(lambda i: problem.prediction(responses[i % n]), repeat),
-        "objective": median_us(lambda i: problem.objective(predictions[i % n]), repeat),
+        "simulation": median_us(lambda i: sims[i % n].run(problem.fitted[0]._ag), heavy),
+        "processing": median_us(lambda i: problem.fitted[0].prediction(responses[i % n]), repeat),
+        "objective": median_us(lambda i: problem.fitted[0].objective(predictions[i % n]), repeat),
         "total": median_us(lambda i: reference(X[i % n]), heavy),
         "total_cpu": last_cpu_us(),
     }
@@ -205,7 +209,7 @@ def compiled_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[
 def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
                ) -> dict[int | str, tuple[float, float]]:
     """Median µs per evaluation of φ over batches of k points: (wall, CPU)."""
-    heavy = problem.method != "exact"
+    heavy = problem.fitted[0].method != "exact"
     out: dict[int | str, tuple[float, float]] = {}
     for k in BATCHES:
         if heavy and k > 10:
@@ -260,37 +264,38 @@ def physical_floor(problem: UpdateProblem, x: np.ndarray, repeat: int) -> tuple[
     as the evaluator prepares them; no outputs, no processing, no comparison."""
     ev = problem.evaluator
     prepared = ev.stages(x)["prepare"]()  # the point, prepared in the evaluator's buffers
-    ag = np.ascontiguousarray(problem._ag, dtype=float)
+    ag = np.ascontiguousarray(problem.fitted[0]._ag, dtype=float)
     w = ev.work
-    if problem.method == "exact":
+    if problem.fitted[0].method == "exact":
         size = prepared[1]
         m = int(np.count_nonzero(w.coef[0, :size]))  # the kept modes (zero ones pad)
         args = (ag, w.coef[0, :m].copy(), w.coef[1, :m].copy(), w.coef[2, :m].copy())
         return (median_us(lambda i: _modal_floor(*args), repeat),
                 f"{m} complex modal recursions x {ag.size:,} samples")
-    args = (ag, problem.substeps, w.modal.copy())
+    args = (ag, problem.fitted[0].substeps, w.modal.copy())
     n = w.modal.shape[1]
     return (median_us(lambda i: _central_floor(*args), max(3, repeat // 10)),
-            f"{n} modal central-difference recursions x {(ag.size - 1) * problem.substeps:,} "
+            f"{n} modal central-difference recursions x "
+            f"{(ag.size - 1) * problem.fitted[0].substeps:,} "
             f"steps, without the {prepared[2]} friction elements")
 
 
 def opensees_ratio(problem: UpdateProblem, repeat: int) -> dict[str, Any] | None:
     """OpenSeesPy's central differences on the friction bridge at the case's substep."""
     try:
-        from femupdate.benchmarks.opensees import OpenSeesPeer, import_opensees
+        from femupdate.bench.opensees import OpenSeesPeer, import_opensees
 
         ops = import_opensees()
     except Exception:  # not installed: no comparison
         return None
     values = problem.values(problem.case.to_search(bridge.truth("friction")))
     peer = OpenSeesPeer(problem.case.model, values, ops=ops)
-    ag = np.ascontiguousarray(problem._ag, dtype=float)
+    ag = np.ascontiguousarray(problem.fitted[0]._ag, dtype=float)
     reps = max(3, min(5, repeat // 20))
     us = median_us(lambda i: peer.run(ag, problem.experiment.dt, method="central_difference",
-                                      substeps=problem.substeps,
-                                      outputs=list(problem.outputs)), reps)
-    return {"opensees_cd_us": us, "substeps": problem.substeps, "repeat": reps}
+                                      substeps=problem.fitted[0].substeps,
+                                      outputs=list(problem.fitted[0].outputs)), reps)
+    return {"opensees_cd_us": us, "substeps": problem.fitted[0].substeps, "repeat": reps}
 
 
 # --------------------------------------------------------------------------- end to end
@@ -305,14 +310,14 @@ def end_to_end(work: Path, evaluator: str) -> dict[str, Any]:
     spec = bridge.bridge_case("viscous", "narrow", directory=str(data))
     spec["search"].update({"max_evals": 6000, "runs": 1, "f_target": 1e-6})
     case = parse_case(spec, source=data / "viscous-narrow.toml")
-    bridge._ensure_records(case, bridge.truth("viscous"), data, seed=0, snr=0.0)
+    bridge.ensure_records(case, bridge.truth("viscous"), data, seed=0, snr=0.0)
     experiment = load_experiment(case)
     out = work / f"e2e-{evaluator}"
     shutil.rmtree(out, ignore_errors=True)
     os.environ["FEMUPDATE_EVALUATOR"] = evaluator
     try:
         c0 = time.process_time()
-        run_case(case, out, workers=1, plots=False, experiment=experiment)
+        run_case(case, out, workers=1, sensitivities=False, experiments=[experiment])
         cpu = time.process_time() - c0
     finally:
         os.environ.pop("FEMUPDATE_EVALUATOR", None)
@@ -334,7 +339,7 @@ def _sphere(x: np.ndarray) -> float:
 def machinery_alone(work: Path) -> dict[str, Any]:
     """The run machinery with a trivial φ: AB, 9 parameters, one worker, a results store,
     6,000 evaluations in one run (restarted on the optimizer's own stop until done)."""
-    from femupdate.runs.runner import run_all
+    from femupdate.runs import run_all
 
     store = work / "machinery"
     shutil.rmtree(store, ignore_errors=True)
@@ -411,9 +416,9 @@ def main() -> None:
                 results["cases"][name] = problem
                 continue
             X = points(problem)
-            samples = f"{problem._ag.size:,} samples, {problem.method}"
-            if problem.method != "exact":
-                samples += f", {problem.substeps} substeps"
+            samples = f"{problem.fitted[0]._ag.size:,} samples, {problem.fitted[0].method}"
+            if problem.fitted[0].method != "exact":
+                samples += f", {problem.fitted[0].substeps} substeps"
             ref = reference_stages(problem, X, args.repeat)
             new = batches = None
             floor: tuple[float, str] = (np.nan, "")
@@ -422,7 +427,8 @@ def main() -> None:
                 batches = batch_rows(problem, X, args.repeat)
                 floor = physical_floor(problem, X[0], args.repeat)
             print_case(name, samples, ref, new, floor, batches)
-            row: dict[str, Any] = {"samples": int(problem._ag.size), "method": problem.method,
+            trial = problem.fitted[0]
+            row: dict[str, Any] = {"samples": int(trial._ag.size), "method": trial.method,
                                    "reference_us": ref, "compiled_us": new,
                                    "batch_us_per_evaluation": batches,
                                    "floor_us": floor[0], "floor": floor[1]}
