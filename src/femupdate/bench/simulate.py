@@ -28,6 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -74,7 +75,11 @@ _THEIRS = {
     "bridge-friction": (("central_difference", bridge.SUBSTEPS),),
 }
 _SAME_SCHEME = {"newmark": "newmark", "central_difference": "central_difference",
-                "nonlinear": "central_difference"}
+                "nonlinear": "central_difference", "phi nonlinear": "central_difference"}
+#: Points per call of the φ rows: a whole evaluation of the error function (assembly, the
+#: integrator's preparation, the simulation, the prediction's processing, the comparison) per
+#: point, k points in one compiled call (what a population or a Jacobian asks).
+PHI_BATCHES = (1, 10, 100)
 
 
 def viscous_values() -> dict[str, float]:
@@ -152,6 +157,37 @@ def _row(engine: str, model: str, method: str, samples: int, substeps: int,
     }
 
 
+def _phi_rows(repeat: int, seed: int, say: Callable[[str], None]) -> list[dict[str, Any]]:
+    """φ per evaluation of the bridge's update problems (viscous and friction, on a virtual
+    experiment of the paper's length with 2 % noise), for each batch size of PHI_BATCHES."""
+    import tempfile
+
+    from femupdate.case import parse_case
+    from femupdate.experiment import load_experiments
+    from femupdate.update import UpdateProblem
+
+    rows = []
+    rng = np.random.default_rng(seed)
+    with tempfile.TemporaryDirectory(prefix="femupdate-bench-phi-") as tmp:
+        for model, method, sub in (("viscous", "exact", 1),
+                                   ("friction", "nonlinear", bridge.SUBSTEPS)):
+            data = Path(tmp) / model
+            case = parse_case(bridge.bridge_case(model, "narrow", directory=str(data)),
+                              source=data / "case.toml")
+            bridge.ensure_records(case, bridge.truth(model), data, seed=seed, snr=0.02)
+            problem = UpdateProblem(case, load_experiments(case))
+            low, high = np.array(case.bounds).T
+            samples = problem.experiment.t.size
+            for k in PHI_BATCHES:
+                say(f"femupdate bridge-{model} φ, batches of {k}")
+                points = low + (high - low) * rng.random((k, low.size))
+                calls = max(1, repeat // k) if method == "exact" else max(1, repeat // (2 * k))
+                median, least = _timed(partial(problem.evaluate_batch, points), calls)
+                rows.append(_row("femupdate", f"bridge-{model}", f"phi {method} k={k}",
+                                 samples, sub, (median / k, least / k), 0.0, calls))
+    return rows
+
+
 def _opensees_module(opensees: bool | None) -> Any:
     """The OpenSees module, or None when it is not wanted or (for ``None``) not installed."""
     if opensees is False:
@@ -176,14 +212,15 @@ def _add_ratios(rows: list[dict[str, Any]]) -> None:
         theirs = [r for r in group if r["engine"] == "openseespy"]
         if not ours or not theirs:
             continue
-        fastest_ours = min(ours, key=lambda r: r["median_s"])
+        simulations = [r for r in ours if not r["method"].startswith("phi")] or ours
+        fastest_ours = min(simulations, key=lambda r: r["median_s"])
         fastest_theirs = min(theirs, key=lambda r: r["median_s"])
         for row in theirs:
             row["ratio_vs_opensees"] = row["median_s"] / fastest_ours["median_s"]
             row["compared_to"] = (f"femupdate {fastest_ours['method']} "
                                   f"x{fastest_ours['substeps']} (fastest)")
         for row in ours:
-            scheme = _SAME_SCHEME.get(row["method"])
+            scheme = _SAME_SCHEME.get(row["method"].split(" k=")[0])
             peer = next((r for r in theirs if r["method"] == scheme
                          and r["substeps"] == row["substeps"]), None)
             label = "same scheme"
@@ -274,6 +311,7 @@ def run_simulate_benchmark(
                                          outputs=outputs), os_repeat)
                     rows.append(_row("openseespy", name, method, ag.size, sub, run, prep,
                                      os_repeat))
+        rows += _phi_rows(repeat, seed, say)
     _add_ratios(rows)
     return rows
 
@@ -285,8 +323,8 @@ def _ms(seconds: float | None) -> str:
     return f"{ms:,.0f}" if ms >= 100 else f"{ms:.3g}"
 
 
-_SHORT = {"central_difference": "cd", "nonlinear": "friction-cd", "openseespy": "OpenSees",
-          "femupdate": "ours", " (same scheme)": "", " (fastest)": "*"}
+_SHORT = {"central_difference": "cd", "nonlinear": "fric-cd", "openseespy": "OpenSees",
+          "femupdate": "ours", "phi ": "φ "}
 
 
 def _short(text: str) -> str:
@@ -295,25 +333,44 @@ def _short(text: str) -> str:
     return text
 
 
+def _method_label(row: Mapping[str, Any]) -> str:
+    """'newmark', 'cd x10', 'φ k=10': the scheme and its substeps when more than one; for φ
+    only the batch size (the scheme is the model's: exact, or fric-cd x10)."""
+    if row["method"].startswith("phi"):
+        return "φ " + row["method"].split()[-1]
+    steps = f" x{row['substeps']}" if row["substeps"] > 1 else ""
+    return _short(row["method"]) + steps
+
+
+def _ratio_label(row: Mapping[str, Any]) -> str:
+    """The ratio against the same scheme, or marked * against the other engine's fastest."""
+    ratio = row["ratio_vs_opensees"]
+    if ratio is None:
+        return "–"
+    return f"{ratio:,.0f}" + ("*" if "(fastest)" in (row["compared_to"] or "") else "")
+
+
 def simulate_table(rows: list[dict[str, Any]]) -> Any:
-    """The rows as a ``rich.table.Table`` (times in ms per simulation)."""
+    """The rows as a ``rich.table.Table`` (times in ms per simulation), 80 columns wide
+    (the fastest of each row's repetitions is in the JSON)."""
+    from rich import box
     from rich.table import Table
 
     table = Table(title="Bridge, 10 DOF, 1035 Hz, 1 BLAS thread: ms per simulation",
-                  caption="ratio = OpenSees median / ours, against 'vs' (same scheme; * the "
-                          "fastest of the other engine); xN = N substeps; cd = central "
-                          "differences; friction-cd = femupdate's nonlinear integrator")
-    for col in ("engine", "model", "method", "samples", "median", "min", "prepare", "n",
-                "ratio", "vs"):
-        table.add_column(col, justify="left" if col in ("engine", "model", "method", "vs")
-                         else "right")
+                  caption="ratio = OpenSees median / ours for the same scheme (* against the "
+                          "other engine's fastest); xN = N substeps; cd = central differences; "
+                          "fric-cd = femupdate's nonlinear integrator; φ k=n = whole "
+                          "evaluations of the error function (viscous: exact, friction: "
+                          "fric-cd x10), n points a call, per point",
+                  box=box.SIMPLE_HEAD, pad_edge=False)
+    for col in ("engine", "model", "method", "samples", "median", "prepare", "n", "ratio"):
+        table.add_column(col, justify="left" if col in ("engine", "model", "method")
+                         else "right", no_wrap=True)
     for r in rows:
-        ratio = r["ratio_vs_opensees"]
         table.add_row(_short(r["engine"]), r["model"].removeprefix("bridge-"),
-                      _short(f"{r['method']} x{r['substeps']}"), f"{r['samples']:,}",
-                      _ms(r["median_s"]), _ms(r["min_s"]), _ms(r["prepare_median_s"]),
-                      str(r["repeat"]), "–" if ratio is None else f"{ratio:,.0f}",
-                      _short(r["compared_to"] or "–"))
+                      _method_label(r), f"{r['samples']:,}", _ms(r["median_s"]),
+                      _ms(r["prepare_median_s"]), str(r["repeat"]),
+                      _ratio_label(r))
     return table
 
 
