@@ -921,7 +921,7 @@ class Simulation(_Section):
 class Search(_Section):
     """``[search]``: the optimiser, its stopping criteria and the repeated runs."""
 
-    method: Literal["ab", "ib", "cmaes", "de", "ga"] = "ab"
+    method: Literal["ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"] = "ab"
     runs: _integer(ge=1, le=10_000) = 1
     seed: _integer(ge=0, le=2**63 - 1) | None = None
     workers: _integer(ge=1, le=1024) = 1

@@ -189,6 +189,27 @@ class Objective:
         energy = self._perp_energy + np.sum((qtd + self._qty) ** 2, axis=0)
         return _sum_squares(d) / energy
 
+    def residuals(self, prediction: np.ndarray | Response) -> np.ndarray:
+        """Residuals r (n_samples · n_channels,) with φ = ‖r‖² (all inf for a non-finite
+        prediction).
+
+        Channel i contributes its residual (projected off span{1, t} with experimental
+        parameters) times √(w_i / Σw / E_i), E_i its normalising energy as in
+        :meth:`per_channel`; samples are the slow index (row-major, like ``prediction``).
+        """
+        yhat = self._prediction(prediction)
+        if yhat is None:
+            return np.full(self.target.size, np.inf)
+        d = yhat - self.target
+        if self.with_experimental_parameters:
+            qtd = self._q.T @ d
+            d -= self._q @ qtd
+            energy = self._perp_energy + np.sum((qtd + self._qty) ** 2, axis=0)
+        else:
+            energy = self._energy
+        d *= np.sqrt(self.weights / (self.weights.sum() * energy))
+        return d.ravel()
+
     def __call__(self, prediction: np.ndarray | Response) -> float:
         """φ: the weighted mean of `per_channel` (inf for a non-finite prediction)."""
         errors = self.per_channel(prediction)

@@ -105,12 +105,25 @@ class UpdateProblem:
             return self._highpass(response.displacement)
         return self._highpass(response.acceleration)
 
-    def __call__(self, x: np.ndarray) -> float:
+    def _response(self, x: np.ndarray | Mapping[str, float]) -> Response | None:
+        """The response at ``x``, or None when the simulation failed or diverged."""
         try:
             response = self.simulate(x)
         except SimulationError:
             # An unstable integration step for these parameter values: a failed step.
-            return float("inf")
-        if response.diverged:
+            return None
+        return None if response.diverged else response
+
+    def __call__(self, x: np.ndarray) -> float:
+        response = self._response(x)
+        if response is None:
             return float("inf")
         return self.objective(self.prediction(response))
+
+    def residuals(self, x: np.ndarray | Mapping[str, float]) -> np.ndarray:
+        """Residuals r with φ(x) = ‖r‖² to rounding (``Objective.residuals``), at search point
+        ``x`` or at physical values (a mapping); all inf when the simulation failed."""
+        response = self._response(x)
+        if response is None:
+            return np.full(self.objective.target.size, np.inf)
+        return self.objective.residuals(self.prediction(response))

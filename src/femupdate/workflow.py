@@ -17,6 +17,7 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.experiment import Experiment, load_experiment
 from femupdate.model.modes import natural_frequencies
+from femupdate.optimize.minimize import RESIDUAL_METHODS
 from femupdate.runs.runner import RunOutcome, run_all
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.update import UpdateProblem
@@ -176,8 +177,9 @@ def run_case(
     start = time.perf_counter()
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
+    residuals = search.method in RESIDUAL_METHODS
     outcomes = run_all(
-        problem, problem.bounds, search.method,
+        problem.residuals if residuals else problem, problem.bounds, search.method,
         runs=runs or search.runs,
         seed=search.seed if seed is None else seed,
         max_evals=max_evals or search.max_evals,
@@ -194,6 +196,7 @@ def run_case(
         names=problem.names,
         label=case.label,
         keep_history=plots,
+        residuals=residuals,
     )
     settings = {"runs": runs or search.runs, "seed": search.seed if seed is None else seed,
                 "max_evals": max_evals or search.max_evals, "f_target": search.f_target,

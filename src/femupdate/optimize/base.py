@@ -30,8 +30,13 @@ class Optimizer(Protocol):
         """The next candidates, shape (k, n), inside [0, 1]^n."""
         ...
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
-        """Values ``fs`` (k,) of the candidates ``xs`` (k, n); NaN or inf is a failed one."""
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
+        """Values ``fs`` (k,) of the candidates ``xs`` (k, n); NaN or inf is a failed one.
+
+        ``rs`` (k, m): the residual vectors (φ = r·r) when ``minimize`` runs with
+        ``residuals=True``, else None. Optimizers that do not use them ignore them; one that
+        cannot work without them sets the class attribute ``needs_residuals = True``.
+        """
         ...
 
     def stop(self) -> dict[str, object]:

@@ -306,7 +306,8 @@ class BetaSearch(KeepsBest, Restarts):
         """One sample ξ_i ~ Beta(a_i, b_i), shape (1, n)."""
         return self.rng.beta(self.a, self.b).reshape(1, self.n)
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+    def tell(self, xs: np.ndarray, fs: np.ndarray,
+             rs: np.ndarray | None = None) -> None:  # rs: residuals, unused
         """Update mode, σ, records and (a, b) from one evaluated sample (Steps 3–4)."""
         xs, fs = check_batch(xs, fs, self.n)
         if xs.shape[0] != 1:

@@ -145,7 +145,8 @@ class CMAES(KeepsBest, Restarts):
             self.resamples += tries
         return xs
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+    def tell(self, xs: np.ndarray, fs: np.ndarray,
+             rs: np.ndarray | None = None) -> None:  # rs: residuals, unused
         """Pass the values to pycma (failures ranked last)."""
         xs, fs = check_batch(xs, fs, self.n)
         self._keep_best(xs, fs)

@@ -141,7 +141,8 @@ class DifferentialEvolution(KeepsBest):
             raise FemupdateError(f"the 'de' solver has ended ({kind}); nothing more to ask")
         return payload.copy()
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+    def tell(self, xs: np.ndarray, fs: np.ndarray,
+             rs: np.ndarray | None = None) -> None:  # rs: residuals, unused
         """The values of the population from the last :meth:`ask` (failures as inf)."""
         xs, fs = check_batch(xs, fs, self.n)
         kind, payload = self._next_message()
@@ -238,7 +239,8 @@ class GeneticAlgorithm(KeepsBest):
         self._pop = self.algorithm.ask()
         return np.array(self._pop.get("X"), dtype=float)
 
-    def tell(self, xs: np.ndarray, fs: np.ndarray) -> None:
+    def tell(self, xs: np.ndarray, fs: np.ndarray,
+             rs: np.ndarray | None = None) -> None:  # rs: residuals, unused
         """Values of the last asked candidates (failures as inf)."""
         from pymoo.core.evaluator import Evaluator
         from pymoo.problems.static import StaticProblem

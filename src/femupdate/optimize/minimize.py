@@ -21,6 +21,7 @@ from femupdate.optimize.base import Factory, Optimizer
 from femupdate.optimize.beta import make_ab, make_ib
 from femupdate.optimize.cmaes import make_cmaes
 from femupdate.optimize.evolutionary import make_de, make_ga
+from femupdate.optimize.multistart import make_multistart_lm
 from femupdate.optimize.termination import (
     check_f_target,
     check_max_evals,
@@ -35,7 +36,12 @@ METHODS: dict[str, Factory] = {
     "cmaes": make_cmaes,
     "de": make_de,
     "ga": make_ga,
+    "multistart-lm": make_multistart_lm,
 }
+
+#: Methods that use residual vectors when the problem has them: ``run_case`` and the
+#: benchmarks give them ``problem.residuals`` with ``residuals=True``.
+RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm"})
 
 Objective = Callable[[np.ndarray], float]
 MapLike = Callable[[Objective, Iterable[np.ndarray]], Iterable[Any]]
@@ -94,10 +100,12 @@ class MinimizeState:
         Budget of evaluations.
     f_target : float or None
         Stop (successfully) once φ ≤ f_target.
+    residuals : bool
+        ``fun`` returns the residual vector r; φ = r·r.
     """
 
     def __init__(self, optimizer: Optimizer, method: str, low: np.ndarray, high: np.ndarray,
-                 max_evals: int, f_target: float | None) -> None:
+                 max_evals: int, f_target: float | None, residuals: bool = False) -> None:
         self.optimizer = optimizer
         self.method = method
         self.low = low
@@ -110,6 +118,8 @@ class MinimizeState:
         self.best_x = low + 0.5 * self.span  # replaced by the first evaluation
         self.best_f = math.inf
         self.stopped: dict[str, object] = {}
+        self.residuals = residuals
+        self.best_r: np.ndarray | None = None  # r at best_x (residuals mode)
         cap = min(max_evals, 1024)
         self._hist_x = np.empty((cap, low.size))
         self._hist_f = np.empty(cap)
@@ -128,11 +138,12 @@ class MinimizeState:
         if k == 0:
             raise FemupdateError(f"the {self.method!r} optimizer proposed no candidates")
         fs = np.empty(k)
+        rs: list[np.ndarray] = []
         evaluated = 0
         results: Iterator[Any] = iter(map(fun, iter(x)))
         try:
             for i in range(k):
-                fs[i] = f = self._evaluate_next(results, x[i])
+                fs[i] = f = self._evaluate_next(results, x[i], rs)
                 evaluated += 1
                 if callback is not None:
                     callback(x[i], f)
@@ -145,14 +156,23 @@ class MinimizeState:
             if close is not None:  # a generator (e.g. an executor's map): cancel the rest
                 close()
         if evaluated == k:
-            self.optimizer.tell(xi, fs)
+            if self.residuals:
+                self.optimizer.tell(xi, fs, _stack_residuals(rs))
+            else:
+                self.optimizer.tell(xi, fs)
             self.nit += 1
             self.stopped.update(self.optimizer.stop())
 
-    def _evaluate_next(self, results: Iterator[Any], x: np.ndarray) -> float:
+    def _evaluate_next(self, results: Iterator[Any], x: np.ndarray,
+                       rs: list[np.ndarray]) -> float:
+        r = None
         try:
             value = next(results)
-            f = float(value)
+            if self.residuals:
+                r, f = _residual_vector(value, rs[0].size if rs else None)
+                rs.append(r)
+            else:
+                f = float(value)
         except StopIteration:
             raise ConfigError("map(fun, rows) returned fewer results than rows") from None
         except Exception as exc:
@@ -169,6 +189,8 @@ class MinimizeState:
         if f < self.best_f or n == 0:
             self.best_f = f
             self.best_x = x.copy()
+            if r is not None:
+                self.best_r = r.copy()
         return f
 
     def _grow_history(self) -> None:
@@ -192,6 +214,7 @@ class MinimizeState:
             status, message = status_and_message(stop)
         else:
             status, message = -1, "not finished"
+        extra = {} if self.best_r is None else {"residuals": self.best_r.copy()}
         return OptimizeResult(
             x=self.best_x.copy(),
             fun=self.best_f,
@@ -204,12 +227,29 @@ class MinimizeState:
             method=self.method,
             restarts=int(getattr(self.optimizer, "restarts_done", 0)),
             history=self.history(),
+            **extra,
         )
+
+
+def _residual_vector(value: Any, size: int | None) -> tuple[np.ndarray, float]:
+    """A residual vector as a flat float array and φ = r·r; a non-finite r is a failed
+    evaluation: all inf, φ = inf."""
+    r = np.asarray(value, dtype=float).reshape(-1)
+    if size is not None and r.size != size:
+        raise ConfigError(f"fun returned {r.size} residuals, earlier {size}")
+    if not np.all(np.isfinite(r)):
+        return np.full(r.size, math.inf), math.inf
+    return r, float(r @ r)
+
+
+def _stack_residuals(rs: list[np.ndarray]) -> np.ndarray:
+    """The residual vectors of one step as (k, m) rows."""
+    return np.vstack(rs)
 
 
 def start(fun: Objective, bounds: Sequence[tuple[float, float]] | Bounds, method: str = "ab", *,
           seed: Any = None, max_evals: int = 50_000, f_target: float | None = None,
-          **options: Any) -> MinimizeState:
+          residuals: bool = False, **options: Any) -> MinimizeState:
     """Validate the arguments and build the loop state of a run (see :func:`minimize`)."""
     if not callable(fun):
         raise ConfigError(f"fun must be callable, got {fun!r}")
@@ -224,8 +264,16 @@ def start(fun: Objective, bounds: Sequence[tuple[float, float]] | Bounds, method
         raise ConfigError(
             f"seed must be None, an int, a SeedSequence or a Generator, got {seed!r}"
         ) from exc
+    if not isinstance(residuals, bool):
+        raise ConfigError(f"residuals must be True or False, got {residuals!r}")
     optimizer = METHODS[method](low.size, rng, **options)
-    return MinimizeState(optimizer, method, low, high, max_evals, f_target)
+    if getattr(optimizer, "needs_residuals", False) and not residuals:
+        optimizer.close()
+        raise ConfigError(
+            f"method {method!r} needs residual vectors: pass residuals=True and a fun that "
+            f"returns r (φ = r·r), as scipy.optimize.least_squares' fun"
+        )
+    return MinimizeState(optimizer, method, low, high, max_evals, f_target, residuals)
 
 
 def minimize(
@@ -238,6 +286,7 @@ def minimize(
     f_target: float | None = None,
     callback: Callable[[np.ndarray, float], Any] | None = None,
     map: MapLike | None = None,
+    residuals: bool = False,
     **options: Any,
 ) -> OptimizeResult:
     """Minimize ``fun`` within ``bounds`` with the bounded optimizer ``method``.
@@ -247,6 +296,8 @@ def minimize(
     fun : callable
         φ(x) -> float, x of shape (n,) in original units. A NaN or infinite value is a failed
         evaluation: counted, treated as +inf. An exception propagates, with a note giving x.
+        With ``residuals=True``: the residual vector r(x) (m,), what
+        ``scipy.optimize.least_squares`` calls ``fun``; φ = r·r.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter.
     method : {"ab", "ib", "cmaes", "de", "ga"}
@@ -262,6 +313,10 @@ def minimize(
     map : callable or None
         ``map(fun, rows)`` evaluating the rows lazily, in order (default: builtin ``map``);
         e.g. an executor's ``map`` to evaluate a population in parallel.
+    residuals : bool
+        ``fun`` returns residuals r and φ = r·r is minimised: ``f_target``, the history,
+        ``callback`` and ``res.fun`` refer to φ. Methods that need them (``needs_residuals``)
+        refuse to run without; the others ignore them or, like ``"multistart-lm"``, use them.
     **options
         Options of the method (unknown names or values out of range: ConfigError).
 
@@ -272,14 +327,15 @@ def minimize(
         ``status`` (:class:`~femupdate.optimize.termination.Status`), ``message``, ``stop``
         (every criterion that fired, with its value), ``method``, ``restarts`` (how many times
         the optimizer started afresh: its option ``restarts``), ``history`` (``x`` (nfev, n),
-        ``fun`` (nfev,) and the optimizer's trace arrays).
+        ``fun`` (nfev,) and the optimizer's trace arrays); with ``residuals=True`` also
+        ``residuals``, r at ``x`` (scipy's ``least_squares`` calls it ``fun``).
     """
     if callback is not None and not callable(callback):
         raise ConfigError(f"callback must be callable or None, got {callback!r}")
     if map is not None and not callable(map):
         raise ConfigError(f"map must be callable or None, got {map!r}")
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
-                  **options)
+                  residuals=residuals, **options)
     map_fn = builtins.map if map is None else map
     try:
         while not state.done:

@@ -170,6 +170,7 @@ class RunTask:
     f_target: float | None
     options: dict[str, Any]
     keep_history: bool = False
+    residuals: bool = False  # fun returns residual vectors (minimize's residuals=True)
 
     def __call__(self) -> RunOutcome:
         start = time.perf_counter()
@@ -180,6 +181,7 @@ class RunTask:
             seed=np.random.default_rng(self.seed),
             max_evals=self.max_evals,
             f_target=self.f_target,
+            residuals=self.residuals,
             **self.options,
         )
         return RunOutcome(
@@ -242,6 +244,7 @@ def repeat(
     executor: Executor | None = None,
     on_outcome: Callable[[RunOutcome], None] | None = None,
     keep_history: bool = False,
+    residuals: bool = False,
     **options: Any,
 ) -> list[RunOutcome]:
     """Run ``minimize`` ``runs`` times with independent seeds; outcomes sorted by run index.
@@ -251,7 +254,7 @@ def repeat(
     """
     tasks = [
         RunTask(fun, tuple(map(tuple, bounds)), method, i, ss, max_evals, f_target, options,
-                keep_history)
+                keep_history, residuals)
         for i, ss in enumerate(run_seeds(seed, runs))
     ]
     outcomes = []
@@ -274,28 +277,35 @@ class RunSpec:
     max_evals: int
     f_target: float | None
     options: dict[str, Any]
+    residuals: bool = False
 
     @classmethod
     def make(cls, fun: Callable[[np.ndarray], float],
              bounds: Sequence[tuple[float, float]] | Bounds, method: str, max_evals: int,
-             f_target: float | None, options: Mapping[str, Any] | None) -> RunSpec:
+             f_target: float | None, options: Mapping[str, Any] | None,
+             residuals: bool = False) -> RunSpec:
         """Check everything ``minimize`` would check (ConfigError), before any run starts."""
         low, high = parse_bounds(bounds)
         spec = cls(tuple(zip(low.tolist(), high.tolist(), strict=True)), method,
-                   check_max_evals(max_evals), check_f_target(f_target), dict(options or {}))
+                   check_max_evals(max_evals), check_f_target(f_target), dict(options or {}),
+                   residuals)
         spec.start(fun, np.random.SeedSequence(0)).optimizer.close()  # method and options
         return spec
 
     def start(self, fun: Callable[[np.ndarray], float],
               seed: np.random.SeedSequence) -> MinimizeState:
         return start(fun, self.bounds, self.method, seed=np.random.default_rng(seed),
-                     max_evals=self.max_evals, f_target=self.f_target, **self.options)
+                     max_evals=self.max_evals, f_target=self.f_target,
+                     residuals=self.residuals, **self.options)
 
     def settings(self, runs: int, names: Sequence[str] | None) -> dict[str, Any]:
         """The settings a resumed store must match (run_all adds the root seed's entropy)."""
-        return {"method": self.method, "bounds": [list(b) for b in self.bounds], "runs": runs,
-                "max_evals": self.max_evals, "f_target": self.f_target,
-                "options": self.options, "names": None if names is None else list(names)}
+        out = {"method": self.method, "bounds": [list(b) for b in self.bounds], "runs": runs,
+               "max_evals": self.max_evals, "f_target": self.f_target,
+               "options": self.options, "names": None if names is None else list(names)}
+        if self.residuals:  # only then: stores written before residuals existed still match
+            out["residuals"] = True
+        return out
 
 
 @dataclass(frozen=True)
@@ -471,6 +481,7 @@ def run_all(
     chunk_seconds: float = CHUNK_SECONDS,
     keep_history: bool = False,
     on_outcome: Callable[[RunOutcome], None] | None = None,
+    residuals: bool = False,
 ) -> list[RunOutcome]:
     """Independent runs of ``minimize`` with a results store, resume, processes or Dask.
 
@@ -519,6 +530,8 @@ def run_all(
         the store.
     on_outcome : callable or None
         Called with each run's outcome as it finishes in this session.
+    residuals : bool
+        ``fun`` returns residual vectors (``minimize``'s ``residuals=True``).
 
     Returns
     -------
@@ -542,7 +555,7 @@ def run_all(
         raise ConfigError(f"seed must be a non-negative integer or None, got {seed!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ConfigError(f"workers must be at least 1, got {workers!r}")
-    spec = RunSpec.make(fun, bounds, method, max_evals, f_target, options)
+    spec = RunSpec.make(fun, bounds, method, max_evals, f_target, options, residuals)
     if names is not None and len(names) != len(spec.bounds):
         raise ConfigError(f"names must give one name per parameter ({len(spec.bounds)}), "
                           f"got {len(names)}: {list(names)}")

@@ -1,0 +1,463 @@
+"""``multistart-lm``: space-filling starts, a bounded Levenberg–Marquardt local phase, restarts.
+
+A sum of squares φ = ‖r‖² (the NMSE of Eq. 1 is one: :meth:`UpdateProblem.residuals`) has a
+Gauss–Newton model that is nearly exact close to a zero-residual solution, so a trust-region
+least-squares step converges in a few iterations where sampling methods crawl along the
+correlated valleys of the bridge (E–kp4, c1–c4). What it lacks is globality: from a random
+start in the box a local search often ends in an *improper* minimum (a parameter at a bound,
+the gradient pointing out) or in a spurious valley. Hence three phases, all in ask/tell on
+the unit cube:
+
+1. **Pool** (global): a Latin hypercube of ``pool`` points, evaluated as one batch. Local
+   searches start from its best points, best first, skipping points within ``min_distance``
+   of an earlier start or end point (they would fall into a basin already searched); when
+   none is left, a new pool is drawn.
+2. **Local** (a bounded Levenberg–Marquardt): the Jacobian by forward differences, its n
+   points (n + 1 with the base point) asked as one batch, with steps chosen for the noise of
+   the simulation (estimated once per run from a difference table, ECnoise); the step
+   minimises the damped Gauss–Newton model within the box [0, 1]^n − x (Cholesky, or
+   bounded-variable least squares when the box binds); the damping follows Nielsen's rule.
+3. **Restarts**: a search ends when its step no longer decreases the model
+   (``ftol``, ``xtol``, λ > 1e16) or stalls (φ fell by less than ``stall_tol`` over its last
+   ``stall_iters`` accepted steps). If it ended at an improper minimum, the coordinates at a
+   bound with an outward gradient are redrawn uniformly and the search goes on from there
+   (a *kick*, at most ``kicks`` per start); otherwise the next start is taken from the pool.
+
+The result is the best point over all searches. Without residuals (``minimize(...,
+residuals=False)``) the local phase is a bounded quasi-Newton method on φ itself: the same
+trust-region machinery with a damped-BFGS Hessian and forward-difference gradients.
+
+Every simulation is an evaluation, and all state is plain arrays, floats and the Generator:
+a pickled optimizer resumes bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from femupdate.errors import ConfigError
+from femupdate.optimize.base import (
+    KeepsBest,
+    check_batch,
+    check_option_names,
+    int_option,
+    real_option,
+)
+from femupdate.optimize.trust import (
+    bfgs_update,
+    bounded_step,
+    damping_update,
+    forward_steps,
+    gain_ratio,
+    gram_factor,
+    latin_hypercube,
+    model_decrease,
+    noise_level,
+    outward_at_bounds,
+    step_signs,
+)
+
+#: Points of the difference table that estimates the noise (ECnoise: 6 or 7 suffice).
+NOISE_POINTS = 7
+#: Spacing of that table (unit cube): far below any curvature scale of a smooth simulation,
+#: far above rounding of x itself.
+NOISE_SPACING = 1e-8
+#: A step is accepted when the actual decrease is at least this fraction of the predicted one.
+ACCEPT = 1e-4
+#: Above this damping the step is nil to rounding: the search has converged.
+LAMBDA_MAX = 1e16
+#: A coordinate within this distance of a bound counts as at the bound.
+BOUND_TOL = 1e-10
+
+#: An accepted step that the model predicted well (gain ratio above this) but that cut φ by
+#: less than the factor EXTEND_SLOW is extended: 2p, 4p, … while φ keeps falling.
+EXTEND_RHO = 0.75
+EXTEND_SLOW = 0.5
+
+_PHASES = ("pool", "noise", "jacobian", "trial", "extend")
+
+
+class MultistartLM(KeepsBest):
+    """Multistart bounded Levenberg–Marquardt (quasi-Newton without residuals). Picklable.
+
+    Parameters
+    ----------
+    n : int
+        Number of parameters.
+    rng : numpy.random.Generator
+        The only source of randomness (pools and kicks).
+    pool : int
+        Points of each space-filling pool (default 20·n).
+    min_distance : float
+        A pool point closer than this (RMS over coordinates, unit cube) to an earlier start or
+        end point is skipped (default 0.05).
+    kicks : int
+        Times a search stuck in an improper minimum has its bound coordinates redrawn before
+        a new start is taken (default 2).
+    stall_iters, stall_tol : int, float
+        A search has stalled when φ fell by less than the fraction ``stall_tol`` over its last
+        ``stall_iters`` accepted steps (defaults 5 and 0.01).
+    lambda0 : float
+        Initial damping, relative to Marquardt's scaling (default 1e-3).
+    ftol, xtol : float
+        A search has converged when the model predicts a decrease below ``ftol``·φ, or the
+        step is below ``xtol`` in every coordinate (defaults 1e-14 and 1e-13).
+    fd_step : float or None
+        Forward-difference step (unit cube) for every coordinate; None (default) chooses them
+        from the estimated noise (:func:`~femupdate.optimize.trust.forward_steps`).
+    """
+
+    #: Takes residual vectors when ``minimize`` has them, works on φ alone otherwise.
+    needs_residuals = False
+
+    def __init__(self, n: int, rng: np.random.Generator, *, pool: int | None = None,
+                 min_distance: float = 0.05, kicks: int = 2, stall_iters: int = 5,
+                 stall_tol: float = 0.01, lambda0: float = 1e-3, ftol: float = 1e-14,
+                 xtol: float = 1e-13, fd_step: float | None = None,
+                 extend: bool = True) -> None:
+        self.n = n
+        self.rng = rng
+        self.pool_size = 20 * n if pool is None else pool
+        self.min_distance = min_distance
+        self.max_kicks = kicks
+        self.stall_iters = stall_iters
+        self.stall_tol = stall_tol
+        self.lambda0 = lambda0
+        self.ftol = ftol
+        self.xtol = xtol
+        self.fd_step = fd_step
+        self.extend = extend
+        self.mode: str | None = None  # "residuals" or "scalar", fixed by the first tell
+        self.best_x = np.full(n, 0.5)
+        self.restarts_done = 0  # local searches started after the first, kicks excluded
+        self.kicks_done = 0
+        self.searches = 0
+        self.steps = 0
+        self.noise = math.nan  # of one residual component (or of φ), from the table
+        self.visited = np.empty((0, n))  # starts and end points of the searches
+        self.h = np.full(n, math.nan if fd_step is None else fd_step)
+        self.scale = 0.0  # RMS of a residual component (or |φ|) at the first start
+        self._clear_search()
+        self._new_pool()
+        self._trace_f: list[float] = []
+        self._trace_lambda: list[float] = []
+        self._trace_phase: list[float] = []
+        self._trace_restarts: list[float] = []
+
+    # -- protocol --------------------------------------------------------------------------
+
+    def ask(self) -> np.ndarray:
+        """The batch the current phase needs: the pool, the noise table, the Jacobian's points
+        (the base point first when its value is unknown) or one trial step."""
+        return self.pending.copy()
+
+    def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
+        """Values (and residual vectors ``rs`` (k, m), or None) of the batch last asked."""
+        xs, fs = check_batch(xs, fs, self.n)
+        if xs.shape[0] != self.pending.shape[0]:
+            raise ConfigError(f"tell() expects the {self.pending.shape[0]} points last asked, "
+                              f"got {xs.shape[0]}")
+        mode = "scalar" if rs is None else "residuals"
+        if self.mode is None:
+            self.mode = mode
+        elif mode != self.mode:
+            raise ConfigError(f"tell() got {'no ' if rs is None else ''}residuals in a run "
+                              f"that started in {self.mode} mode")
+        if rs is not None:
+            rs = np.asarray(rs, dtype=float).reshape(xs.shape[0], -1)
+        self._keep_best(xs, fs)
+        phase = self.phase
+        if phase == "pool":
+            self.pool_f = fs.copy()
+            self._next_start()
+        elif phase == "noise":
+            self._tell_noise(fs, rs)
+        elif phase == "jacobian":
+            self._tell_jacobian(fs, rs)
+        elif phase == "trial":
+            self._tell_trial(fs, rs)
+        else:
+            self._tell_extension(fs, rs)
+        self.steps += 1
+        self._trace_f.append(self.best_f)
+        self._trace_lambda.append(self.lam)
+        self._trace_phase.append(float(_PHASES.index(phase)))
+        self._trace_restarts.append(float(self.restarts_done))
+
+    def stop(self) -> dict[str, object]:
+        """None of its own: the search restarts until ``minimize``'s budget or target."""
+        return {}
+
+    def trace(self) -> dict[str, np.ndarray]:
+        """Per step: ``f_best``, the damping ``lambda``, the ``phase`` (0 pool, 1 noise table,
+        2 Jacobian, 3 trial step) and ``restarts`` (local searches started so far − 1)."""
+        return {"f_best": np.array(self._trace_f), "lambda": np.array(self._trace_lambda),
+                "phase": np.array(self._trace_phase),
+                "restarts": np.array(self._trace_restarts)}
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+    # -- phases ----------------------------------------------------------------------------
+
+    def _new_pool(self) -> None:
+        self.phase = "pool"
+        self.pool_x = latin_hypercube(self.rng, self.pool_size, self.n)
+        self.pool_f = np.full(self.pool_size, math.inf)
+        self.pending = self.pool_x.copy()
+
+    def _next_start(self) -> None:
+        """The best pool point away from every start and end so far, or a new pool."""
+        order = np.argsort(self.pool_f, kind="stable")
+        for i in order:
+            if not math.isfinite(self.pool_f[i]):
+                break
+            x = self.pool_x[i]
+            self.pool_f[i] = math.inf  # used (or too close): never again
+            if self.visited.shape[0]:
+                dist = np.sqrt(np.mean((self.visited - x) ** 2, axis=1))
+                if float(dist.min()) < self.min_distance:
+                    continue
+            if self.searches:
+                self.restarts_done += 1
+            self.searches += 1
+            self.kicks = 0
+            self._start_search(x)
+            return
+        self._new_pool()
+
+    def _start_search(self, x: np.ndarray) -> None:
+        """A fresh local search from x (its value is evaluated again, with the Jacobian or as
+        the first point of the noise table)."""
+        self._clear_search()
+        self.x = x.copy()
+        self.visited = np.vstack([self.visited, x])
+        if math.isnan(self.noise):
+            self.phase = "noise"
+            self.direction = self._table_direction(x)
+            steps = np.arange(NOISE_POINTS)[:, None] * NOISE_SPACING
+            self.pending = x + steps * self.direction
+        else:
+            self._ask_jacobian(with_base=True)
+
+    def _table_direction(self, x: np.ndarray) -> np.ndarray:
+        """A random unit direction whose table stays in the cube (components flipped inward)."""
+        d = self.rng.standard_normal(self.n)
+        d /= np.linalg.norm(d)
+        reach = (NOISE_POINTS - 1) * NOISE_SPACING
+        return np.where(x + reach * d > 1.0, -np.abs(d), np.where(x + reach * d < 0.0,
+                                                                    np.abs(d), d))
+
+    def _tell_noise(self, fs: np.ndarray, rs: np.ndarray | None) -> None:
+        table = fs[:, None] if rs is None else rs
+        if not np.all(np.isfinite(table)):
+            self._end_search()  # the start itself (or next to it) fails: next start
+            return
+        self.noise = noise_level(table)
+        slope = float(np.sqrt(np.mean((table[1] - table[0]) ** 2))) / NOISE_SPACING
+        self.scale = float(np.sqrt(np.mean(table[0] ** 2)))
+        if self.fd_step is None:
+            self.h = forward_steps(self.noise, np.full(self.n, slope), self.scale)
+        self.phi = self.history[0] = float(fs[0])
+        self.r = None if rs is None else rs[0].copy()
+        self._ask_jacobian(with_base=False)
+
+    def _ask_jacobian(self, with_base: bool) -> None:
+        self.phase = "jacobian"
+        self.hs = step_signs(self.x, self.h)
+        rows = self.x + np.diag(self.hs)
+        self.pending = np.vstack([self.x, rows]) if with_base else rows
+
+    def _tell_jacobian(self, fs: np.ndarray, rs: np.ndarray | None) -> None:
+        with_base = fs.shape[0] == self.n + 1
+        if with_base:
+            self.phi = self.history[0] = float(fs[0])
+            self.r = None if rs is None else rs[0].copy()
+            if not math.isfinite(self.phi):
+                self._end_search()
+                return
+            fs = fs[1:]
+            rs = None if rs is None else rs[1:]
+        if self.mode == "residuals":
+            assert rs is not None and self.r is not None
+            jac = (rs - self.r).T / self.hs
+            jac[:, ~np.all(np.isfinite(rs), axis=1)] = 0.0  # a failed point: no information
+            self.hess, self.grad, col2 = gram_factor(jac, self.r)
+            self.d2 = np.maximum(self.d2, 2.0 * col2)
+            slopes = np.sqrt(col2 / self.r.size)
+        else:
+            grad = np.where(np.isfinite(fs), (fs - self.phi) / self.hs, 0.0)
+            self._quasi_newton(grad)
+            slopes = np.maximum(np.diag(self.hess), np.abs(grad))
+            self.d2 = np.maximum(self.d2, np.diag(self.hess))
+        if self.fd_step is None and self.mode == "residuals":
+            self.h = forward_steps(self.noise, slopes, self.scale)
+        elif self.fd_step is None and self.iters > 0:
+            self.h = forward_steps(self.noise, slopes, max(self.scale, abs(self.phi)))
+        if self._stalled():
+            self._end_search()
+            return
+        self._propose()
+
+    def _quasi_newton(self, grad: np.ndarray) -> None:
+        """The scalar mode's Hessian: scaled identity at a start, then damped BFGS."""
+        if self.x_prev is None:
+            self.hess = np.eye(self.n) * max(float(np.linalg.norm(grad)) / 0.1, 1e-300)
+        else:
+            s = self.x - self.x_prev
+            y = grad - self.grad
+            if self.iters == 1 and float(s @ y) > 0.0:  # Nocedal & Wright's first scaling
+                self.hess = np.eye(self.n) * (float(y @ y) / float(s @ y))
+            self.hess = bfgs_update(self.hess, s, y)
+        self.grad = grad
+
+    def _propose(self) -> None:
+        """The damped bounded step at x, or the end of the search when it is nil."""
+        while True:
+            p = bounded_step(self.hess, self.grad, self.lam, self.d2, -self.x, 1.0 - self.x)
+            self.pred = model_decrease(self.hess, self.grad, p)
+            if (not self.pred > self.ftol * abs(self.phi) or float(np.max(np.abs(p))) <
+                    self.xtol):
+                self._end_search()
+                return
+            trial = np.clip(self.x + p, 0.0, 1.0)
+            if np.array_equal(trial, self.x):
+                self._end_search()
+                return
+            self.phase = "trial"
+            self.pending = trial[None, :]
+            return
+
+    def _tell_trial(self, fs: np.ndarray, rs: np.ndarray | None) -> None:
+        phi_new = float(fs[0])
+        rho = gain_ratio(self.phi, phi_new, self.pred)
+        self.lam, self.nu = damping_update(self.lam, self.nu, rho, ACCEPT)
+        if rho > ACCEPT:
+            step = self.pending[0] - self.x
+            slow = rho > EXTEND_RHO and phi_new > EXTEND_SLOW * self.phi
+            self.x_prev = self.x
+            self._accept(self.pending[0], phi_new, rs)
+            if slow and self.extend:
+                self._ask_extension(step, 2.0)
+            else:
+                self._ask_jacobian(with_base=False)
+            return
+        if self.lam > LAMBDA_MAX:
+            self._end_search()
+            return
+        self._propose()
+
+    def _accept(self, x: np.ndarray, phi: float, rs: np.ndarray | None) -> None:
+        self.x = x.copy()
+        self.phi = phi
+        if rs is not None:
+            self.r = rs[0].copy()
+        self.iters += 1
+        self.history[self.iters % self.history.size] = phi
+
+    def _ask_extension(self, step: np.ndarray, factor: float) -> None:
+        """Try x_prev + factor·step (clipped to the box): the quadratic model was right about
+        the step but φ falls slowly — a flat valley whose floor keeps descending beyond the
+        model's minimum (φ concave along it, e.g. in a stiffness that acts through its
+        inverse)."""
+        trial = np.clip(self.x_prev + factor * step, 0.0, 1.0)
+        if np.array_equal(trial, self.x):
+            self._ask_jacobian(with_base=False)
+            return
+        self.phase = "extend"
+        self.ext_step = step
+        self.ext_factor = factor
+        self.pending = trial[None, :]
+
+    def _tell_extension(self, fs: np.ndarray, rs: np.ndarray | None) -> None:
+        phi_new = float(fs[0])
+        if phi_new < self.phi:
+            self._accept(self.pending[0], phi_new, rs)
+            self.iters -= 1  # one step of the model, however far extended
+            self.history[self.iters % self.history.size] = phi_new
+            self._ask_extension(self.ext_step, 2.0 * self.ext_factor)
+        else:
+            self._ask_jacobian(with_base=False)
+
+    def _stalled(self) -> bool:
+        k = self.stall_iters
+        if self.iters < k:
+            return False
+        before = self.history[(self.iters - k) % self.history.size]
+        return bool(self.phi > (1.0 - self.stall_tol) * before)
+
+    def _end_search(self) -> None:
+        """Kick the coordinates of an improper minimum, or take the next start."""
+        self.visited = np.vstack([self.visited, self.x])
+        if self.grad is not None and self.kicks < self.max_kicks:
+            out = outward_at_bounds(self.x, self.grad, BOUND_TOL)
+            if out.any():
+                self.kicks += 1
+                self.kicks_done += 1
+                x = self.x.copy()
+                x[out] = self.rng.random(int(out.sum()))
+                self._start_search(x)
+                return
+        self._next_start()
+
+    def _clear_search(self) -> None:
+        self.phase = "pool"
+        self.x = np.full(self.n, 0.5)
+        self.x_prev: np.ndarray | None = None
+        self.r: np.ndarray | None = None
+        self.phi = math.inf
+        self.grad: np.ndarray | None = None
+        self.hess = np.zeros((self.n, self.n))
+        self.d2 = np.zeros(self.n)
+        self.lam = self.lambda0
+        self.nu = 2.0
+        self.pred = 0.0
+        self.iters = 0
+        self.ext_step = np.zeros(self.n)
+        self.ext_factor = 0.0
+        self.hs = self.h.copy()
+        self.history = np.full(self.stall_iters + 1, math.inf)  # φ after each accepted step
+
+
+_OPTIONS = ("pool", "min_distance", "kicks", "stall_iters", "stall_tol", "lambda0", "ftol",
+            "xtol", "fd_step", "extend")
+
+
+def make_multistart_lm(n: int, rng: np.random.Generator, **options: Any) -> MultistartLM:
+    """Multistart bounded Levenberg–Marquardt. Options: ``pool`` (int ≥ 1, default 20·n),
+    ``min_distance`` ([0, 1], 0.05), ``kicks`` (int ≥ 0, 2), ``stall_iters`` (int ≥ 1, 5),
+    ``stall_tol`` ([0, 1), 0.01), ``lambda0`` (> 0, 1e-3), ``ftol`` (≥ 0, 1e-14), ``xtol``
+    (≥ 0, 1e-13), ``fd_step`` ((0, 0.1] or None: chosen from the noise)."""
+    method = "multistart-lm"
+    check_option_names(method, options, _OPTIONS)
+    pool = options.get("pool")
+    return MultistartLM(
+        n, rng,
+        pool=None if pool is None else int_option(method, "pool", pool, 1),
+        min_distance=real_option(method, "min_distance", options.get("min_distance", 0.05),
+                                 0.0, 1.0),  # type: ignore[arg-type]
+        kicks=int_option(method, "kicks", options.get("kicks", 2), 0),
+        stall_iters=int_option(method, "stall_iters", options.get("stall_iters", 5), 1),
+        stall_tol=real_option(method, "stall_tol", options.get("stall_tol", 0.01), 0.0, 1.0,
+                              high_open=True),  # type: ignore[arg-type]
+        lambda0=real_option(method, "lambda0", options.get("lambda0", 1e-3), 0.0,
+                            low_open=True, high_open=True),  # type: ignore[arg-type]
+        ftol=real_option(method, "ftol", options.get("ftol", 1e-14), 0.0,
+                         high_open=True),  # type: ignore[arg-type]
+        xtol=real_option(method, "xtol", options.get("xtol", 1e-13), 0.0,
+                         high_open=True),  # type: ignore[arg-type]
+        fd_step=real_option(method, "fd_step", options.get("fd_step"), 0.0, 0.1,
+                            low_open=True, allow_none=True),
+        extend=bool_option(method, "extend", options.get("extend", True)),
+    )
+
+
+def bool_option(method: str, name: str, value: Any) -> bool:
+    """A boolean option; ConfigError otherwise."""
+    if not isinstance(value, bool):
+        raise ConfigError(f"option {name!r} of method {method!r} must be true or false, "
+                          f"got {value!r}")
+    return value
