@@ -22,6 +22,7 @@ from femupdate.optimize.beta import make_ab, make_ib
 from femupdate.optimize.cmaes import make_cmaes
 from femupdate.optimize.evolutionary import make_de, make_ga
 from femupdate.optimize.multistart import make_multistart_lm
+from femupdate.optimize.scipy_lsq import make_scipy_lsq
 from femupdate.optimize.termination import (
     check_f_target,
     check_max_evals,
@@ -37,11 +38,12 @@ METHODS: dict[str, Factory] = {
     "de": make_de,
     "ga": make_ga,
     "multistart-lm": make_multistart_lm,
+    "scipy-lsq": make_scipy_lsq,
 }
 
 #: Methods that use residual vectors when the problem has them: ``run_case`` and the
 #: benchmarks give them ``problem.residuals`` with ``residuals=True``.
-RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm"})
+RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm", "scipy-lsq"})
 
 Objective = Callable[[np.ndarray], float]
 MapLike = Callable[[Objective, Iterable[np.ndarray]], Iterable[Any]]
@@ -300,8 +302,11 @@ def minimize(
         ``scipy.optimize.least_squares`` calls ``fun``; φ = r·r.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter.
-    method : {"ab", "ib", "cmaes", "de", "ga"}
-        See ``METHODS``; each validates its own ``options``.
+    method : {"ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"}
+        See ``METHODS``; each validates its own ``options``. ``"multistart-lm"``: space-filling
+        starts, a bounded Levenberg–Marquardt local phase and restarts (quasi-Newton without
+        residuals); ``"scipy-lsq"``: multistart scipy ``least_squares``, a baseline that
+        needs ``residuals=True``.
     seed : None, int, SeedSequence or Generator
         Passed to ``numpy.random.default_rng``: the run's only randomness.
     max_evals : int

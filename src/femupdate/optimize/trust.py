@@ -84,6 +84,49 @@ def step_signs(x: np.ndarray, h: np.ndarray) -> np.ndarray:
     return np.where(x + h <= 1.0, h, -h)
 
 
+#: Second-order difference stencils: offsets (in steps) of the two points beside x and the
+#: weights of (f(x), f(x + o1 h), f(x + o2 h)): central, and one-sided at a bound.
+STENCILS = {
+    "central": ((1.0, -1.0), (0.0, 0.5, -0.5)),
+    "forward": ((1.0, 2.0), (-1.5, 2.0, -0.5)),
+    "backward": ((-1.0, -2.0), (1.5, -2.0, 0.5)),
+}
+
+
+def second_order_stencils(x: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per coordinate, the offsets (n, 2) and weights (n, 3) of a second-order difference with
+    step h: central where x ± h is in [0, 1], else one-sided (three points) into the cube."""
+    kind = np.where(x - h < 0.0, "forward", np.where(x + h > 1.0, "backward", "central"))
+    offsets = np.array([STENCILS[k][0] for k in kind])
+    weights = np.array([STENCILS[k][1] for k in kind])
+    return offsets, weights
+
+
+def forward_columns(base: np.ndarray, values: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """Jacobian (m, n) by forward (or backward: negative steps) differences.
+
+    ``base`` (m,) is f(x); ``values`` (n, m) holds f(x + steps_i e_i). A column with a
+    non-finite value is 0: no information rather than a wrong one.
+    """
+    cols = (values - base) / steps[:, None]
+    cols[~np.all(np.isfinite(values), axis=1)] = 0.0
+    return cols.T
+
+
+def second_order_columns(base: np.ndarray, values: np.ndarray, weights: np.ndarray,
+                         h: float) -> np.ndarray:
+    """Jacobian (m, n) by the second-order stencils of :func:`second_order_stencils`.
+
+    ``values`` (2n, m): f at x + o1_i h e_i for every i, then at x + o2_i h e_i.
+    """
+    n = weights.shape[0]
+    first, second = values[:n], values[n:]
+    cols = (weights[:, :1] * base + weights[:, 1:2] * first + weights[:, 2:] * second) / h
+    ok = np.all(np.isfinite(first), axis=1) & np.all(np.isfinite(second), axis=1)
+    cols[~ok] = 0.0
+    return cols.T
+
+
 def gram_factor(jac: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Gauss–Newton model of φ = ‖r‖² at a point with Jacobian ``jac`` (m, n).
 
