@@ -1,0 +1,110 @@
+"""multistart-lm runs (residuals) killed with SIGKILL midway resume to exactly the
+uninterrupted results: its state pickles bit for bit between chunks."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femupdate.benchmarks.dynamic import DynamicProblem
+from femupdate.runs.runner import run_all
+from femupdate.runs.store import FILENAME, ResultsStore
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
+
+# No target (the method has no stopping criterion of its own): every run makes exactly
+# max_evals evaluations.
+SETTINGS = dict(runs=4, seed=21, max_evals=3000, options={}, chunk_evals=100, workers=2,
+                residuals=True)
+TOTAL = SETTINGS["runs"] * SETTINGS["max_evals"]
+
+# The killed set evaluates the same φ slowed down (same values), so that it is still running
+# when the poller sees its first checkpoints, however loaded the machine is.
+CHILD = f"""
+import sys, time
+from femupdate.benchmarks.dynamic import DynamicProblem
+from femupdate.runs.runner import run_all
+
+class Slow(DynamicProblem):
+    def residuals(self, x):
+        time.sleep(4e-4)
+        return super().residuals(x)
+
+p = Slow()
+run_all(p.residuals, p.bounds, "multistart-lm", store_dir=sys.argv[1], **{SETTINGS!r})
+"""
+
+
+def _progress(path: Path) -> tuple[int, int]:
+    """Evaluations and checkpoints stored so far (0, 0 before the store exists)."""
+    if not path.is_file():
+        return 0, 0
+    conn = sqlite3.connect(path, timeout=10)
+    try:
+        evals = conn.execute("SELECT count(*) FROM evaluations").fetchone()[0]
+        ckpts = conn.execute("SELECT count(*) FROM checkpoints").fetchone()[0]
+    except sqlite3.OperationalError:  # tables not created yet
+        return 0, 0
+    finally:
+        conn.close()
+    return evals, ckpts
+
+
+def _kill_midway(out: Path) -> tuple[int, int]:
+    # Its own session, so SIGKILL reaches the coordinator and its worker processes at once.
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(out)], start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and child.poll() is None:
+            evals, ckpts = _progress(out / FILENAME)
+            if evals >= TOTAL // 8 and ckpts >= 2:
+                os.killpg(child.pid, signal.SIGKILL)
+                break
+            time.sleep(0.01)
+    finally:
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGKILL)
+        child.wait(timeout=30)
+    assert child.returncode == -signal.SIGKILL, "the runs ended before they could be killed"
+    return _progress(out / FILENAME)
+
+
+def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path) -> None:
+    evals, ckpts = _kill_midway(tmp_path / "killed")
+    assert 0 < evals < TOTAL and ckpts >= 1
+
+    # What survived the kill: per run, evaluations 0 … checkpoint − 1 and nothing else.
+    with ResultsStore.open(tmp_path / "killed") as store:
+        for row in store.runs():
+            idx = store.evaluations(row.run)[0]
+            ckpt = store.checkpoint(row.run)
+            expected = {"done": row.nfev, "running": ckpt.nfev if ckpt else 0, "pending": 0}
+            np.testing.assert_array_equal(idx, np.arange(expected[row.status]))
+
+    p = DynamicProblem()
+    resumed = run_all(p.residuals, p.bounds, "multistart-lm", store_dir=tmp_path / "killed",
+                      resume=True, **SETTINGS)
+    reference = run_all(p.residuals, p.bounds, "multistart-lm", store_dir=tmp_path / "whole",
+                        **SETTINGS)
+    for a, b in zip(resumed, reference, strict=True):
+        np.testing.assert_array_equal(a.x, b.x)
+        assert (a.fun, a.nfev, a.nit, a.stop) == (b.fun, b.nfev, b.nit, b.stop)
+    with ResultsStore.open(tmp_path / "killed") as got, \
+            ResultsStore.open(tmp_path / "whole") as want:
+        for run in range(SETTINGS["runs"]):
+            i1, x1, f1, _ = got.evaluations(run)
+            i2, x2, f2, _ = want.evaluations(run)
+            np.testing.assert_array_equal(i1, np.arange(SETTINGS["max_evals"]))  # none twice
+            np.testing.assert_array_equal(i1, i2)
+            assert x1.tobytes() == x2.tobytes() and f1.tobytes() == f2.tobytes()
+            h1, h2 = got.history(run), want.history(run)
+            assert h1.keys() == h2.keys()
+            assert all(h1[k].tobytes() == h2[k].tobytes() for k in h1)
