@@ -17,17 +17,8 @@ from femupdate.update import UpdateProblem
 
 
 def residuals(problem: UpdateProblem, values: dict[str, float]) -> np.ndarray:
-    """Residuals r with φ = ‖r‖², at physical parameter ``values`` (inf-filled if diverged)."""
-    objective = problem.objective
-    response = problem.simulate(values)
-    if response.diverged:
-        return np.full(objective.target.size, np.inf)
-    prediction = problem.prediction(response)
-    target = objective.corrected_target(prediction)
-    target = target.reshape(prediction.shape)
-    weights = objective.weights / objective.weights.sum()
-    scale = np.sqrt(weights / np.sum(target**2, axis=0))
-    return ((prediction - target) * scale).ravel()
+    """Residuals r with φ = ‖r‖², at physical parameter ``values`` (inf-filled if failed)."""
+    return problem.residuals(values)
 
 
 @dataclass(frozen=True)

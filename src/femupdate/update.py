@@ -165,6 +165,16 @@ class TrialProblem:
             out[i] = self.phi_reference(X[i])
         return out
 
+    def residuals_at(self, x: np.ndarray) -> np.ndarray:
+        """The residual vector at search point ``x``: compiled when it can be, else (and for
+        a failed evaluation, which then says why) step by step."""
+        if self.compiled:
+            r = self.evaluator.residuals(np.asarray(x, dtype=float))
+            if r is not None:
+                self.last_failure = None
+                return r
+        return self.residuals(self.case.to_physical(np.asarray(x, dtype=float)))
+
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x`` through the simulator, the prediction and the error
         function, step by step (what the compiled evaluator is tested against)."""
@@ -398,10 +408,17 @@ class UpdateProblem:
             trial.close()
 
     def residuals(self, x: Point) -> np.ndarray:
-        """The residual vector r(x) of every fitted trial, with φ(x) = ‖r‖² to rounding."""
-        values = self._physical(x)
-        return np.concatenate([math.sqrt(share) * t.residuals(values)
-                               for share, t in zip(self._shares, self.fitted, strict=True)])
+        """The residual vector r(x) of every fitted trial, with φ(x) = ‖r‖² to rounding: at a
+        search point compiled when it can be, at physical values (a mapping) step by step."""
+        if isinstance(x, Mapping):
+            parts = [t.residuals(x) for t in self.fitted]
+        else:
+            x = np.asarray(x, dtype=float)
+            parts = [t.residuals_at(x) for t in self.fitted]
+        if len(parts) == 1:
+            return parts[0]
+        return np.concatenate([math.sqrt(share) * r
+                               for share, r in zip(self._shares, parts, strict=True)])
 
 
 def _check_external(case: Case, experiment: Experiment, quantity: str) -> None:

@@ -21,6 +21,7 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
+from femupdate.optimize.minimize import RESIDUAL_METHODS
 from femupdate.results import (
     Best,
     Fit,
@@ -327,8 +328,9 @@ def run_case(
         out_dir.mkdir(parents=True, exist_ok=True)
         if restart:
             start_over(out_dir)
+    residuals = search.method in RESIDUAL_METHODS
     outcomes = run_all(
-        problem, problem.bounds, search.method,
+        problem.residuals if residuals else problem, problem.bounds, search.method,
         runs=runs, seed=seed, max_evals=max_evals, f_target=search.f_target,
         options=optimizer_options(case),
         store_dir=out_dir, resume=resume,
@@ -336,6 +338,7 @@ def run_case(
                               data=file_hashes(data_files(case))),
         execution=execution,
         keep_history=keep_history,
+        residuals=residuals,
     )
     _no_success(case, problem, outcomes)
     # Over every session of the store: a resumed set counts the time of its earlier ones.

@@ -19,26 +19,30 @@ from femupdate.runs.store import FILENAME, ResultsStore
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 
-# No target and no σ criterion: every run makes exactly max_evals evaluations.
-SETTINGS = dict(runs=4, seed=21, max_evals=6000, options={"sigma_min": 0.0})
+# No target (and for AB no σ criterion; multistart-lm has no criterion of its own): every run
+# makes exactly max_evals evaluations. multistart-lm runs on residual vectors.
+RUNS = {
+    "ab": (dict(runs=4, seed=21, max_evals=6000, options={"sigma_min": 0.0}), "__call__"),
+    "multistart-lm": (dict(runs=4, seed=21, max_evals=3000, options={}, residuals=True),
+                      "residuals"),
+}
 EXECUTION = dict(chunk_evals=100, workers=2)
-TOTAL = SETTINGS["runs"] * SETTINGS["max_evals"]
 
-# The killed set evaluates the same φ slowed down (same values), so that it is still running
-# when the poller sees its first checkpoints, however loaded the machine is.
-CHILD = f"""
+# The killed set evaluates the same function slowed down (same values), so that it is still
+# running when the poller sees its first checkpoints, however loaded the machine is.
+CHILD = """
 import sys, time
 from femupdate.problems.dynamic import DynamicProblem
 from femupdate.runs import Execution, run_all
 
 class Slow(DynamicProblem):
-    def __call__(self, x):
-        time.sleep(2e-4)
-        return super().__call__(x)
+    def {fun}(self, x):
+        time.sleep(3e-4)
+        return super().{fun}(x)
 
 p = Slow()
-run_all(p, p.bounds, "ab", store_dir=sys.argv[1], execution=Execution(**{EXECUTION!r}),
-        **{SETTINGS!r})
+run_all(p.{fun}, p.bounds, {method!r}, store_dir=sys.argv[1],
+        execution=Execution(**{execution!r}), **{settings!r})
 """
 
 
@@ -57,14 +61,17 @@ def _progress(path: Path) -> tuple[int, int]:
     return evals, ckpts
 
 
-def _kill_midway(out: Path) -> tuple[int, int]:
+def _kill_midway(out: Path, method: str) -> tuple[int, int]:
+    settings, fun = RUNS[method]
+    total = settings["runs"] * settings["max_evals"]
+    code = CHILD.format(fun=fun, method=method, execution=EXECUTION, settings=settings)
     # Its own session, so SIGKILL reaches the coordinator and its worker processes at once.
-    child = subprocess.Popen([sys.executable, "-c", CHILD, str(out)], start_new_session=True)
+    child = subprocess.Popen([sys.executable, "-c", code, str(out)], start_new_session=True)
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and child.poll() is None:
             evals, ckpts = _progress(out / FILENAME)
-            if evals >= TOTAL // 8 and ckpts >= 2:
+            if evals >= total // 8 and ckpts >= 2:
                 os.killpg(child.pid, signal.SIGKILL)
                 break
             time.sleep(0.01)
@@ -76,9 +83,12 @@ def _kill_midway(out: Path) -> tuple[int, int]:
     return _progress(out / FILENAME)
 
 
-def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path) -> None:
-    evals, ckpts = _kill_midway(tmp_path / "killed")
-    assert 0 < evals < TOTAL and ckpts >= 1
+@pytest.mark.parametrize("method", sorted(RUNS))
+def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path,
+                                                                method: str) -> None:
+    settings, fun_name = RUNS[method]
+    evals, ckpts = _kill_midway(tmp_path / "killed", method)
+    assert 0 < evals < settings["runs"] * settings["max_evals"] and ckpts >= 1
 
     # What survived the kill: per run, evaluations 0 … checkpoint − 1 and nothing else.
     with ResultsStore.open(tmp_path / "killed") as store:
@@ -89,19 +99,20 @@ def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path) 
             np.testing.assert_array_equal(idx, np.arange(expected[row.status]))
 
     p = DynamicProblem()
-    resumed = run_all(p, p.bounds, "ab", store_dir=tmp_path / "killed", resume=True,
-                      execution=Execution(**EXECUTION), **SETTINGS)
-    reference = run_all(p, p.bounds, "ab", store_dir=tmp_path / "whole",
-                        execution=Execution(**EXECUTION), **SETTINGS)
+    fun = getattr(p, fun_name)
+    resumed = run_all(fun, p.bounds, method, store_dir=tmp_path / "killed", resume=True,
+                      execution=Execution(**EXECUTION), **settings)
+    reference = run_all(fun, p.bounds, method, store_dir=tmp_path / "whole",
+                        execution=Execution(**EXECUTION), **settings)
     for a, b in zip(resumed, reference, strict=True):
         np.testing.assert_array_equal(a.x, b.x)
         assert (a.fun, a.nfev, a.nit, a.stop) == (b.fun, b.nfev, b.nit, b.stop)
     with ResultsStore.open(tmp_path / "killed") as got, \
             ResultsStore.open(tmp_path / "whole") as want:
-        for run in range(SETTINGS["runs"]):
+        for run in range(settings["runs"]):
             i1, x1, f1, _ = got.evaluations(run)
             i2, x2, f2, _ = want.evaluations(run)
-            np.testing.assert_array_equal(i1, np.arange(SETTINGS["max_evals"]))  # none twice
+            np.testing.assert_array_equal(i1, np.arange(settings["max_evals"]))  # none twice
             np.testing.assert_array_equal(i1, i2)
             assert x1.tobytes() == x2.tobytes() and f1.tobytes() == f2.tobytes()
             h1, h2 = got.history(run), want.history(run)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+from femupdate.optimize.minimize import RESIDUAL_METHODS
 from femupdate.problems.dynamic import F_TARGET, MAX_EVALS, PARAMETER_NAMES, DynamicProblem
 from femupdate.runs.outcome import RunOutcome, run_seeds
 from femupdate.runs.repeat import RunTask, repeat
@@ -40,15 +41,18 @@ def run_benchmark(
     """
     opts = dict(ALL_METHODS.get(method, {}) if options is None else options)
     start = time.perf_counter()
+    problem = DynamicProblem()
+    residuals = method in RESIDUAL_METHODS
     outcomes = repeat(
-        DynamicProblem(),
-        DynamicProblem().bounds,
+        problem.residuals if residuals else problem,
+        problem.bounds,
         method,
         runs=runs,
         seed=seed,
         workers=workers,
         max_evals=max_evals,
         f_target=f_target,
+        residuals=residuals,
         **opts,
     )
     wall = time.perf_counter() - start
@@ -72,5 +76,7 @@ def run_with_history(method: str = "ab", *, seed: int | None = 0, run_index: int
     problem = DynamicProblem()
     child = run_seeds(seed, run_index + 1)[run_index]
     opts = dict(ALL_METHODS.get(method, {}) if options is None else options)
-    return RunTask(problem, problem.bounds, method, run_index, child, max_evals, F_TARGET, opts,
-                   keep_history=True)()
+    residuals = method in RESIDUAL_METHODS
+    return RunTask(problem.residuals if residuals else problem, problem.bounds, method,
+                   run_index, child, max_evals, F_TARGET, opts, keep_history=True,
+                   residuals=residuals)()

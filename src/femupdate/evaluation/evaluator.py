@@ -318,6 +318,21 @@ class Evaluator:
             phi[row] = self._reference(X[row])
         return phi
 
+    def residuals(self, x: np.ndarray) -> np.ndarray | None:
+        """The residual vector r(x), as ``ErrorFunction.residuals`` orders and scales it
+        (φ = ‖r‖² to rounding), from the compiled simulation and processing; None where the
+        compiled path does not reach (a zero-phase filter, an assembly or a simulation it
+        leaves to the reference, a failed evaluation): the caller's step-by-step path then
+        gives them, and says why a failure failed."""
+        if not self.supported or self.zero_phase:
+            return None
+        one, phi, status = self._single
+        one[0] = x
+        self._run(one, False, phi, status)
+        if status[0] == REFERENCE or not np.isfinite(phi[0]):
+            return None
+        return scaled_residuals(self.post, self.y)
+
     def _run(self, X: np.ndarray, raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
         """The compiled batch over the rows of X (C-contiguous float64)."""
         args = (X, *self._static, raw, phi, status)
@@ -391,6 +406,20 @@ class Evaluator:
 
         y = np.ascontiguousarray(scipy.signal.sosfiltfilt(self._sos, self.y, axis=1))
         return float(process_and_compare(self.post, y, self.per_channel, self.zi)), DONE
+
+
+def scaled_residuals(post: Post, d: np.ndarray) -> np.ndarray:
+    """r from the differences ``d`` = ŷ − y (n_channels, n_samples) that
+    :func:`process_and_compare` leaves: with experimental parameters the part of each channel
+    the constants cannot explain, each channel scaled by √(w_c / (Σw · E_c)); channel after
+    channel, as ``ErrorFunction.residuals``."""
+    energy = post.energy
+    if post.projected:
+        c = d @ post.q.T  # (n_channels, 2): Qᵀd of each channel
+        d = d - c @ post.q
+        energy = energy + np.sum((c + post.qty.T) ** 2, axis=1)
+    scale = np.sqrt(post.weights / (post.weights.sum() * energy))
+    return (d * scale[:, None]).ravel()
 
 
 def _entry_point(dispatcher: Any, args: tuple) -> Callable[..., None]:

@@ -26,6 +26,8 @@ from femupdate.optimize.base import Factory, Optimizer
 from femupdate.optimize.beta import make_ab, make_ib
 from femupdate.optimize.cmaes import make_cmaes
 from femupdate.optimize.evolutionary import make_de, make_ga
+from femupdate.optimize.multistart import make_multistart_lm
+from femupdate.optimize.scipy_lsq import make_scipy_lsq
 from femupdate.optimize.termination import (
     check_f_target,
     check_max_evals,
@@ -41,7 +43,13 @@ METHODS: dict[str, Factory] = {
     "cmaes": make_cmaes,
     "de": make_de,
     "ga": make_ga,
+    "multistart-lm": make_multistart_lm,
+    "scipy-lsq": make_scipy_lsq,
 }
+
+#: Methods that use residual vectors when the problem has them: ``run_case`` and the
+#: benchmarks give them ``problem.residuals`` with ``residuals=True``.
+RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm", "scipy-lsq"})
 
 #: Added to the result's message when every evaluation failed (φ NaN or inf).
 NO_SUCCESS = ("no evaluation succeeded: fun returned NaN or inf at every point tried, so x is "
@@ -117,10 +125,13 @@ class MinimizeState:
         Stop (successfully) once φ ≤ f_target.
     record_times : bool
         Keep the wall-clock time (``time.perf_counter``) of every evaluation.
+    residuals : bool
+        ``fun`` returns the residual vector r; φ = r·r.
     """
 
     def __init__(self, optimizer: Optimizer, method: str, low: np.ndarray, high: np.ndarray,
-                 max_evals: int, f_target: float | None, record_times: bool = False) -> None:
+                 max_evals: int, f_target: float | None, record_times: bool = False,
+                 residuals: bool = False) -> None:
         self.optimizer = optimizer
         self.method = method
         self.low = low
@@ -136,6 +147,8 @@ class MinimizeState:
         self.stopped: dict[str, object] = {}
         self.nfail = 0  # evaluations that failed (φ = inf)
         self.first_failure: str | None = None  # why the first one failed, if fun says
+        self.residuals = residuals
+        self.best_r: np.ndarray | None = None  # r at best_x (residuals mode)
         self._new_history(room=min(max_evals, 1024))
 
     # -- checkpoints ---------------------------------------------------------------------------
@@ -192,8 +205,9 @@ class MinimizeState:
         if k == 0:
             raise FemupdateError(f"the {self.method!r} optimizer proposed no candidates")
         fs = np.empty(k)
+        rs: list[np.ndarray] = []
         evaluated = 0
-        batch = getattr(fun, "evaluate_batch", None)
+        batch = None if self.residuals else getattr(fun, "evaluate_batch", None)
         if map is builtins.map and callable(batch) and k > 1:
             # A population in one call of a function that evaluates batches (femupdate's
             # update problems: one compiled loop), the values then taken in order as below.
@@ -202,7 +216,7 @@ class MinimizeState:
             results = iter(map(fun, iter(x)))
         try:
             for i in range(k):
-                fs[i] = f = self._evaluate_next(results, x[i])
+                fs[i] = f = self._evaluate_next(results, x[i], rs)
                 if f == math.inf:
                     self._record_failure(fun)
                 evaluated += 1
@@ -217,11 +231,15 @@ class MinimizeState:
             if close is not None:  # a generator (e.g. an executor's map): cancel the rest
                 close()
         if evaluated == k:
-            self.optimizer.tell(xi, fs)
+            if self.residuals:
+                self.optimizer.tell(xi, fs, np.vstack(rs))
+            else:
+                self.optimizer.tell(xi, fs)
             self.nit += 1
             self.stopped.update(self.optimizer.stop())
 
-    def _evaluate_next(self, results: Iterator[Any], x: np.ndarray) -> float:
+    def _evaluate_next(self, results: Iterator[Any], x: np.ndarray,
+                       rs: list[np.ndarray]) -> float:
         try:
             value = next(results)
         except StopIteration:
@@ -229,7 +247,13 @@ class MinimizeState:
         except Exception as exc:
             exc.add_note(f"femupdate.minimize: raised while evaluating fun(x) at x = {x.tolist()}")
             raise
-        f = _as_value(value, x)
+        r = None
+        if self.residuals:
+            size = rs[0].size if rs else (None if self.best_r is None else self.best_r.size)
+            r, f = _residual_vector(value, x, size)
+            rs.append(r)
+        else:
+            f = _as_value(value, x)
         n = self.nfev - self._hist_first
         if n == self._hist_f.shape[0]:
             self._grow_history()
@@ -241,12 +265,16 @@ class MinimizeState:
         if f < self.best_f or self.nfev == 1:
             self.best_f = f
             self.best_x = x.copy()
+            if r is not None:
+                self.best_r = r.copy()
         return f
 
     def _record_failure(self, fun: ScalarFunction) -> None:
-        """Count a failed evaluation and keep why, when ``fun`` (evaluated here) says."""
+        """Count a failed evaluation and keep why, when ``fun`` (evaluated here) says, or the
+        object it is a method of (an update problem's ``residuals``)."""
         self.nfail += 1
-        why = getattr(fun, "last_failure", None)
+        why = getattr(fun, "last_failure", getattr(getattr(fun, "__self__", None),
+                                                   "last_failure", None))
         if isinstance(why, str):
             self._failures.append((self.nfev - 1, why))
             if self.first_failure is None:
@@ -296,6 +324,7 @@ class MinimizeState:
             nfail=self.nfail,
             failure=self.first_failure,
             history=self.history(),
+            **({} if self.best_r is None else {"residuals": self.best_r.copy()}),
         )
 
 
@@ -314,10 +343,27 @@ def _as_value(value: Any, x: np.ndarray) -> float:
     return f if math.isfinite(f) else math.inf
 
 
+def _residual_vector(value: Any, x: np.ndarray, size: int | None) -> tuple[np.ndarray, float]:
+    """A residual vector as a flat float array and φ = r·r; a non-finite r is a failed
+    evaluation: all inf, φ = inf."""
+    try:
+        r = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ConfigError(f"fun(x) must return a vector of real residuals with "
+                          f"residuals=True, got {value!r} at x = {x.tolist()}") from None
+    if size is not None and r.size != size:
+        raise ConfigError(f"fun(x) returned {r.size} residuals at x = {x.tolist()}, earlier "
+                          f"{size}: the residual vector must keep its length")
+    if not np.all(np.isfinite(r)):
+        return np.full(r.size, math.inf), math.inf
+    f = float(r @ r)
+    return (r, f) if math.isfinite(f) else (np.full(r.size, math.inf), math.inf)
+
+
 def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
           method: str = "ab", *, seed: Any = None, max_evals: int = 50_000,
           f_target: float | None = None, record_times: bool = False,
-          **options: Any) -> MinimizeState:
+          residuals: bool = False, **options: Any) -> MinimizeState:
     """Validate the arguments and build the loop state of a run (see :func:`minimize`)."""
     if not callable(fun):
         raise ConfigError(f"fun must be callable, got {fun!r}")
@@ -332,8 +378,17 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
         raise ConfigError(
             f"seed must be None, an int, a SeedSequence or a Generator, got {seed!r}"
         ) from exc
+    if not isinstance(residuals, bool):
+        raise ConfigError(f"residuals must be True or False, got {residuals!r}")
     optimizer = METHODS[method](low.size, rng, **options)
-    return MinimizeState(optimizer, method, low, high, max_evals, f_target, record_times)
+    if getattr(optimizer, "needs_residuals", False) and not residuals:
+        optimizer.close()
+        raise ConfigError(
+            f"method {method!r} needs residual vectors: pass residuals=True and a fun that "
+            f"returns r (φ = r·r), as scipy.optimize.least_squares' fun"
+        )
+    return MinimizeState(optimizer, method, low, high, max_evals, f_target, record_times,
+                         residuals)
 
 
 def _callback_kind(callback: Callable[..., Any]) -> str:
@@ -378,6 +433,7 @@ def minimize(
     callback: Callable[..., Any] | None = None,
     workers: int | MapLike = 1,
     map: MapLike | None = None,
+    residuals: bool = False,
     **options: Any,
 ) -> OptimizeResult:
     """Minimize ``fun`` within ``bounds`` with the bounded optimizer ``method``.
@@ -387,11 +443,16 @@ def minimize(
     fun : callable
         φ(x) -> float, x of shape (n,) in original units. A NaN or infinite value is a failed
         evaluation: counted, treated as +inf. Anything but a real number (a string, a bool)
-        is a ConfigError; an exception propagates, with a note giving x.
+        is a ConfigError; an exception propagates, with a note giving x. With
+        ``residuals=True``: the residual vector r(x) (m,), what
+        ``scipy.optimize.least_squares`` calls ``fun``; φ = r·r.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter, high − low finite (not overflowing).
-    method : {"ab", "ib", "cmaes", "de", "ga"}
-        See ``METHODS``; each validates its own ``options``.
+    method : {"ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"}
+        See ``METHODS``; each validates its own ``options``. ``"multistart-lm"``:
+        space-filling starts, a bounded Levenberg–Marquardt local phase and restarts
+        (quasi-Newton on φ without residuals); ``"scipy-lsq"``: multistart scipy
+        ``least_squares``, a baseline that needs ``residuals=True``.
     seed : None, int, SeedSequence or Generator
         Passed to ``numpy.random.default_rng``: the run's only randomness.
     max_evals : int
@@ -411,6 +472,10 @@ def minimize(
         order. Only population methods (cmaes, de, ga) ask several candidates per step.
     map : callable or None
         Deprecated name of a map-like ``workers``.
+    residuals : bool
+        ``fun`` returns residuals r and φ = r·r is minimised: ``f_target``, the history,
+        ``callback`` and ``res.fun`` refer to φ. Methods that need them (``needs_residuals``)
+        refuse to run without; the others ignore them or, like ``"multistart-lm"``, use them.
     **options
         Options of the method (unknown names or values out of range: ConfigError).
 
@@ -426,7 +491,9 @@ def minimize(
         the optimizer started afresh: its option ``restarts``), ``nfail`` (evaluations that
         failed, φ = inf) and ``failure`` (why the first did, when ``fun`` has an attribute
         ``last_failure`` saying it, as femupdate's update problems do), ``history`` (``x``
-        (nfev, n), ``fun`` (nfev,) and the optimizer's trace arrays).
+        (nfev, n), ``fun`` (nfev,) and the optimizer's trace arrays); with
+        ``residuals=True`` also ``residuals``, r at ``x`` (what scipy's ``least_squares``
+        calls ``fun``).
     """
     if callback is not None and not callable(callback):
         raise ConfigError(f"callback must be callable or None, got {callback!r}")
@@ -442,7 +509,7 @@ def minimize(
                       "callback(intermediate_result), called after every step",
                       DeprecationWarning, stacklevel=2)
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
-                  **options)
+                  residuals=residuals, **options)
     map_fn, close_map = _workers_map(workers)
     per_evaluation = callback if kind == "legacy" else None
     try:

@@ -50,3 +50,7 @@ class DynamicProblem:
     def __call__(self, x: np.ndarray) -> float:
         residual = two_mode_response(x, self.t) - self.target
         return float(residual @ residual) / self.target_energy
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """r = (ŷ − y)/‖y‖, so that φ(x) = r·r to rounding."""
+        return (two_mode_response(x, self.t) - self.target) / np.sqrt(self.target_energy)

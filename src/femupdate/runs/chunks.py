@@ -37,15 +37,18 @@ class RunSpec:
     max_evals: int
     f_target: float | None
     options: dict[str, Any]
+    residuals: bool = False  # fun returns residual vectors (minimize's residuals=True)
 
     @classmethod
     def make(cls, fun: Callable[[np.ndarray], float],
              bounds: Sequence[tuple[float, float]] | Bounds, method: str, max_evals: int,
-             f_target: float | None, options: Mapping[str, Any] | None) -> RunSpec:
+             f_target: float | None, options: Mapping[str, Any] | None,
+             residuals: bool = False) -> RunSpec:
         """Check everything ``minimize`` would check (ConfigError), before any run starts."""
         low, high = parse_bounds(bounds)
         spec = cls(tuple(zip(low.tolist(), high.tolist(), strict=True)), method,
-                   check_max_evals(max_evals), check_f_target(f_target), dict(options or {}))
+                   check_max_evals(max_evals), check_f_target(f_target), dict(options or {}),
+                   residuals)
         spec.start(fun, np.random.SeedSequence(0)).optimizer.close()  # method and options
         return spec
 
@@ -53,13 +56,16 @@ class RunSpec:
               seed: np.random.SeedSequence) -> MinimizeState:
         return start(fun, self.bounds, self.method, seed=np.random.default_rng(seed),
                      max_evals=self.max_evals, f_target=self.f_target, record_times=True,
-                     **self.options)
+                     residuals=self.residuals, **self.options)
 
     def settings(self, runs: int, names: Sequence[str] | None) -> dict[str, Any]:
         """The settings a resumed store must match (run_all adds the root seed's entropy)."""
-        return {"method": self.method, "bounds": [list(b) for b in self.bounds], "runs": runs,
-                "max_evals": self.max_evals, "f_target": self.f_target,
-                "options": self.options, "names": None if names is None else list(names)}
+        out = {"method": self.method, "bounds": [list(b) for b in self.bounds], "runs": runs,
+               "max_evals": self.max_evals, "f_target": self.f_target,
+               "options": self.options, "names": None if names is None else list(names)}
+        if self.residuals:  # only then: stores written before residuals existed still match
+            out["residuals"] = True
+        return out
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ class RunTask:
     f_target: float | None
     options: dict[str, Any]
     keep_history: bool = False
+    residuals: bool = False  # fun returns residual vectors (minimize's residuals=True)
 
     def __call__(self) -> RunOutcome:
         start = time.perf_counter()
@@ -43,6 +44,7 @@ class RunTask:
             seed=np.random.default_rng(self.seed),
             max_evals=self.max_evals,
             f_target=self.f_target,
+            residuals=self.residuals,
             **self.options,
         )
         return outcome_of(self.index, self.seed, res, time.perf_counter() - start,
@@ -93,6 +95,7 @@ def repeat(
     executor: Executor | None = None,
     on_outcome: Callable[[RunOutcome], None] | None = None,
     keep_history: bool = False,
+    residuals: bool = False,
     **options: Any,
 ) -> list[RunOutcome]:
     """Run ``minimize`` ``runs`` times with independent seeds; outcomes sorted by run index.
@@ -103,7 +106,7 @@ def repeat(
     """
     tasks = [
         RunTask(fun, tuple(map(tuple, bounds)), method, i, ss, max_evals, f_target,
-                options, keep_history)
+                options, keep_history, residuals)
         for i, ss in enumerate(run_seeds(seed, runs))
     ]
     outcomes = []

@@ -132,6 +132,7 @@ def run_all(
     execution: Execution | None = None,
     keep_history: bool = False,
     on_outcome: Callable[[RunOutcome], None] | None = None,
+    residuals: bool = False,
 ) -> list[RunOutcome]:
     """Independent runs of ``minimize`` with a results store, resume, processes or Dask.
 
@@ -162,6 +163,8 @@ def run_all(
         the store.
     on_outcome : callable or None
         Called with each run's outcome as it finishes in this session.
+    residuals : bool
+        ``fun`` returns residual vectors (``minimize``'s ``residuals=True``).
 
     Returns
     -------
@@ -182,7 +185,7 @@ def run_all(
     identity = identity or CaseIdentity()
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise ConfigError(f"seed must be a non-negative integer or None, got {seed!r}")
-    spec = RunSpec.make(fun, bounds, method, max_evals, f_target, options)
+    spec = RunSpec.make(fun, bounds, method, max_evals, f_target, options, residuals)
     names = identity.names
     if names is not None and len(names) != len(spec.bounds):
         raise ConfigError(f"names must give one name per parameter ({len(spec.bounds)}), "

@@ -1,0 +1,325 @@
+"""multistart-lm and scipy-lsq: residuals, Jacobian, repeatability, resume, restarts, options."""
+
+from __future__ import annotations
+
+import math
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femupdate.case import parse_case
+from femupdate.errors import ConfigError
+from femupdate.experiment import load_experiment
+from femupdate.optimize import METHODS, minimize, start
+from femupdate.optimize.trust import (
+    forward_columns,
+    forward_steps,
+    noise_level,
+    outward_at_bounds,
+    second_order_columns,
+    second_order_stencils,
+    step_signs,
+)
+from femupdate.problems import bridge
+from femupdate.problems.dynamic import DynamicProblem
+from femupdate.update import UpdateProblem
+from femupdate.virtual import virtual_experiment
+
+# --- residuals reproduce φ ---------------------------------------------------------------------
+
+
+def _as_is(spec: dict) -> dict:
+    return spec
+
+
+def _weights(spec: dict) -> dict:
+    for output, weight in zip(spec["data"]["outputs"], (1.0, 2.5, 0.5), strict=True):
+        output["weight"] = weight
+    return spec
+
+
+def _acceleration(spec: dict) -> dict:
+    spec["objective"] = {"quantity": "acceleration", "experimental_parameters": False}
+    return spec
+
+
+def _no_constants(spec: dict) -> dict:
+    spec["objective"]["experimental_parameters"] = False
+    return spec
+
+
+def _not_integrated(spec: dict) -> dict:
+    spec["objective"]["integrate_prediction"] = False
+    return spec
+
+
+def _filtered(spec: dict) -> dict:
+    spec["preprocess"]["filter_prediction"] = True
+    return spec
+
+
+VARIANTS = {"viscous": ("viscous", _as_is), "weights": ("viscous", _weights),
+            "acceleration": ("viscous", _acceleration), "no-constants": ("viscous", _no_constants),
+            "not-integrated": ("viscous", _not_integrated), "filtered": ("viscous", _filtered),
+            "friction": ("friction", _as_is)}
+
+
+def _problem(folder: Path, model: str, edit, snr: float = 0.02) -> UpdateProblem:
+    spec = edit(bridge.bridge_case(model, directory=str(folder)))
+    case = parse_case(spec, source=folder / "case.toml")
+    virtual_experiment(case, bridge.truth(model), folder, seed=5, duration=0.5, snr=snr)
+    return UpdateProblem(case, load_experiment(case))
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_residuals_reproduce_phi(variant: str, tmp_path: Path) -> None:
+    model, edit = VARIANTS[variant]
+    problem = _problem(tmp_path, model, edit)
+    rng = np.random.default_rng(1)
+    low, high = np.array(problem.bounds).T
+    away = low + (high - low) * rng.random(low.size)
+    for x in (problem.case.to_search(bridge.truth(model)), away):
+        r = problem.residuals(x)
+        assert r.shape == (problem.objective.target.size,)
+        assert r @ r == pytest.approx(problem(x), rel=1e-12, abs=1e-300)
+        # The compiled path against the step-by-step one (as φ: to 1e-10).
+        assert r @ r == pytest.approx(problem.phi_reference(x), rel=1e-10, abs=1e-300)
+        reference = problem.fitted[0].residuals(problem.values(x))
+        assert np.linalg.norm(r - reference) <= 1e-9 * np.linalg.norm(reference)  # compiled
+    trial = problem.fitted[0]
+    if variant == "filtered":
+        assert trial.filter
+    if variant == "friction":
+        assert trial.filter and trial.method == "nonlinear"
+
+
+def test_a_failed_simulation_gives_all_inf_residuals(tmp_path: Path) -> None:
+    def explicit(spec: dict) -> dict:
+        spec["simulation"]["method"] = "central_difference"
+        return spec
+
+    problem = _problem(tmp_path, "viscous", explicit)
+    values = dict(bridge.truth("viscous"), kp3=1e13)  # the step is unstable: refused
+    r = problem.residuals(values)
+    assert r.shape == (problem.objective.target.size,) and np.all(np.isinf(r))
+    assert problem(problem.case.to_search(values)) == math.inf
+
+
+def test_dynamic_problem_residuals() -> None:
+    p = DynamicProblem()
+    x = p.truth * 1.01
+    r = p.residuals(x)
+    assert r.shape == p.t.shape and r @ r == pytest.approx(p(x), rel=1e-13)
+
+
+# --- the Jacobian --------------------------------------------------------------------------------
+
+T = np.linspace(0.0, 3.0, 301)
+LOW = np.array([2.0, 0.01])
+SPAN = np.array([8.0, 0.2])
+
+
+def sdof(u: np.ndarray) -> np.ndarray:
+    """Free vibration y = e^{−ζωt} cos(ω_d t) of an SDOF, (ω, ζ) from the unit cube."""
+    w, z = LOW + SPAN * u
+    wd = w * np.sqrt(1.0 - z * z)
+    return np.exp(-z * w * T) * np.cos(wd * T)
+
+
+def sdof_jacobian(u: np.ndarray) -> np.ndarray:
+    """The analytic derivatives of :func:`sdof` with respect to the unit-cube coordinates."""
+    w, z = LOW + SPAN * u
+    s = np.sqrt(1.0 - z * z)
+    decay, phase = np.exp(-z * w * T), w * s * T
+    d_w = decay * (-z * T * np.cos(phase) - s * T * np.sin(phase))
+    d_z = decay * (-w * T * np.cos(phase) + w * z / s * T * np.sin(phase))
+    return np.column_stack([d_w, d_z]) * SPAN
+
+
+def test_forward_jacobian_with_noise_chosen_steps_matches_the_analytic_one() -> None:
+    u = np.array([0.4, 0.3])
+    base = sdof(u)
+    direction = np.array([0.6, 0.8])
+    table = np.array([sdof(u + i * 1e-8 * direction) for i in range(7)])
+    noise = noise_level(table)
+    assert 1e-18 < noise < 1e-14  # rounding of an O(1) smooth function
+    exact = sdof_jacobian(u)
+    slopes = np.sqrt(np.mean(exact**2, axis=0))
+    h = step_signs(u, forward_steps(noise, slopes, float(np.sqrt(np.mean(base**2)))))
+    points = np.array([sdof(u + hi * e) for hi, e in zip(h, np.eye(2), strict=True)])
+    jac = forward_columns(base, points, h)
+    err = np.linalg.norm(jac - exact, axis=0) / np.linalg.norm(exact, axis=0)
+    assert np.all(err < 1e-6)
+    # A step 100× too large is 100× less accurate: the choice matters.
+    far = np.array([sdof(u + 100 * hi * e) for hi, e in zip(h, np.eye(2), strict=True)])
+    big = forward_columns(base, far, 100 * h)
+    assert np.all(np.linalg.norm(big - exact, axis=0) / np.linalg.norm(exact, axis=0) > 10 * err)
+
+
+@pytest.mark.parametrize("u", [[0.4, 0.3], [0.995, 0.002]])
+def test_second_order_jacobian_matches_the_analytic_one(u: list[float]) -> None:
+    x = np.array(u)
+    h = 1e-3
+    offsets, weights = second_order_stencils(x, h)
+    assert np.all(x + h * offsets >= 0.0) and np.all(x + h * offsets <= 1.0)
+    rows = [x + h * offsets[i, k] * e for k in (0, 1) for i, e in enumerate(np.eye(2))]
+    jac = second_order_columns(sdof(x), np.array([sdof(r) for r in rows]), weights, h)
+    exact = sdof_jacobian(x)
+    err = np.linalg.norm(jac - exact, axis=0) / np.linalg.norm(exact, axis=0)
+    assert np.all(err < 1e-4)
+
+
+def test_the_jacobian_is_asked_as_one_batch() -> None:
+    batches = []
+    p = DynamicProblem()
+    state = start(p.residuals, p.bounds[:3], "multistart-lm", seed=0, max_evals=200,
+                  residuals=True, pool=6)
+    opt = state.optimizer
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        return p.residuals(np.concatenate([x, p.truth[3:]]))
+
+    while not state.done:
+        batches.append((opt.phase, opt.pending.shape[0]))
+        state.step(fun)
+    kinds = {k for k, _ in batches}
+    assert {"pool", "noise", "jacobian", "trial"} <= kinds
+    sizes = {size for kind, size in batches if kind == "jacobian"}
+    assert sizes <= {3, 4, 6, 7}  # n or n + 1 (fine), 2n or 2n + 1 (coarse)
+    assert all(size == 1 for kind, size in batches if kind in ("trial", "extend"))
+
+
+def test_outward_gradient_at_a_bound_is_improper() -> None:
+    x = np.array([0.0, 1.0, 0.0, 0.5])
+    g = np.array([1.0, -1.0, -1.0, 1.0])
+    np.testing.assert_array_equal(outward_at_bounds(x, g), [True, True, False, False])
+
+
+# --- repeatability, resume --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("residuals", [True, False])
+def test_same_seed_same_bits(residuals: bool) -> None:
+    p = DynamicProblem()
+    fun = p.residuals if residuals else p
+    runs = [minimize(fun, p.bounds, "multistart-lm", seed=11, max_evals=700,
+                     residuals=residuals) for _ in range(2)]
+    a, b = runs
+    assert a.nfev == b.nfev == 700 and a.fun == b.fun
+    for key in a.history:
+        assert a.history[key].tobytes() == b.history[key].tobytes()
+    c = minimize(fun, p.bounds, "multistart-lm", seed=12, max_evals=700, residuals=residuals)
+    assert not np.array_equal(a.history["x"], c.history["x"])
+    if residuals:
+        assert a.residuals @ a.residuals == pytest.approx(a.fun, rel=1e-12)
+
+
+@pytest.mark.parametrize("residuals", [True, False])
+def test_pickled_mid_run_resumes_bit_identically(residuals: bool) -> None:
+    p = DynamicProblem()
+    fun = p.residuals if residuals else p
+    state = start(fun, p.bounds, "multistart-lm", seed=5, max_evals=900, residuals=residuals)
+    phases = set()
+    for _ in range(60):
+        state.step(fun)
+        phases.add(state.optimizer.phase)
+    assert len(phases) >= 3  # stopped somewhere inside a local search
+    clone = pickle.loads(pickle.dumps(state))  # a checkpoint: without the history so far
+    nfev, nit = state.nfev, state.nit
+    for s in (state, clone):
+        while not s.done:
+            s.step(fun)
+    a, b = state.result(), clone.result()
+    assert a.nfev == b.nfev == 900 and a.fun == b.fun
+    for one, other in zip(state.evaluations_since(nfev)[:2], clone.evaluations_since(nfev)[:2],
+                          strict=True):
+        assert one.tobytes() == other.tobytes()
+    trace, trace_clone = state.trace_since(nit), clone.trace_since(nit)
+    assert trace.keys() == trace_clone.keys()
+    assert len(trace["f_best"]) == len(trace_clone["f_best"]) == a.nit - nit > 0
+    for key in trace:
+        assert trace[key].tobytes() == trace_clone[key].tobytes()
+
+
+# --- restarts -----------------------------------------------------------------------------------
+
+
+def two_basins(x: np.ndarray) -> np.ndarray:
+    """Residuals with an improper minimum at x0 = 0 (x0 < 0.5 slopes down to the bound, the
+    gradient pointing out) and the global one, 0, at (0.8, 0.3)."""
+    u, v = x
+    a = u - 0.8 if u > 0.5 else 0.3 + 0.5 * u
+    return np.array([a, v - 0.3, 0.1 * a * (v - 0.3)])
+
+
+def test_a_run_started_at_an_improper_minimum_restarts() -> None:
+    res = minimize(two_basins, [(0.0, 1.0), (0.0, 1.0)], "multistart-lm", seed=3,
+                   max_evals=400, f_target=1e-20, residuals=True, x0=[0.05, 0.9], pool=8)
+    h = res.history
+    assert res.success and res.restarts >= 1
+    np.testing.assert_allclose(res.x, [0.8, 0.3], atol=1e-9)
+    # the first search went to the bound, x0 = 0, and stayed there until the restart
+    first = h["x"][: np.argmax(h["restarts"] >= 1)]
+    assert first[:, 0].min() == 0.0
+    assert h["fun"][h["x"][:, 0] == 0.0].min() > 0.08
+
+
+def test_scalar_mode_also_leaves_it() -> None:
+    def phi(x: np.ndarray) -> float:
+        r = two_basins(x)
+        return float(r @ r)
+
+    res = minimize(phi, [(0.0, 1.0), (0.0, 1.0)], "multistart-lm", seed=3, max_evals=600,
+                   f_target=1e-12, x0=[0.05, 0.9], pool=8)
+    assert res.success and res.restarts >= 1
+
+
+# --- options and contracts ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("option", "value"), [
+    ("pool", 0), ("pool", 2.5), ("min_distance", -0.1), ("stall_iters", 0),
+    ("stall_tol", 1.0), ("lambda0", 0.0), ("ftol", -1.0), ("fd_step", 0.5),
+    ("coarse_step", 0.0), ("stage_gain", 1.0), ("extend", 1), ("x0", [0.5, 2.0]),
+    ("x0", [0.5]),
+])
+def test_bad_options_raise_config_error(option: str, value: object) -> None:
+    with pytest.raises(ConfigError, match=f"option {option!r} of method 'multistart-lm'"):
+        minimize(lambda x: float(x @ x), [(0.0, 1.0)] * 2, "multistart-lm", **{option: value})
+
+
+def test_residual_mode_cannot_change_mid_run() -> None:
+    opt = METHODS["multistart-lm"](2, np.random.default_rng(0), pool=3)
+    xs = opt.ask()
+    opt.tell(xs, np.ones(3), np.ones((3, 4)))
+    with pytest.raises(ConfigError, match="no residuals"):
+        opt.tell(opt.ask(), np.ones(opt.pending.shape[0]))
+
+
+def test_scipy_lsq_needs_residuals_and_solves_the_dynamic_benchmark() -> None:
+    p = DynamicProblem()
+    with pytest.raises(ConfigError, match="'scipy-lsq' needs residual vectors"):
+        minimize(p, p.bounds, "scipy-lsq", seed=0)
+    with pytest.raises(ConfigError, match="unknown option"):
+        minimize(p.residuals, p.bounds, "scipy-lsq", residuals=True, ftol=1e-3)
+    res = minimize(p.residuals, p.bounds, "scipy-lsq", seed=1, max_evals=5000, f_target=1e-10,
+                   residuals=True)
+    assert res.success and res.residuals @ res.residuals == pytest.approx(res.fun, rel=1e-12)
+    with pytest.raises(TypeError, match="cannot be pickled"):
+        pickle.dumps(METHODS["scipy-lsq"](2, np.random.default_rng(0)))
+
+
+def test_residuals_mode_for_a_scalar_method_and_bad_residuals() -> None:
+    p = DynamicProblem()
+    a = minimize(p.residuals, p.bounds, "ab", seed=2, max_evals=300, residuals=True)
+    b = minimize(p, p.bounds, "ab", seed=2, max_evals=300)
+    np.testing.assert_array_equal(a.history["x"], b.history["x"])  # same search, same bits
+    np.testing.assert_allclose(a.history["fun"], b.history["fun"], rtol=1e-12)
+    sizes = iter([3, 3, 4])
+    with pytest.raises(ConfigError, match=r"returned 4 residuals .*earlier 3"):
+        minimize(lambda x: np.ones(next(sizes)), [(0.0, 1.0)], "multistart-lm", pool=3,
+                 residuals=True)
+    with pytest.raises(ConfigError, match="residuals must be True or False"):
+        minimize(p.residuals, p.bounds, "ab", residuals="yes")
