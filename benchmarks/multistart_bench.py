@@ -45,18 +45,18 @@ def bridge_row(scenario: str, method: str, runs: int, seed: int, workers: int,
                                    workers=workers, max_evals=max_evals,
                                    options=OPTIONS.get(method), work_dir=work)
     wall = time.perf_counter() - start
-    floor = summary["noise_floor"]
-    ratios = [r["phi"] / floor for r in summary["runs"]] if snr > 0 else []
-    freq = summary["frequency_errors"]
+    bench = summary.benchmark
+    ratios = [r.phi / bench.noise_floor for r in summary.runs] if snr > 0 else []
     return {
-        "scenario": scenario, "method": method, "seed": seed, "runs": summary["runs"].__len__(),
-        "successes": summary["successes"], "evals_per_success": summary["evals_per_success"],
-        "evals_mean_success": summary["evals_mean"], "wall_s": wall,
+        "scenario": scenario, "method": method, "seed": seed, "runs": len(summary.runs),
+        "successes": summary.successes, "evals_per_success": summary.evals_per_success,
+        "evals_mean_success": summary.evals_mean, "wall_s": wall,
         "worst_over_floor": max(ratios) if ratios else None,
         "within_1_05": sum(q <= 1.05 for q in ratios) if ratios else None,
         "within_1_5": sum(q <= 1.5 for q in ratios) if ratios else None,
-        "f1_f2_within_1pct": sum(all(abs(e) <= 0.01 for e in f[:2]) for f in freq),
-        "at_bounds": sum(bool(r["at_bounds"]) for r in summary["runs"]),
+        "f1_f2_within_1pct": sum(all(abs(e) <= 0.01 for e in f[:2])
+                                 for f in bench.frequency_errors),
+        "at_bounds": sum(bool(r.at_bounds) for r in summary.runs),
     }
 
 

@@ -171,7 +171,7 @@ def test_minishake_example_loads() -> None:
 def test_base_case_loads_and_defaults_are_filled(tmp_path: Path) -> None:
     case = load_case(write(tmp_path, BASE))
     assert case.parameter_names == ("E", "ka", "kp")
-    assert case.search.method == "ab" and case.search.runs == 1
+    assert case.search.method == "multistart-lm" and case.search.runs == 1
     assert case.preprocess.highpass_order == 4 and case.preprocess.zero_phase is False
     assert case.preprocess.delay_band_hz == [1.0, 10.0]
     assert case.data is not None and case.data.outputs[0].delay == 0.0

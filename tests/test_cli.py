@@ -134,3 +134,30 @@ def test_bench_bridge_json_has_the_summary_keys_and_the_truth(tmp_path: Path) ->
     assert "noise floor" in result.output
     assert ("restarts (searches that converged or stalled): 4 in all, in 2 of 2 runs"
             in result.output)
+
+
+def test_bench_bridge_methods_side_by_side_with_options_per_method(tmp_path: Path) -> None:
+    out = tmp_path / "rows.json"
+    result = runner.invoke(app, ["bench", "bridge", "--method", "ab,multistart-lm,scipy-lsq",
+                                 "--runs", "1", "--max-evals", "60", "--workers", "1",
+                                 "--work-dir", str(tmp_path), "--json", str(out),
+                                 "--options", '{"ab": {"restarts": 3, "sigma_min": 0.28}}'],
+                           terminal_width=100)
+    assert result.exit_code == 0, result.output
+    rows = json.loads(out.read_text())
+    assert [r["method"] for r in rows] == ["ab", "multistart-lm", "scipy-lsq"]
+    assert rows[0]["settings"]["options"] == {"restarts": 3, "sigma_min": 0.28}
+    assert rows[1]["settings"]["options"] == {}
+    assert rows[0]["runs"][0]["restarts"] == 3 and rows[2]["runs"][0]["nfev"] == 60
+    table = result.output[result.output.index("methods side by side"):]
+    assert all(m in table for m in ("ab", "multistart-lm", "scipy-lsq", "≤1.5× floor"))
+
+
+def test_bench_dynamic_runs_the_residual_methods(tmp_path: Path) -> None:
+    out = tmp_path / "rows.json"
+    result = runner.invoke(app, ["bench", "dynamic", "--method", "multistart-lm,scipy-lsq",
+                                 "--runs", "4", "--workers", "1", "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    rows = json.loads(out.read_text())
+    assert [r["method"] for r in rows] == ["multistart-lm", "scipy-lsq"]
+    assert rows[0]["successes"] >= 3  # φ < 1e-10: the paper's target

@@ -649,3 +649,29 @@ def test_a_search_in_which_every_evaluation_fails_says_so() -> None:
         res = minimize(lambda x: float(x[0]) if x[0] < 0.9 else math.nan, [(0.0, 1.0)], "ab",
                        seed=0, max_evals=50)
     assert math.isfinite(res.fun) and "no evaluation succeeded" not in res.message
+
+
+def test_run_method_overrides_the_case_and_drops_its_options(
+        tmp_path: Path, records: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    with_options = CASE.replace('method = "ab"', 'method = "ab"\nsigma_min = 1e-3\n'
+                                'options = { restarts = 1 }')
+    path = _case(tmp_path, records, with_options)
+    code, text = _main(monkeypatch, capsys, "run", str(path), "--out", str(tmp_path / "out"),
+                       "--quiet", "--method", "multistart-lm", "--max-evals", "300")
+    assert code == 0, text
+    assert "not using search.options, search.sigma_min (set for ab)" in text
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["method"] == "multistart-lm"
+    assert summary["runs"][0]["phi"] < 1e-6  # noise-free two-storey: found within 300
+    code, text = _main(monkeypatch, capsys, "run", str(path), "--method", "nelder-mead")
+    assert code == 2 and "--method: got 'nelder-mead'" in text and "multistart-lm" in text
+
+
+def test_case_files_default_to_multistart_lm(tmp_path: Path, records: Path) -> None:
+    path = _case(tmp_path, records, CASE.replace('method = "ab"\n', ""))
+    assert load_case(path).search.method == "multistart-lm"
+    beta_only = _case(tmp_path, records, CASE.replace('method = "ab"\n', "sigma_min = 1e-4\n"),
+                      name="sigma.toml")
+    with pytest.raises(ConfigError, match=r"search\.sigma_min: a stopping criterion of the Beta"):
+        run_case(load_case(beta_only), runs=1, max_evals=10)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
+from rich import box
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
@@ -72,10 +73,11 @@ def _fmt(value: float | None, spec: str = ",.0f") -> str:
 
 def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
     table = Table(title="Two-mode identification (paper Table 2): evaluations of successful runs",
-                  pad_edge=False)  # 80 columns hold it whole
+                  # 80 columns hold it whole
+                  box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
     for col in ("method", "runs", "success", "min", "mean", "median", "max",
                 "ERT*", "wall s"):
-        table.add_column(col, justify="right", no_wrap=True)
+        table.add_column(col, justify="left" if col == "method" else "right", no_wrap=True)
     table.caption = "* ERT: evaluations of all runs, failed ones included, per successful run"
     for r in rows:
         table.add_row(
@@ -126,18 +128,37 @@ def bench_dynamic(
     _write_json(json_path, rows if len(rows) > 1 else rows[0])
 
 
+def _options_of(method: str, options: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A method's options from ``--options``: the object itself, or its entry when the object
+    is keyed by method names (several methods, each its own options)."""
+    from femupdate.optimize.minimize import METHODS
+
+    if options and all(name in METHODS for name in options):
+        return options.get(method)
+    return options
+
+
 def _methods_table(rows: list[Summary]) -> Table:
     """The methods of one bridge benchmark side by side, on the same data and target."""
     target = rows[0].benchmark.f_target if rows[0].benchmark is not None else None
     table = Table(title="methods side by side" + (f" (success: φ ≤ {target:.3g})"
-                                                  if target is not None else ""))
-    for col in ("method", "success", "mean", "median", "per success*", "wall (s)"):
-        table.add_column(col, justify="right")
+                                                  if target is not None else ""),
+                  box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    noisy = rows[0].benchmark is not None and rows[0].benchmark.snr > 0
+    columns = ["method", "success", "mean", "median", "per success*", "wall s"]
+    if noisy:
+        columns.insert(2, "≤1.5× floor")
+    for col in columns:
+        table.add_column(col, justify="left" if col == "method" else "right", no_wrap=True)
     table.caption = "evaluations of successful runs; * all runs' evaluations, failed ones " \
-                    "included, per successful run"
+                    "included, per successful run" + ("; floor: φ of the truth on the noisy " \
+                                                      "data" if noisy else "")
     for r in rows:
-        table.add_row(r.method, f"{r.successes}/{len(r.runs)}", _fmt(r.evals_mean),
-                      _fmt(r.evals_median), _fmt(r.evals_per_success), f"{r.wall_s:.1f}")
+        cells = [r.method, f"{r.successes}/{len(r.runs)}", _fmt(r.evals_mean),
+                 _fmt(r.evals_median), _fmt(r.evals_per_success), f"{r.wall_s:.1f}"]
+        if noisy:
+            cells.insert(2, f"{r.benchmark.within_1_5_noise_floor}/{len(r.runs)}")
+        table.add_row(*cells)
     return table
 
 
@@ -209,7 +230,8 @@ def bench_bridge(
     work_dir: Annotated[Path | None, typer.Option(help="Keep the data and results here.")
                         ] = None,
     options: Annotated[str | None, typer.Option(
-        help='Options of the method(s) as JSON, e.g. \'{"tolfun": 0, "tolfunhist": 0}\'.')
+        help='Options of the method(s) as JSON, e.g. \'{"tolfun": 0, "tolfunhist": 0}\', or '
+             'per method: \'{"cmaes": {"restarts": 20, "stall_window": 1000}}\'.')
     ] = None,
     json_path: JsonOption = None,
     workers: WorkersOption = 2,
@@ -223,13 +245,13 @@ def bench_bridge(
     method_options = _json_object("--options", options)
     work = work_dir or Path("femupdate-bench-bridge")
     rows = []
-    for m in method.split(","):
+    for m in (m.strip() for m in method.split(",")):
         try:
             with console.status(f"{runs} runs of {m} on the {model} bridge…"):
-                summary = run_bridge_benchmark(model, band, m.strip(), runs=runs, seed=seed,
+                summary = run_bridge_benchmark(model, band, m, runs=runs, seed=seed,
                                                snr=snr, workers=workers, max_evals=max_evals,
-                                               options=method_options, work_dir=work,
-                                               resume=resume)
+                                               options=_options_of(m, method_options),
+                                               work_dir=work, resume=resume)
         except KeyboardInterrupt:
             words = ["femupdate", "bench", "bridge", "--model", model, "--band", band,
                      "--method", method, "--runs", str(runs), "--seed", str(seed), "--snr",
@@ -437,12 +459,17 @@ def run(
     seed: Annotated[int | None, typer.Option(help="Override [search] seed.")] = None,
     max_evals: Annotated[int | None, typer.Option(min=1, help="Override [search] max_evals.")
                          ] = None,
+    method: Annotated[str | None, typer.Option(
+        help="Override [search] method: multistart-lm (the default of case files), ab, ib, "
+             "cmaes, de, ga or scipy-lsq; the case's options for its own method are then "
+             "not used.")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
     resume: Annotated[bool, typer.Option(
-        "--resume", help="Continue the runs stored in --out, unfinished or interrupted (ib, ab, "
-        "cmaes from their last checkpoint; de, ga restart); refused, naming what changed, if "
-        "the case, its data files or the settings changed.")] = False,
+        "--resume", help="Continue the runs stored in --out, unfinished or interrupted "
+        "(multistart-lm, ib, ab, cmaes from their last checkpoint; de, ga, scipy-lsq "
+        "restart); refused, naming what changed, if the case, its data files or the settings "
+        "changed.")] = False,
     restart: Annotated[bool, typer.Option(
         "--restart", help="Discard the runs stored in --out (results.sqlite, summary.json, "
         "fit.npz) and start over there, e.g. after a run that aborted or a change of the "
@@ -463,9 +490,10 @@ def run(
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
     so an interrupted or killed run continues with --resume; --restart starts over.
     """
+    from femupdate.optimize.minimize import METHODS
     from femupdate.report.figures import write_run_plots
     from femupdate.runs import Execution
-    from femupdate.workflow import run_case, with_data_directory
+    from femupdate.workflow import run_case, with_data_directory, with_method
 
     if resume and restart:
         raise ConfigError("--resume and --restart exclude each other: --resume continues the "
@@ -473,6 +501,13 @@ def run(
     case = _load(case_file)
     if data is not None:
         case = with_data_directory(case, data)
+    if method is not None:
+        if method not in METHODS:
+            raise ConfigError(f"--method: got {method!r} (allowed: {', '.join(METHODS)})")
+        own = case.search.method
+        case, dropped = with_method(case, method)
+        if dropped:
+            say(f"--method {method}: not using {', '.join(dropped)} (set for {own})")
     execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
     try:
         result = run_case(case, out, runs=runs, seed=seed, max_evals=max_evals,
@@ -481,7 +516,7 @@ def run(
     except KeyboardInterrupt:
         words = ["femupdate", "run", str(case_file), "--out", str(out)]
         for flag, value in (("--runs", runs), ("--seed", seed), ("--max-evals", max_evals),
-                            ("--data", data)):
+                            ("--method", method), ("--data", data)):
             if value is not None:
                 words += [flag, str(value)]
         _resume_hint([*words, "--resume"])

@@ -51,6 +51,21 @@ def with_data_directory(case: Case, directory: Path) -> Case:
     return parse_case(data, source=case.source)
 
 
+def with_method(case: Case, method: str) -> tuple[Case, list[str]]:
+    """The same case searched with ``method``, and the ``[search]`` fields dropped because
+    they belong to its own method (its options, σ_s and Δφ_s)."""
+    data = case.to_dict()
+    search = data["search"]
+    dropped: list[str] = []
+    if method != search.get("method"):
+        for name in ("options", "sigma_min", "f_change_min"):
+            if search.get(name) not in (None, {}):
+                dropped.append(f"search.{name}")
+                search.pop(name)
+    search["method"] = method
+    return parse_case(data, source=case.source), dropped
+
+
 @dataclass
 class UpdateResult:
     """What a job produced: the summary, the run outcomes, the problem and the best model's
@@ -215,8 +230,16 @@ def check_search_options(case: Case) -> None:
     """The method of ``[search]`` accepts its options; ConfigError naming the field if not."""
     from femupdate.optimize.minimize import start
 
+    search = case.search
+    for name in ("sigma_min", "f_change_min"):
+        if getattr(search, name) is not None and search.method not in ("ab", "ib"):
+            raise ConfigError(f"{case.label}: search.{name}: a stopping criterion of the Beta "
+                              f"searches, not of method {search.method!r} (allowed: remove it, "
+                              "or method = \"ab\" or \"ib\")")
+
     try:
         start(_nothing, case.bounds, case.search.method, seed=0,
+              residuals=case.search.method in RESIDUAL_METHODS,
               **optimizer_options(case)).optimizer.close()
     except ConfigError as exc:
         raise ConfigError(f"{case.label}: search.options: {exc}") from None

@@ -17,6 +17,8 @@ ALL_METHODS: dict[str, dict[str, object]] = {
     "cmaes": {"popsize": 5},
     "de": {},
     "ga": {},
+    "multistart-lm": {},
+    "scipy-lsq": {},
 }
 
 

@@ -300,7 +300,8 @@ class Simulation(Section):
 class Search(Section):
     """``[search]``: the optimiser, its stopping criteria and the repeated runs."""
 
-    method: Literal["ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"] = "ab"
+    method: Literal["multistart-lm", "ab", "ib", "cmaes", "de", "ga",
+                    "scipy-lsq"] = "multistart-lm"
     runs: integer_field(ge=1, le=10_000) = 1
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     workers: integer_field(ge=1, le=1024) = 1

@@ -43,9 +43,10 @@ __all__ = ["CHUNK_EVALS", "CHUNK_SECONDS", "CaseIdentity", "Execution", "run_all
 #: Default chunk limits: a checkpoint every second or so of work (whichever limit comes first).
 CHUNK_EVALS = 100_000
 CHUNK_SECONDS = 1.0
-#: Methods whose steps evaluate a population (several candidates): with fewer runs than
-#: workers their populations are spread over the workers instead.
-POPULATION_METHODS = frozenset({"cmaes", "de", "ga"})
+#: Methods whose steps evaluate a population (several candidates; multistart-lm: its pools
+#: and Jacobians): with fewer runs than workers their populations are spread over the
+#: workers instead.
+POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm"})
 
 
 @dataclass(frozen=True)
