@@ -276,6 +276,23 @@ def test_scalar_mode_also_leaves_it() -> None:
     assert res.success and res.restarts >= 1
 
 
+def test_scalar_mode_polish_finishes_an_ill_conditioned_quadratic() -> None:
+    # A rotated ellipsoid of condition 1e6 on top of φ = 100: forward differences stop its
+    # quasi-Newton searches near 1e-9 above the minimum; the central-difference polish goes on.
+    rng = np.random.default_rng(0)
+    rotation = np.linalg.qr(rng.standard_normal((5, 5)))[0]
+    hessian = rotation @ np.diag(10.0 ** (1.5 * np.arange(5))) @ rotation.T
+    centre = rng.uniform(-3.0, 3.0, 5)
+
+    def ellipsoid(x: np.ndarray) -> float:
+        return 100.0 + float((x - centre) @ hessian @ (x - centre))
+
+    for seed in range(3):
+        gaps = [minimize(ellipsoid, [(-5.0, 5.0)] * 5, "multistart-lm", seed=seed,
+                         max_evals=3000, polish=polish).fun - 100.0 for polish in (True, False)]
+        assert gaps[0] < 1e-12 and gaps[1] > 1e-10
+
+
 # --- options and contracts ---------------------------------------------------------------------
 
 
