@@ -6,9 +6,6 @@ pickled: a checkpointed ``de`` or ``ga`` run restarts from its seed instead of r
 
 from __future__ import annotations
 
-import queue
-import threading
-import weakref
 from collections.abc import Sequence
 from typing import Any
 
@@ -22,61 +19,35 @@ from femupdate.optimize.base import (
     int_option,
     real_option,
 )
+from femupdate.optimize.threaded import Abort, Handoff, ThreadedSolver
 
 
-class _Abort(Exception):
-    """Raised inside the DE worker thread to unwind scipy's solver when the run ends."""
-
-
-_ABORT = object()
-
-
-class _Handoff:
-    """The objective scipy's solver calls in the worker thread: it hands each population to the
-    main thread and waits for the values (inversion of control). Holds only the two queues, so
-    the optimizer itself can be garbage collected (and its finalizer stop the thread).
-    """
-
-    def __init__(self, asks: queue.Queue, tells: queue.Queue) -> None:
-        self.asks = asks
-        self.tells = tells
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        self.asks.put(("ask", np.array(x.T, dtype=float)))  # scipy passes (n, S)
-        values = self.tells.get()
-        if values is _ABORT:
-            raise _Abort
-        return values
-
-
-def _run_solver(handoff: _Handoff, n: int, settings: dict[str, Any]) -> None:
+def _run_solver(handoff: Handoff, n: int, settings: dict[str, Any]) -> None:
     """Body of the worker thread: scipy's DE until it converges or is aborted."""
     from scipy.optimize import differential_evolution
 
     try:
         res = differential_evolution(handoff, [(0.0, 1.0)] * n, vectorized=True,
                                      updating="deferred", polish=False, **settings)
-    except _Abort:
-        handoff.asks.put(("aborted", None))
+    except Abort:
+        handoff.say("aborted")
     except BaseException as exc:  # handed to the main thread, raised there
-        handoff.asks.put(("error", exc))
+        handoff.say("error", exc)
     else:
-        handoff.asks.put(("done", res))
+        handoff.say("done", res)
 
 
-def _shutdown(tells: queue.Queue, thread: threading.Thread) -> None:
-    if thread.is_alive():
-        tells.put(_ABORT)
-        thread.join()
+def _population(x: np.ndarray) -> np.ndarray:
+    """scipy's vectorized argument (n, S) as rows (S, n)."""
+    return np.array(x.T, dtype=float)
 
 
-class DifferentialEvolution(KeepsBest):
+class DifferentialEvolution(ThreadedSolver):
     """scipy's ``differential_evolution`` driven as ask/tell. Not picklable.
 
     The solver runs in a worker thread (``vectorized=True, updating="deferred"``: one call of
-    the objective per population); its objective hands each population to :meth:`ask` and
-    waits for :meth:`tell`. :meth:`close` (called by ``minimize`` when the run ends, and by a
-    finalizer otherwise) unwinds the solver and joins the thread.
+    the objective per population), which hands each population to :meth:`ask` and waits for
+    :meth:`tell` (:mod:`femupdate.optimize.threaded`).
 
     Parameters
     ----------
@@ -96,6 +67,8 @@ class DifferentialEvolution(KeepsBest):
         Crossover probability in [0, 1].
     """
 
+    name = "de"
+
     def __init__(self, n: int, rng: np.random.Generator, *, popsize: int, tol: float,
                  mutation: float | tuple[float, float], recombination: float) -> None:
         from scipy.stats import qmc
@@ -107,62 +80,17 @@ class DifferentialEvolution(KeepsBest):
         settings = {"init": init, "rng": solver_rng, "tol": tol, "atol": 0.0,
                     "mutation": mutation, "recombination": recombination,
                     "maxiter": 2**62}
-        self._asks: queue.Queue = queue.Queue()
-        self._tells: queue.Queue = queue.Queue()
-        self._message: tuple[str, Any] | None = None
         self.best_x = np.full(n, 0.5)
-        self._thread = threading.Thread(
-            target=_run_solver, args=(_Handoff(self._asks, self._tells), n, settings),
-            name="femupdate-de", daemon=True,
-        )
-        self._thread.start()
-        self._finalizer = weakref.finalize(self, _shutdown, self._tells, self._thread)
-
-    def __getstate__(self) -> dict[str, Any]:
-        raise TypeError(
-            "the 'de' optimizer runs scipy's solver in a thread and cannot be pickled: "
-            "de runs restart from their seed instead of resuming"
-        )
-
-    def _next_message(self) -> tuple[str, Any]:
-        if self._message is None:
-            if not self._finalizer.alive:
-                raise FemupdateError("the 'de' optimizer was closed")
-            self._message = self._asks.get()
-        kind, payload = self._message
-        if kind == "error":
-            raise payload
-        return kind, payload
-
-    def ask(self) -> np.ndarray:
-        """The population scipy wants evaluated next, shape (S, n)."""
-        kind, payload = self._next_message()
-        if kind != "ask":
-            raise FemupdateError(f"the 'de' solver has ended ({kind}); nothing more to ask")
-        return payload.copy()
+        self._setup(_run_solver, (n, settings), _population)
 
     def tell(self, xs: np.ndarray, fs: np.ndarray, rs: np.ndarray | None = None) -> None:
         """The values of the population from the last :meth:`ask` (failures as inf)."""
-        xs, fs = check_batch(xs, fs, self.n)
-        kind, payload = self._next_message()
-        if kind != "ask" or payload.shape[0] != fs.shape[0]:
-            raise FemupdateError("tell() must follow ask() with one value per asked row")
-        self._keep_best(xs, fs)
-        self._message = None
-        self._tells.put(fs)
+        self._answer(xs, fs, lambda values: values)
 
     def stop(self) -> dict[str, object]:
         """``{"de_tol": tol}`` once scipy's own convergence criterion ended the solver."""
         kind, _ = self._next_message()  # waits until the solver asks again or ends
         return {"de_tol": self.tol} if kind == "done" else {}
-
-    def trace_since(self, step: int) -> dict[str, np.ndarray]:
-        """No per-step trace."""
-        return {}
-
-    def close(self) -> None:
-        """Unwind the solver and join its thread (idempotent)."""
-        self._finalizer()
 
 
 def _mutation_option(value: Any) -> float | tuple[float, float]:
