@@ -8,14 +8,15 @@ child process holding the model (one per worker; femupdate.external.isolation).
 
 Workload ``batch`` (default): ``--candidates`` parameter vectors drawn uniformly in the narrow
 bounds from ``--seed``: the first batch starts the model processes (cold), ``--repeats`` more
-reuse them (warm: the shortest is reported). Workload ``search``: one CMA-ES run (``run_all``,
-population ``--popsize``, ``--max-evals``) whose populations are spread over the workers.
-Prints the wall times, the ratios to one process and whether φ is bit-identical across the
-three.
+reuse them (warm: the shortest is reported). Workload ``search``: one update (``run_all``,
+``--method``, default multistart-lm, until φ ≤ ``--f-target`` or ``--max-evals``) whose
+batches (its pools and Jacobians; cmaes: its populations) are spread over the workers.
+Prints the wall times, the ratios to one process and whether the results (φ, or the update's
+best x and φ) are bit-identical across the three.
 
-    PYTHONPATH=src nice -n 10 python benchmarks/external_parallel.py [--workload batch|search]
-        [--candidates 24] [--substeps 10] [--seed 0] [--workers 2] [--repeats 2]
-        [--json out.json]
+    python benchmarks/external_parallel.py [--workload batch|search] [--candidates 24]
+        [--substeps 10] [--seed 0] [--workers 2] [--repeats 2] [--method multistart-lm]
+        [--max-evals 2000] [--f-target 1e-6] [--json out.json]
 """
 
 from __future__ import annotations
@@ -29,8 +30,9 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import parse_case
+from femupdate.optimize.minimize import RESIDUAL_METHODS
 from femupdate.problems import bridge
-from femupdate.runs import run_all
+from femupdate.runs import Execution, run_all
 from femupdate.runs.batch import evaluate_batch
 from femupdate.runs.executors import RunExecutor, open_executor
 from femupdate.update import UpdateProblem
@@ -74,12 +76,17 @@ def time_batches(problem: UpdateProblem, xs: np.ndarray, ex: RunExecutor, repeat
     return cold_s, warm_s, phi
 
 
-def time_search(problem: UpdateProblem, args: argparse.Namespace, **where: Any
+def time_search(problem: UpdateProblem, args: argparse.Namespace, execution: Execution
                 ) -> tuple[float, float, np.ndarray]:
-    """Wall time of one CMA-ES run, its evaluation count, and its best x followed by φ."""
+    """Wall time of one update (``--method``, to φ ≤ ``--f-target``), its evaluation count,
+    and its best x followed by φ."""
+    residuals = args.method in RESIDUAL_METHODS
+    options = {"popsize": args.popsize} if args.method == "cmaes" else {}
     t0 = time.perf_counter()
-    (outcome,) = run_all(problem, problem.bounds, "cmaes", runs=1, seed=args.seed,
-                         max_evals=args.max_evals, options={"popsize": args.popsize}, **where)
+    (outcome,) = run_all(problem.residuals if residuals else problem, problem.bounds,
+                         args.method, runs=1, seed=args.seed, max_evals=args.max_evals,
+                         f_target=args.f_target, options=options, execution=execution,
+                         residuals=residuals)
     wall = time.perf_counter() - t0
     return wall, float(outcome.nfev), np.append(outcome.x, outcome.fun)
 
@@ -91,8 +98,10 @@ def main() -> None:
     parser.add_argument("--substeps", type=int, default=10)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--popsize", type=int, default=6)
-    parser.add_argument("--max-evals", type=int, default=36)
+    parser.add_argument("--method", default="multistart-lm", help="search workload's method")
+    parser.add_argument("--popsize", type=int, default=6, help="with --method cmaes")
+    parser.add_argument("--max-evals", type=int, default=2000)
+    parser.add_argument("--f-target", type=float, default=1e-6)
     parser.add_argument("--repeats", type=int, default=2, help="warm batches (the shortest)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
@@ -123,7 +132,7 @@ def main() -> None:
             with open_executor(where) as ex:
                 record(label, *time_batches(problem, xs, ex, args.repeats))
         else:
-            record(label, *time_search(problem, args, workers=where))
+            record(label, *time_search(problem, args, Execution(workers=where)))
         problem.close()  # this process's model process; pool workers take theirs along
     with LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
@@ -131,7 +140,8 @@ def main() -> None:
             with open_executor(scheduler=cluster.scheduler_address) as ex:
                 record(labels[2], *time_batches(problem, xs, ex, args.repeats))
         else:
-            record(labels[2], *time_search(problem, args, scheduler=cluster.scheduler_address))
+            record(labels[2], *time_search(problem, args,
+                                          Execution(scheduler=cluster.scheduler_address)))
 
     key = "warm_s" if args.workload == "batch" else "wall_s"
     base = rows[labels[0]][key]
