@@ -27,7 +27,9 @@ the unit cube:
    with kp1 leaves minima 1e-3 apart along the kp1 valley, where a fine-step search stops at
    φ ≈ 2e-6); stages alternate while each cuts φ by at least ``stage_gain``. Then the search
    ends — at a proper minimum, an improper one or a stall — and the next starts from the
-   pool.
+   pool. The run ends when ``patience`` searches in a row have not improved the best φ (with
+   residuals; on noisy data the best has then been found again and again), or at
+   ``minimize``'s budget or target.
 
 The result is the best point over all searches. Without residuals (``minimize(...,
 residuals=False)``) the local phase is a bounded quasi-Newton method on φ itself: the same
@@ -85,6 +87,11 @@ LAMBDA_MAX = 1e16
 EXTEND_RHO = 0.75
 EXTEND_SLOW = 0.5
 
+#: A run ends when this many searches in a row did not improve the best φ by more than the
+#: fraction PATIENCE_GAIN (option ``patience``; None: only the budget or the target end it).
+PATIENCE = 10
+PATIENCE_GAIN = 1e-3
+
 #: Trace codes of the phases.
 PHASES = ("pool", "noise", "jacobian", "trial", "extend")
 
@@ -127,6 +134,10 @@ class MultistartLM(KeepsBest):
         Scalar mode: end each search with a stage of central differences (steps
         (3ε/μ)^(1/3) for the noise ε carried to φ's size there), keeping the quasi-Newton
         Hessian (default True).
+    patience : int, None or "auto"
+        End the run when this many searches in a row did not improve the best φ by more than
+        0.1 %; None: only ``minimize``'s budget or target end it. "auto" (default): 10 with
+        residuals, None without (on bbob, 17/48 targets with 10 against 18/48 without).
     x0 : ndarray or None
         Start of the first local search (unit cube; e.g. the nominal model), before any pool;
         None (default): the best point of the first pool.
@@ -152,7 +163,7 @@ class MultistartLM(KeepsBest):
                  lambda0: float = 1e-3, ftol: float = 1e-14, xtol: float = 1e-13,
                  fd_step: float | None = None, coarse_step: float | str | None = "auto",
                  stage_gain: float = 0.1, extend: bool = True, polish: bool = True,
-                 x0: np.ndarray | None = None) -> None:
+                 patience: int | str | None = "auto", x0: np.ndarray | None = None) -> None:
         self.n = n
         self.rng = rng
         self.pool_size = 20 * n if pool is None else pool
@@ -169,6 +180,10 @@ class MultistartLM(KeepsBest):
         self.stage_gain = stage_gain
         self.extend = extend
         self.polish = polish
+        self.patience_option = patience
+        self.patience: int | None = None  # resolved with the mode at the first tell
+        self.stale = 0  # searches in a row that did not improve the best φ
+        self.best_at_last_end = math.inf  # the best φ when the last search ended
         self.mode: str | None = None  # "residuals" or "scalar", fixed by the first tell
         self.best_x = np.full(n, 0.5)
         self.restarts_done = 0  # local searches started after the first
@@ -229,7 +244,11 @@ class MultistartLM(KeepsBest):
                           restarts=float(self.restarts_done))
 
     def stop(self) -> dict[str, object]:
-        """None of its own: searches restart until ``minimize``'s budget or target."""
+        """``{"patience": k}`` once k searches in a row ended without improving the best φ by
+        more than the fraction ``PATIENCE_GAIN`` (the best has been found again and again);
+        otherwise searches go on until ``minimize``'s budget or target."""
+        if self.patience is not None and self.stale >= self.patience:
+            return {"patience": self.patience}
         return {}
 
     def trace_since(self, step: int) -> dict[str, np.ndarray]:
@@ -248,6 +267,8 @@ class MultistartLM(KeepsBest):
         self.stall_tol = (0.01 if residuals else 0.0) if tol is None else tol
         step = self.coarse_step_option
         self.coarse_step = (1e-2 if residuals else None) if step == "auto" else step
+        patience = self.patience_option
+        self.patience = (PATIENCE if residuals else None) if patience == "auto" else patience
 
     # -- global phase ----------------------------------------------------------------------
 
@@ -462,7 +483,18 @@ class MultistartLM(KeepsBest):
             self._polish()
             return
         self.visited = np.vstack([self.visited, self.x])
+        self._count_search()
         self._next_start()
+
+    def _count_search(self) -> None:
+        """A search has ended: did it improve the best φ found before it began?"""
+        last = self.best_at_last_end
+        if self.best_f < last - PATIENCE_GAIN * abs(last) or (
+                math.isinf(last) and math.isfinite(self.best_f)):
+            self.stale = 0
+        else:
+            self.stale += 1
+        self.best_at_last_end = self.best_f
 
     def _polish(self) -> None:
         """The scalar mode's last stage of a search: central differences from where forward
@@ -509,7 +541,7 @@ class MultistartLM(KeepsBest):
 
 
 _OPTIONS = ("pool", "min_distance", "stall_iters", "stall_tol", "lambda0", "ftol", "xtol",
-            "fd_step", "coarse_step", "stage_gain", "extend", "polish", "x0")
+            "fd_step", "coarse_step", "stage_gain", "extend", "polish", "patience", "x0")
 
 
 def bool_option(method: str, name: str, value: Any) -> bool:
@@ -526,7 +558,8 @@ def make_multistart_lm(n: int, rng: np.random.Generator, **options: Any) -> Mult
     None: 0.01 with residuals, 0 without), ``lambda0`` (> 0, 1e-3), ``ftol`` (≥ 0, 1e-14),
     ``xtol`` (≥ 0, 1e-13), ``fd_step`` ((0, 0.1] or None: from the noise), ``coarse_step``
     ((0, 0.25], None: no coarse stages, or "auto": 0.01 with residuals, None without),
-    ``stage_gain`` ([0, 1), 0.1), ``extend`` (bool, true), ``polish`` (bool, true), ``x0``
+    ``stage_gain`` ([0, 1), 0.1), ``extend`` (bool, true), ``polish`` (bool, true),
+    ``patience`` (int ≥ 1, None or "auto": 10 with residuals, None without), ``x0``
     (n numbers in [0, 1] or None); see :class:`MultistartLM`."""
     m = "multistart-lm"
     check_option_names(m, options, _OPTIONS)
@@ -552,8 +585,16 @@ def make_multistart_lm(n: int, rng: np.random.Generator, **options: Any) -> Mult
                                high_open=True),  # type: ignore[arg-type]
         extend=bool_option(m, "extend", options.get("extend", True)),
         polish=bool_option(m, "polish", options.get("polish", True)),
+        patience=_patience_option(m, options.get("patience", "auto")),
         x0=_start_option(m, n, options.get("x0")),
     )
+
+
+def _patience_option(method: str, value: Any) -> int | str | None:
+    """``patience``: "auto", None or an integer ≥ 1."""
+    if value is None or value == "auto":
+        return value
+    return int_option(method, "patience", value, 1)
 
 
 def _coarse_option(method: str, value: Any) -> float | str | None:
