@@ -308,7 +308,7 @@ def end_to_end(work: Path, evaluator: str) -> dict[str, Any]:
 
     data = work / "e2e-data"
     spec = bridge.bridge_case("viscous", "narrow", directory=str(data))
-    spec["search"].update({"max_evals": 6000, "runs": 1, "f_target": 1e-6})
+    spec["search"].update({"method": "ab", "max_evals": 6000, "runs": 1, "f_target": 1e-6})
     case = parse_case(spec, source=data / "viscous-narrow.toml")
     bridge.ensure_records(case, bridge.truth("viscous"), data, seed=0, snr=0.0)
     experiment = load_experiment(case)
