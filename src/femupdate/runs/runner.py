@@ -13,7 +13,6 @@ store and the case they belong to, :class:`CaseIdentity`) and how they execute
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 from collections import deque
@@ -203,11 +202,12 @@ def run_all(
                        connect_timeout=execution.connect_timeout) as ex:
         store = _open_store(store_dir, resume, identity, fingerprint, settings,
                             ignore=("entropy",) if seed is None else ())
-        # Runs in this process get one BLAS thread, as worker processes do: small dense
-        # algebra in a hot loop is many times slower with several.
-        blas = single_blas_thread() if ex.inline else contextlib.nullcontext()
+        # This process gets one BLAS thread, as worker processes do: a run made here (or the
+        # optimizer of a run whose batches the workers evaluate) then gives the same bits as
+        # in a worker, and small dense algebra in a hot loop is many times slower with
+        # several threads.
         try:
-            with blas:
+            with single_blas_thread():
                 return _run_store(fun, spec, ex, store, root, runs, execution, names,
                                   keep_history, on_outcome)
         finally:
