@@ -293,17 +293,17 @@ def test_scalar_mode_polish_finishes_an_ill_conditioned_quadratic() -> None:
         assert gaps[0] < 1e-12 and gaps[1] > 1e-10
 
 
-def test_a_run_ends_when_searches_stop_improving_the_best() -> None:
-    # φ = (x0 − 0.3)² + (x1 − 0.6)² + 1: every search finds the same minimum, 1, which no
-    # search improves; like noisy data, where the noise floor is the best there is.
+def test_a_run_ends_when_searches_keep_finding_the_best() -> None:
+    # φ = (x0 − 0.3)² + (x1 − 0.6)² + 1: every search ends at the same minimum, 1; like noisy
+    # data, where the noise floor is the best there is.
     def residuals(x: np.ndarray) -> np.ndarray:
         return np.array([x[0] - 0.3, x[1] - 0.6, 1.0])
 
     res = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=50_000,
                    residuals=True)
-    assert res.stop == {"patience": 10} and res.success and res.status == 2
-    assert res.fun == pytest.approx(1.0, abs=1e-12) and res.restarts >= 10
-    assert res.nfev < 5_000
+    assert res.stop == {"patience": 5} and res.success and res.status == 2
+    assert res.fun == pytest.approx(1.0, abs=1e-12) and res.restarts >= 4
+    assert res.nfev < 2_000
     off = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=3_000,
                    residuals=True, patience=None)
     assert off.nfev == 3_000 and "max_evals" in off.stop

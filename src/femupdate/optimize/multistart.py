@@ -27,9 +27,9 @@ the unit cube:
    with kp1 leaves minima 1e-3 apart along the kp1 valley, where a fine-step search stops at
    φ ≈ 2e-6); stages alternate while each cuts φ by at least ``stage_gain``. Then the search
    ends — at a proper minimum, an improper one or a stall — and the next starts from the
-   pool. The run ends when ``patience`` searches in a row have not improved the best φ (with
-   residuals; on noisy data the best has then been found again and again), or at
-   ``minimize``'s budget or target.
+   pool. The run ends when ``patience`` searches have ended at the best φ (with residuals: the
+   best has been found again and again, as on noisy or real data, where no target says when
+   to stop), or at ``minimize``'s budget or target.
 
 The result is the best point over all searches. Without residuals (``minimize(...,
 residuals=False)``) the local phase is a bounded quasi-Newton method on φ itself: the same
@@ -87,10 +87,10 @@ LAMBDA_MAX = 1e16
 EXTEND_RHO = 0.75
 EXTEND_SLOW = 0.5
 
-#: A run ends when this many searches in a row did not improve the best φ by more than the
-#: fraction PATIENCE_GAIN (option ``patience``; None: only the budget or the target end it).
-PATIENCE = 10
-PATIENCE_GAIN = 1e-3
+#: With residuals, a run ends when this many searches have ended at the best φ, within the
+#: fraction PATIENCE_TOL (option ``patience``; None: only the budget or the target end it).
+PATIENCE = 5
+PATIENCE_TOL = 1e-3
 
 #: Trace codes of the phases.
 PHASES = ("pool", "noise", "jacobian", "trial", "extend")
@@ -135,9 +135,9 @@ class MultistartLM(KeepsBest):
         (3ε/μ)^(1/3) for the noise ε carried to φ's size there), keeping the quasi-Newton
         Hessian (default True).
     patience : int, None or "auto"
-        End the run when this many searches in a row did not improve the best φ by more than
-        0.1 %; None: only ``minimize``'s budget or target end it. "auto" (default): 10 with
-        residuals, None without (on bbob, 17/48 targets with 10 against 18/48 without).
+        End the run when this many searches have ended at the best φ (within 0.1 %): the best
+        has been found again and again. None: only ``minimize``'s budget or target end it.
+        "auto" (default): 5 with residuals, None without.
     x0 : ndarray or None
         Start of the first local search (unit cube; e.g. the nominal model), before any pool;
         None (default): the best point of the first pool.
@@ -182,8 +182,7 @@ class MultistartLM(KeepsBest):
         self.polish = polish
         self.patience_option = patience
         self.patience: int | None = None  # resolved with the mode at the first tell
-        self.stale = 0  # searches in a row that did not improve the best φ
-        self.best_at_last_end = math.inf  # the best φ when the last search ended
+        self.search_ends: list[float] = []  # φ where each search ended
         self.mode: str | None = None  # "residuals" or "scalar", fixed by the first tell
         self.best_x = np.full(n, 0.5)
         self.restarts_done = 0  # local searches started after the first
@@ -244,12 +243,19 @@ class MultistartLM(KeepsBest):
                           restarts=float(self.restarts_done))
 
     def stop(self) -> dict[str, object]:
-        """``{"patience": k}`` once k searches in a row ended without improving the best φ by
-        more than the fraction ``PATIENCE_GAIN`` (the best has been found again and again);
-        otherwise searches go on until ``minimize``'s budget or target."""
-        if self.patience is not None and self.stale >= self.patience:
+        """``{"patience": k}`` once k searches have ended at the best φ (within the fraction
+        ``PATIENCE_TOL``): the best has been found again and again; otherwise searches go on
+        until ``minimize``'s budget or target."""
+        if self.patience is not None and self.confirmations() >= self.patience:
             return {"patience": self.patience}
         return {}
+
+    def confirmations(self) -> int:
+        """How many searches have ended at the best φ found so far (within PATIENCE_TOL)."""
+        if not math.isfinite(self.best_f):
+            return 0
+        level = self.best_f + PATIENCE_TOL * abs(self.best_f)
+        return sum(phi <= level for phi in self.search_ends)
 
     def trace_since(self, step: int) -> dict[str, np.ndarray]:
         """Per step from ``step`` on (rows held): ``f_best``, the damping ``lambda``, the
@@ -483,18 +489,8 @@ class MultistartLM(KeepsBest):
             self._polish()
             return
         self.visited = np.vstack([self.visited, self.x])
-        self._count_search()
+        self.search_ends.append(self.phi)
         self._next_start()
-
-    def _count_search(self) -> None:
-        """A search has ended: did it improve the best φ found before it began?"""
-        last = self.best_at_last_end
-        if self.best_f < last - PATIENCE_GAIN * abs(last) or (
-                math.isinf(last) and math.isfinite(self.best_f)):
-            self.stale = 0
-        else:
-            self.stale += 1
-        self.best_at_last_end = self.best_f
 
     def _polish(self) -> None:
         """The scalar mode's last stage of a search: central differences from where forward
@@ -559,7 +555,7 @@ def make_multistart_lm(n: int, rng: np.random.Generator, **options: Any) -> Mult
     ``xtol`` (≥ 0, 1e-13), ``fd_step`` ((0, 0.1] or None: from the noise), ``coarse_step``
     ((0, 0.25], None: no coarse stages, or "auto": 0.01 with residuals, None without),
     ``stage_gain`` ([0, 1), 0.1), ``extend`` (bool, true), ``polish`` (bool, true),
-    ``patience`` (int ≥ 1, None or "auto": 10 with residuals, None without), ``x0``
+    ``patience`` (int ≥ 1, None or "auto": 5 with residuals, None without), ``x0``
     (n numbers in [0, 1] or None); see :class:`MultistartLM`."""
     m = "multistart-lm"
     check_option_names(m, options, _OPTIONS)
