@@ -293,6 +293,42 @@ def test_scalar_mode_polish_finishes_an_ill_conditioned_quadratic() -> None:
         assert gaps[0] < 1e-12 and gaps[1] > 1e-10
 
 
+def _t_osz(z: np.ndarray) -> np.ndarray:
+    """bbob's oscillating transformation: smooth away from 0, curvature varying at every scale
+    towards it."""
+    out = np.zeros_like(z)
+    nz = z != 0.0
+    zh = np.log(np.abs(z[nz]))
+    c1 = np.where(z[nz] > 0, 10.0, 5.5)
+    c2 = np.where(z[nz] > 0, 7.9, 3.1)
+    out[nz] = np.sign(z[nz]) * np.exp(zh + 0.049 * (np.sin(c1 * zh) + np.sin(c2 * zh)))
+    return out
+
+
+def test_polish_steps_below_the_last_step_finish_an_oscillating_ellipsoid(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # bbob's f10 (condition 1e6, T_osz) on top of φ = 50: central differences at the
+    # noise-optimal step straddle the minimum and stop the searches 1e-9 … 1e-7 above it.
+    from femupdate.optimize import multistart
+
+    rng = np.random.default_rng(0)
+    rotation = np.linalg.qr(rng.standard_normal((5, 5)))[0]
+    weights = 10.0 ** (6.0 * np.arange(5) / 4)
+    centre = rng.uniform(-3.0, 3.0, 5)
+
+    def ellipsoid(x: np.ndarray) -> float:
+        z = _t_osz(rotation @ (x - centre))
+        return 50.0 + float(weights @ (z * z))
+
+    def gaps() -> list[float]:
+        return [minimize(ellipsoid, [(-5.0, 5.0)] * 5, "multistart-lm", seed=seed,
+                         max_evals=5000).fun - 50.0 for seed in range(3)]
+
+    assert max(gaps()) < 1e-10
+    monkeypatch.setattr(multistart, "POLISH_SHARE", math.inf)
+    assert min(gaps()) > 1e-9
+
+
 def test_a_run_ends_when_searches_keep_finding_the_best() -> None:
     # φ = (x0 − 0.3)² + (x1 − 0.6)² + 1: every search ends at the same minimum, 1; like noisy
     # data, where the noise floor is the best there is.

@@ -245,7 +245,7 @@ class Evaluator:
             if self.n_friction and self.supported:
                 from femupdate.evaluation.codegen import friction_kernel
 
-                written = friction_kernel(n, self.n_friction, n_out)
+                written = friction_kernel(n, self.n_friction, n_out, self.substeps)
                 if written is not None:
                     self._central_batch = written.batch
                     self._written = written
