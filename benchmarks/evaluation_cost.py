@@ -24,7 +24,8 @@ Then (unless ``--no-run``) ``femupdate run`` end to end: the viscous bridge, AB,
 reference path (``FEMUPDATE_EVALUATOR=reference``) and the compiled one, whose runs must end
 alike (same evaluations and end point, φ to rounding); and the run machinery alone (a trivial
 φ, same settings). The friction row is compared with OpenSeesPy's central differences at the
-same substep when it is installed. The load average is printed at the start and the end.
+same substep when it is installed, each OpenSeesPy simulation paired with compiled φ's timed
+right after it. The load average is printed at the start and the end.
 
 The script runs against an older femupdate too (without ``femupdate.evaluation``): it then
 times the reference path only (``PYTHONPATH=<old checkout>/src python
@@ -280,8 +281,12 @@ def physical_floor(problem: UpdateProblem, x: np.ndarray, repeat: int) -> tuple[
             f"steps, without the {prepared[2]} friction elements")
 
 
-def opensees_ratio(problem: UpdateProblem, repeat: int) -> dict[str, Any] | None:
-    """OpenSeesPy's central differences on the friction bridge at the case's substep."""
+def opensees_ratio(problem: UpdateProblem, X: np.ndarray, repeat: int
+                   ) -> dict[str, Any] | None:
+    """OpenSeesPy's central differences on the friction bridge at the case's substep, each
+    simulation paired with a median of compiled φ's timed right after it: the ratio is the
+    median of the pairs' ratios (this shared machine's speed drifts by tens of per cent over
+    a minute; a pair sees the same state)."""
     try:
         from femupdate.bench.opensees import OpenSeesPeer, import_opensees
 
@@ -291,11 +296,18 @@ def opensees_ratio(problem: UpdateProblem, repeat: int) -> dict[str, Any] | None
     values = problem.values(problem.case.to_search(bridge.truth("friction")))
     peer = OpenSeesPeer(problem.case.model, values, ops=ops)
     ag = np.ascontiguousarray(problem.fitted[0]._ag, dtype=float)
-    reps = max(3, min(5, repeat // 20))
-    us = median_us(lambda i: peer.run(ag, problem.experiment.dt, method="central_difference",
-                                      substeps=problem.fitted[0].substeps,
-                                      outputs=list(problem.fitted[0].outputs)), reps)
-    return {"opensees_cd_us": us, "substeps": problem.fitted[0].substeps, "repeat": reps}
+    trial = problem.fitted[0]
+    reps = max(3, min(7, repeat // 20))
+    n = X.shape[0]
+    pairs = np.array([(median_us(lambda i: peer.run(ag, problem.experiment.dt,
+                                                    method="central_difference",
+                                                    substeps=trial.substeps,
+                                                    outputs=list(trial.outputs)), 1),
+                       median_us(lambda i: problem(X[i % n]), 30)) for _ in range(reps)])
+    return {"opensees_cd_us": float(np.median(pairs[:, 0])),
+            "compiled_phi_us": float(np.median(pairs[:, 1])),
+            "ratio_to_compiled_phi": float(np.median(pairs[:, 0] / pairs[:, 1])),
+            "substeps": trial.substeps, "repeat": reps}
 
 
 # --------------------------------------------------------------------------- end to end
@@ -433,12 +445,13 @@ def main() -> None:
                                    "batch_us_per_evaluation": batches,
                                    "floor_us": floor[0], "floor": floor[1]}
             if name == "friction bridge" and not args.no_opensees:
-                peer = opensees_ratio(problem, args.repeat)
-                if peer is not None and new is not None:
-                    peer["ratio_to_compiled_phi"] = peer["opensees_cd_us"] / new["total"]
+                peer = opensees_ratio(problem, X, args.repeat) if new is not None else None
+                if peer is not None:
                     print(f"  OpenSeesPy central differences x{peer['substeps']}: "
-                          f"{_fmt(peer['opensees_cd_us'])} per simulation = "
-                          f"{peer['ratio_to_compiled_phi']:,.0f}x one compiled φ")
+                          f"{_fmt(peer['opensees_cd_us'])} per simulation, one compiled φ "
+                          f"{_fmt(peer['compiled_phi_us'])} timed beside each: "
+                          f"{peer['ratio_to_compiled_phi']:,.0f}x (median of "
+                          f"{peer['repeat']} pairs)")
                 row["opensees"] = peer
             results["cases"][name] = row
         if not args.no_run:
