@@ -39,7 +39,7 @@ search ending with a stage of central differences (``polish``).
 Every simulation is an evaluation, and all state is plain arrays, floats and the Generator:
 a pickled optimizer resumes bit for bit.
 
-Why this file is long (about 620 lines): it is one state machine. Its phases (pool, noise
+Why this file is long (about 630 lines): it is one state machine. Its phases (pool, noise
 table, Jacobian, trial step, extension, stage end) read and write the same search state; the
 pure numerics they call (steps, stencils, the bounded step, BFGS) already live in ``trust``.
 """
