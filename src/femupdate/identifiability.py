@@ -89,9 +89,7 @@ def identifiability(problem: UpdateProblem, x: np.ndarray, *, rel_step: float = 
     col_norm = np.linalg.norm(jac, axis=0)
     phi_1pct = (0.01 * col_norm) ** 2
     _, sv, vt = np.linalg.svd(jac, full_matrices=False)
-    cov = np.linalg.pinv(jac.T @ jac)
-    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
-    corr = cov / np.outer(d, d)
+    corr = estimate_correlations(jac)
     weak = set(np.flatnonzero(col_norm < tol * col_norm.max()).tolist())
     weak |= {int(np.argmax(np.abs(vt[k]))) for k in range(sv.size) if sv[k] < tol * sv[0]}
     return Identifiability(
@@ -99,6 +97,21 @@ def identifiability(problem: UpdateProblem, x: np.ndarray, *, rel_step: float = 
         singular_values=sv, correlations=corr,
         undetermined=tuple(names[i] for i in sorted(weak)),
     )
+
+
+def estimate_correlations(jac: np.ndarray) -> np.ndarray:
+    """Correlations of the least-squares estimates from the Jacobian (m, n): the covariance
+    (JᵀJ)⁺ scaled by its diagonal.
+
+    A parameter that the data leave without variance (a zero column: pinv's null space) has
+    no correlation with any other: its row and column are NaN (dividing by a clipped tiny
+    variance overflowed instead).
+    """
+    cov = np.linalg.pinv(jac.T @ jac)
+    var = np.diag(cov)
+    d = np.sqrt(np.where(var > 0.0, var, np.nan))
+    with np.errstate(invalid="ignore"):
+        return np.clip(cov / np.outer(d, d), -1.0, 1.0)
 
 
 def strong_correlations(names: list[str] | tuple[str, ...], correlations: np.ndarray,
