@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 from numba import njit
 
+from femupdate.model import elements
 from femupdate.model.structure import Structure
 
 __all__ = [
@@ -216,44 +217,32 @@ def _values(const: np.ndarray, pidx: np.ndarray, spec: np.ndarray, p: np.ndarray
     return True
 
 
+# The beam formulas of model.elements, compiled: one source for both assemblies.
+_stiffness_terms = njit(cache=True)(elements.beam_stiffness_terms)
+_mass_terms = njit(cache=True)(elements.beam_mass_terms)
+_UPPER = elements.BEAM_UPPER
+
+
+@njit(cache=True)
+def _symmetric_into(terms: tuple, out: np.ndarray) -> None:
+    """The BEAM_UPPER entries ``terms`` into the symmetric 4 × 4 ``out``."""
+    out[:, :] = 0.0
+    for n in range(len(_UPPER)):
+        i, j = _UPPER[n]
+        out[i, j] = terms[n]
+        out[j, i] = terms[n]
+
+
 @njit(cache=True)
 def _beam_stiffness(EI: float, L: float, L3: float, phi: float, k: np.ndarray) -> None:
     """``elements.beam_stiffness`` of one element into ``k`` (4 × 4)."""
-    f = EI / ((1.0 + phi) * L3)
-    L2 = L * L
-    upper = ((0, 0, 12.0 * f), (0, 1, 6.0 * L * f), (0, 2, -12.0 * f), (0, 3, 6.0 * L * f),
-             (1, 1, (4.0 + phi) * L2 * f), (1, 2, -6.0 * L * f), (1, 3, (2.0 - phi) * L2 * f),
-             (2, 2, 12.0 * f), (2, 3, -6.0 * L * f), (3, 3, (4.0 + phi) * L2 * f))
-    k[:, :] = 0.0
-    for i, j, v in upper:
-        k[i, j] = v
-        k[j, i] = v
+    _symmetric_into(_stiffness_terms(EI, L, L3, phi), k)
 
 
 @njit(cache=True)
 def _beam_mass(mu: float, rho_i: float, L: float, phi: float, m: np.ndarray) -> None:
     """``elements.beam_mass`` of one element into ``m`` (4 × 4)."""
-    p2 = phi * phi
-    L2 = L * L
-    a = mu * L / (1.0 + phi) ** 2
-    m11 = (13 / 35 + 7 / 10 * phi + 1 / 3 * p2) * a
-    m12 = (11 / 210 + 11 / 120 * phi + 1 / 24 * p2) * L * a
-    m13 = (9 / 70 + 3 / 10 * phi + 1 / 6 * p2) * a
-    m14 = -(13 / 420 + 3 / 40 * phi + 1 / 24 * p2) * L * a
-    m22 = (1 / 105 + 1 / 60 * phi + 1 / 120 * p2) * L2 * a
-    m24 = -(1 / 140 + 1 / 60 * phi + 1 / 120 * p2) * L2 * a
-    b = rho_i / ((1.0 + phi) ** 2 * L)
-    r11 = 6 / 5 * b
-    r12 = (1 / 10 - 1 / 2 * phi) * L * b
-    r22 = (2 / 15 + 1 / 6 * phi + 1 / 3 * p2) * L2 * b
-    r24 = (-1 / 30 - 1 / 6 * phi + 1 / 6 * p2) * L2 * b
-    upper = ((0, 0, m11 + r11), (0, 1, m12 + r12), (0, 2, m13 - r11), (0, 3, m14 + r12),
-             (1, 1, m22 + r22), (1, 2, -m14 - r12), (1, 3, m24 + r24), (2, 2, m11 + r11),
-             (2, 3, -m12 - r12), (3, 3, m22 + r22))
-    m[:, :] = 0.0
-    for i, j, v in upper:
-        m[i, j] = v
-        m[j, i] = v
+    _symmetric_into(_mass_terms(mu, rho_i, L, phi), m)
 
 
 @njit(cache=True)

@@ -132,6 +132,46 @@ def shear_parameter(
     return np.where(np.isinf(G), 0.0, phi)
 
 
+#: A float or an array of them: the ``*_terms`` functions take either.
+Real = float | FloatArray
+
+#: The upper-triangle entries of a 4 × 4 beam matrix, in the order the ``*_terms`` functions
+#: return them.
+BEAM_UPPER = ((0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3))
+
+
+def beam_stiffness_terms(EI: Real, L: Real, L3: Real, phi: Real) -> tuple[Real, ...]:
+    """The BEAM_UPPER entries of :func:`beam_stiffness` from ``EI``, ``L``, ``L³`` and ``Φ``.
+
+    Plain arithmetic on floats or arrays: ``evaluation.assembly`` compiles this same function
+    with numba, so the two assemblies share one formula (and its rounding).
+    """
+    f = EI / ((1.0 + phi) * L3)
+    L2 = L * L
+    return (12.0 * f, 6.0 * L * f, -12.0 * f, 6.0 * L * f, (4.0 + phi) * L2 * f, -6.0 * L * f,
+            (2.0 - phi) * L2 * f, 12.0 * f, -6.0 * L * f, (4.0 + phi) * L2 * f)
+
+
+def beam_mass_terms(mu: Real, rho_i: Real, L: Real, phi: Real) -> tuple[Real, ...]:
+    """The BEAM_UPPER entries of :func:`beam_mass` (see :func:`beam_stiffness_terms`)."""
+    p2 = phi * phi
+    L2 = L * L
+    a = mu * L / (1.0 + phi) ** 2
+    m11 = (13 / 35 + 7 / 10 * phi + 1 / 3 * p2) * a
+    m12 = (11 / 210 + 11 / 120 * phi + 1 / 24 * p2) * L * a
+    m13 = (9 / 70 + 3 / 10 * phi + 1 / 6 * p2) * a
+    m14 = -(13 / 420 + 3 / 40 * phi + 1 / 24 * p2) * L * a
+    m22 = (1 / 105 + 1 / 60 * phi + 1 / 120 * p2) * L2 * a
+    m24 = -(1 / 140 + 1 / 60 * phi + 1 / 120 * p2) * L2 * a
+    b = rho_i / ((1.0 + phi) ** 2 * L)
+    r11 = 6 / 5 * b
+    r12 = (1 / 10 - 1 / 2 * phi) * L * b
+    r22 = (2 / 15 + 1 / 6 * phi + 1 / 3 * p2) * L2 * b
+    r24 = (-1 / 30 - 1 / 6 * phi + 1 / 6 * p2) * L2 * b
+    return (m11 + r11, m12 + r12, m13 - r11, m14 + r12, m22 + r22, -m14 - r12, m24 + r24,
+            m11 + r11, -m12 - r12, m22 + r22)
+
+
 def beam_stiffness(EI: ArrayLike, L: ArrayLike, phi: ArrayLike = 0.0) -> FloatArray:
     """Bending + shear stiffness of a planar Timoshenko beam, DOFs ``(v1, θ1, v2, θ2)``.
 
@@ -149,24 +189,8 @@ def beam_stiffness(EI: ArrayLike, L: ArrayLike, phi: ArrayLike = 0.0) -> FloatAr
     ndarray, shape ``S + (4, 4)``
     """
     EI, L, phi = _arrays(EI, L, phi)
-    f = EI / ((1.0 + phi) * L**3)
-    L2 = L * L
-    return _symmetric(
-        EI.shape,
-        4,
-        {
-            (0, 0): 12.0 * f,
-            (0, 1): 6.0 * L * f,
-            (0, 2): -12.0 * f,
-            (0, 3): 6.0 * L * f,
-            (1, 1): (4.0 + phi) * L2 * f,
-            (1, 2): -6.0 * L * f,
-            (1, 3): (2.0 - phi) * L2 * f,
-            (2, 2): 12.0 * f,
-            (2, 3): -6.0 * L * f,
-            (3, 3): (4.0 + phi) * L2 * f,
-        },
-    )
+    terms = beam_stiffness_terms(EI, L, L**3, phi)
+    return _symmetric(EI.shape, 4, dict(zip(BEAM_UPPER, terms, strict=True)))
 
 
 def beam_mass(
@@ -193,36 +217,8 @@ def beam_mass(
     ndarray, shape ``S + (4, 4)``
     """
     mu, rho_i, L, phi = _arrays(mass_per_length, rotary_per_length, L, phi)
-    p2 = phi * phi
-    L2 = L * L
-    a = mu * L / (1.0 + phi) ** 2
-    m11 = (13 / 35 + 7 / 10 * phi + 1 / 3 * p2) * a
-    m12 = (11 / 210 + 11 / 120 * phi + 1 / 24 * p2) * L * a
-    m13 = (9 / 70 + 3 / 10 * phi + 1 / 6 * p2) * a
-    m14 = -(13 / 420 + 3 / 40 * phi + 1 / 24 * p2) * L * a
-    m22 = (1 / 105 + 1 / 60 * phi + 1 / 120 * p2) * L2 * a
-    m24 = -(1 / 140 + 1 / 60 * phi + 1 / 120 * p2) * L2 * a
-    b = rho_i / ((1.0 + phi) ** 2 * L)
-    r11 = 6 / 5 * b
-    r12 = (1 / 10 - 1 / 2 * phi) * L * b
-    r22 = (2 / 15 + 1 / 6 * phi + 1 / 3 * p2) * L2 * b
-    r24 = (-1 / 30 - 1 / 6 * phi + 1 / 6 * p2) * L2 * b
-    return _symmetric(
-        mu.shape,
-        4,
-        {
-            (0, 0): m11 + r11,
-            (0, 1): m12 + r12,
-            (0, 2): m13 - r11,
-            (0, 3): m14 + r12,
-            (1, 1): m22 + r22,
-            (1, 2): -m14 - r12,
-            (1, 3): m24 + r24,
-            (2, 2): m11 + r11,
-            (2, 3): -m12 - r12,
-            (3, 3): m22 + r22,
-        },
-    )
+    terms = beam_mass_terms(mu, rho_i, L, phi)
+    return _symmetric(mu.shape, 4, dict(zip(BEAM_UPPER, terms, strict=True)))
 
 
 _BENDING = (1, 2, 4, 5)
