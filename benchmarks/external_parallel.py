@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import parse_case
-from femupdate.optimize.minimize import RESIDUAL_METHODS
+from femupdate.optimize.minimize import objective_for
 from femupdate.problems import bridge
 from femupdate.runs import Execution, run_all
 from femupdate.runs.batch import evaluate_batch
@@ -80,10 +80,10 @@ def time_search(problem: UpdateProblem, args: argparse.Namespace, execution: Exe
                 ) -> tuple[float, float, np.ndarray]:
     """Wall time of one update (``--method``, to φ ≤ ``--f-target``), its evaluation count,
     and its best x followed by φ."""
-    residuals = args.method in RESIDUAL_METHODS
+    fun, residuals = objective_for(problem, args.method)
     options = {"popsize": args.popsize} if args.method == "cmaes" else {}
     t0 = time.perf_counter()
-    (outcome,) = run_all(problem.residuals if residuals else problem, problem.bounds,
+    (outcome,) = run_all(fun, problem.bounds,
                          args.method, runs=1, seed=args.seed, max_evals=args.max_evals,
                          f_target=args.f_target, options=options, execution=execution,
                          residuals=residuals)

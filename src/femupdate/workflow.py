@@ -21,7 +21,7 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
-from femupdate.optimize.minimize import RESIDUAL_METHODS
+from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.results import (
     Best,
     Fit,
@@ -351,9 +351,9 @@ def run_case(
         out_dir.mkdir(parents=True, exist_ok=True)
         if restart:
             start_over(out_dir)
-    residuals = search.method in RESIDUAL_METHODS
+    fun, residuals = objective_for(problem, search.method)
     outcomes = run_all(
-        problem.residuals if residuals else problem, problem.bounds, search.method,
+        fun, problem.bounds, search.method,
         runs=runs, seed=seed, max_evals=max_evals, f_target=search.f_target,
         options=optimizer_options(case),
         store_dir=out_dir, resume=resume,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from femupdate.optimize.minimize import RESIDUAL_METHODS
+from femupdate.optimize.minimize import objective_for
 from femupdate.problems.dynamic import F_TARGET, MAX_EVALS, PARAMETER_NAMES, DynamicProblem
 from femupdate.runs.outcome import RunOutcome, run_seeds
 from femupdate.runs.repeat import RunTask, repeat
@@ -44,9 +44,9 @@ def run_benchmark(
     opts = dict(ALL_METHODS.get(method, {}) if options is None else options)
     start = time.perf_counter()
     problem = DynamicProblem()
-    residuals = method in RESIDUAL_METHODS
+    fun, residuals = objective_for(problem, method)
     outcomes = repeat(
-        problem.residuals if residuals else problem,
+        fun,
         problem.bounds,
         method,
         runs=runs,
@@ -78,7 +78,7 @@ def run_with_history(method: str = "ab", *, seed: int | None = 0, run_index: int
     problem = DynamicProblem()
     child = run_seeds(seed, run_index + 1)[run_index]
     opts = dict(ALL_METHODS.get(method, {}) if options is None else options)
-    residuals = method in RESIDUAL_METHODS
-    return RunTask(problem.residuals if residuals else problem, problem.bounds, method,
+    fun, residuals = objective_for(problem, method)
+    return RunTask(fun, problem.bounds, method,
                    run_index, child, max_evals, F_TARGET, opts, keep_history=True,
                    residuals=residuals)()

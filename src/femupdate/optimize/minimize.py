@@ -51,6 +51,15 @@ METHODS: dict[str, Factory] = {
 #: benchmarks give them ``problem.residuals`` with ``residuals=True``.
 RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm", "scipy-lsq"})
 
+
+def objective_for(problem: Any, method: str) -> tuple[Callable[[np.ndarray], Any], bool]:
+    """What ``method`` minimizes of a problem that has both φ (``problem(x)``) and
+    ``problem.residuals(x)``: ``(problem.residuals, True)`` for RESIDUAL_METHODS, else
+    ``(problem, False)``; the pair is ``minimize``'s ``fun`` and ``residuals``."""
+    if method in RESIDUAL_METHODS:
+        return problem.residuals, True
+    return problem, False
+
 #: Added to the result's message when every evaluation failed (φ NaN or inf).
 NO_SUCCESS = ("no evaluation succeeded: fun returned NaN or inf at every point tried, so x is "
               "not a minimum")
