@@ -91,11 +91,6 @@ class Experiment:
     def dt(self) -> float:
         return float(self.t[1] - self.t[0])
 
-    @property
-    def scored_target(self) -> np.ndarray:
-        """The part of ``target`` the error function compares."""
-        return self.target[self.score]
-
 
 def _read(data: Data, file: Path, column: str | int, name: str) -> io.Measurement:
     """One channel of a file, renamed ``name`` once read: read errors name the file's column."""

@@ -17,7 +17,6 @@ from femupdate.optimize.trust import (
     forward_columns,
     forward_steps,
     noise_level,
-    outward_at_bounds,
     second_order_columns,
     second_order_stencils,
     step_signs,
@@ -189,12 +188,6 @@ def test_the_jacobian_is_asked_as_one_batch() -> None:
     sizes = {size for kind, size in batches if kind == "jacobian"}
     assert sizes <= {3, 4, 6, 7}  # n or n + 1 (fine), 2n or 2n + 1 (coarse)
     assert all(size == 1 for kind, size in batches if kind in ("trial", "extend"))
-
-
-def test_outward_gradient_at_a_bound_is_improper() -> None:
-    x = np.array([0.0, 1.0, 0.0, 0.5])
-    g = np.array([1.0, -1.0, -1.0, 1.0])
-    np.testing.assert_array_equal(outward_at_bounds(x, g), [True, True, False, False])
 
 
 # --- repeatability, resume --------------------------------------------------------------------

@@ -203,7 +203,6 @@ class MultistartLM(KeepsBest):
         self.scale = 0.0  # RMS of a residual component (or |φ|) at the first start
         self.h = np.full(n, math.nan if fd_step is None else fd_step)  # fine steps
         self.visited = np.empty((0, n))  # starts and end points of the searches
-        self.end_reason = ""  # why the last stage ended: failed, stall, converged, lambda
         self._clear_search()
         if x0 is None:
             self._new_pool()
@@ -484,7 +483,6 @@ class MultistartLM(KeepsBest):
     def _end_stage(self, reason: str) -> None:
         """The other stage while the last one paid (the first always does), else the next
         start."""
-        self.end_reason = reason
         gained = self.stages == 0 or self.phi <= (1.0 - self.stage_gain) * self.stage_phi
         if reason != "failed" and self.coarse_step is not None and gained:
             x, r, phi, stages, coarse = self.x, self.r, self.phi, self.stages, self.coarse

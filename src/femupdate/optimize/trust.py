@@ -208,13 +208,6 @@ def damping_update(lam: float, nu: float, rho: float, accept: float) -> tuple[fl
     return lam * nu, 2.0 * nu
 
 
-def outward_at_bounds(x: np.ndarray, grad: np.ndarray, tol: float = 0.0) -> np.ndarray:
-    """Mask of the coordinates at a bound of the unit cube whose gradient points out of it:
-    an *improper* minimum there (the paper's §2.1; docs/method.md §2) — moving inward only
-    raises φ, so no local method leaves."""
-    return ((x <= tol) & (grad > 0.0)) | ((x >= 1.0 - tol) & (grad < 0.0))
-
-
 def bfgs_update(hess: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Powell's damped BFGS update of a Hessian approximation (stays positive definite).
 
