@@ -35,7 +35,11 @@ DELTA = 1e-8
 def problems(dim: int) -> Iterator[Any]:
     """The 48 bbob problems of dimension ``dim``, instances 1 and 2, one at a time (cocoex
     frees a problem when the suite hands out the next)."""
-    import cocoex
+    try:
+        import cocoex
+    except ImportError:
+        raise SystemExit("coco_bbob.py needs COCO's Python package: pip install "
+                         "coco-experiment") from None
 
     suite = cocoex.Suite("bbob", "instances: 1-2", f"dimensions: {dim}")
     yield from suite
