@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import hashlib
 import math
+import multiprocessing
+import os
 import sqlite3
 import subprocess
 import sys
@@ -218,6 +220,24 @@ def test_a_store_in_use_by_another_process_is_refused(tmp_path: Path) -> None:
         holder.stdin.close()
         holder.wait(timeout=30)
     ResultsStore.open(tmp_path).close()  # free again once it has gone
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_a_process_forked_while_the_store_is_open_does_not_keep_it_locked(tmp_path: Path) -> None:
+    # A worker forked by the writer shares its lock file; were the lock left in it, a killed
+    # run's orphaned workers would refuse the resume until they finished.
+    store = _new_store(tmp_path)
+    fork = multiprocessing.get_context("fork")
+    release = fork.Event()
+    worker = fork.Process(target=release.wait, args=(60,))
+    worker.start()
+    try:
+        store.close()
+        assert worker.is_alive()
+        ResultsStore.open(tmp_path).close()
+    finally:
+        release.set()
+        worker.join(timeout=30)
 
 
 def test_memory_store_needs_no_directory() -> None:

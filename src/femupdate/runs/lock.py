@@ -3,6 +3,11 @@
 The writer holds an exclusive ``flock`` on ``DIR/results.sqlite.lock`` (released by the kernel
 even when the process is killed), and the lock file names its pid for the error message of the
 next one.
+
+A ``flock`` belongs to the open file, which a forked child shares: a worker process forked while
+the store is open would hold the lock after the writer died (a killed run's orphaned workers
+finishing their evaluation would refuse the resume). Forked children therefore close their
+copies at once; the writer's own descriptor keeps the lock.
 """
 
 from __future__ import annotations
@@ -20,6 +25,22 @@ except ImportError:  # pragma: no cover - Windows
 __all__ = ["StoreLock"]
 
 LOCK_SUFFIX = ".lock"
+
+#: Descriptors of the locks this process holds (closed in forked children).
+_held: set[int] = set()
+
+
+def _close_inherited() -> None:
+    for fd in _held:
+        try:
+            os.close(fd)
+        except OSError:  # pragma: no cover - already closed
+            pass
+    _held.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_inherited)
 
 
 class StoreLock:
@@ -48,10 +69,12 @@ class StoreLock:
         except BaseException:
             os.close(fd)
             raise
+        _held.add(fd)
         return cls(path, fd)
 
     def release(self) -> None:
         if self.fd is not None:
+            _held.discard(self.fd)
             os.close(self.fd)  # closing drops the flock
             self.fd = None
 
