@@ -15,9 +15,12 @@ prediction's processing, the objective) and by the compiled evaluator (``femupda
 the same stages, each timed alone with its own call overhead, then the whole φ); the physical
 floor beside them (the bare modal recursion over the record, or the linear part of the friction
 recurrence, a lower bound, compiled, at the case's own coefficients); φ of batches of k points,
-per evaluation. Times are medians over ``--repeat`` calls cycling through random points of the
-search box, with one BLAS thread (threadpoolctl), wall time with the process's CPU time beside
-it: on a machine shared with other jobs, preemption inflates the first and not the second.
+per evaluation, on one thread and on two (a kept thread pool, each thread with its own
+evaluator); the residual vectors of a finite-difference Jacobian's n + 1 points, one call per
+point and as one batch on one and two threads. Times are medians over ``--repeat`` calls
+cycling through random points of the search box, with one BLAS thread (threadpoolctl), wall
+time with the process's CPU time beside it: on a machine shared with other jobs, preemption
+inflates the first and not the second.
 
 Then (unless ``--no-run``) ``femupdate run`` end to end: the viscous bridge, AB, one worker,
 6,000 evaluations, noise-free records; wall time per evaluation from summary.json, for the
@@ -209,7 +212,8 @@ def compiled_stages(problem: UpdateProblem, X: np.ndarray, repeat: int) -> dict[
 
 def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
                ) -> dict[int | str, tuple[float, float]]:
-    """Median µs per evaluation of φ over batches of k points: (wall, CPU)."""
+    """Median µs per evaluation of φ over batches of k points, and of residual vectors over
+    a Jacobian's points: (wall, CPU)."""
     heavy = problem.fitted[0].method != "exact"
     out: dict[int | str, tuple[float, float]] = {}
     for k in BATCHES:
@@ -224,6 +228,17 @@ def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
             wall = median_us(lambda i, blocks=blocks: problem.evaluate_batch(blocks[i % 4],
                                                                              threads=2), reps)
             out["10 x 2 threads"] = (wall / k, last_cpu_us() / k)
+    # Residual vectors (what multistart-lm's finite-difference Jacobian asks, n + 1 points a
+    # batch): one call per point, then the batch on one and on two threads.
+    k = len(problem.bounds) + 1
+    reps = max(3, repeat // k // (10 if heavy else 1))
+    blocks = [np.roll(X, -j * k, axis=0)[:k] for j in range(4)]
+    for label, run in (
+            (f"r, {k} single calls", lambda b: [problem.residuals(x) for x in b]),
+            (f"r, batch of {k}", problem.residuals_batch),
+            (f"r, batch of {k} x 2 threads", lambda b: problem.residuals_batch(b, threads=2))):
+        wall = median_us(lambda i, run=run: run(blocks[i % 4]), reps)
+        out[label] = (wall / k, last_cpu_us() / k)
     return out
 
 
@@ -393,7 +408,8 @@ def print_case(name: str, samples: str, ref: dict[str, float], new: dict[str, fl
               f"({floor[1]}); compiled total / floor {new['total'] / floor[0]:.1f}")
     if batches:
         print("  batches, per evaluation: " + ", ".join(
-            f"k = {k}: {_fmt(wall)} (CPU {_fmt(cpu)})" for k, (wall, cpu) in batches.items()))
+            f"{'k = ' if isinstance(k, int) or k[0].isdigit() else ''}{k}: {_fmt(wall)} "
+            f"(CPU {_fmt(cpu)})" for k, (wall, cpu) in batches.items()))
 
 
 def main() -> None:

@@ -212,6 +212,42 @@ def test_batches_give_the_single_values_bit_for_bit(viscous_spec: dict[str, Any]
         assert np.array_equal(single, batch)
         assert np.array_equal(problem.evaluate_batch(X[::-1])[::-1], batch)  # order-free
         assert np.array_equal(problem.evaluate_batch(X, threads=2), batch)
+        # the threads are kept with their evaluators: more threaded batches build no more
+        for _ in range(3):
+            assert np.array_equal(problem.evaluate_batch(X, threads=2), batch)
+        assert len(problem.fitted[0]._evaluators) <= 3  # this thread's and the pool's two
+
+
+def test_residual_batches_give_the_single_vectors_bit_for_bit(viscous_spec: dict[str, Any],
+                                                              friction_spec: dict[str, Any]
+                                                              ) -> None:
+    for spec, n in ((viscous_spec, 6), (friction_spec, 3)):
+        problem = _problem(spec)
+        X = _points(problem, n, seed=3)
+        single = np.vstack([problem.residuals(x) for x in X])
+        assert np.array_equal(problem.residuals_batch(X), single)
+        assert np.array_equal(problem.residuals_batch(X, threads=2), single)
+
+
+def test_minimize_takes_the_jacobian_columns_as_one_residual_batch(
+        viscous_spec: dict[str, Any]) -> None:
+    from femupdate import minimize
+
+    problem = _problem(viscous_spec)
+    calls: list[int] = []
+    batch = problem.residuals_batch
+
+    def counted(X: np.ndarray, **kw: Any) -> np.ndarray:
+        calls.append(len(X))
+        return batch(X, **kw)
+
+    problem.residuals_batch = counted  # type: ignore[method-assign]
+    kw = dict(seed=4, max_evals=40, residuals=True)
+    batched = minimize(problem.residuals, problem.bounds, "multistart-lm", **kw)
+    one_by_one = minimize(lambda x: problem.residuals(x), problem.bounds, "multistart-lm", **kw)
+    assert max(calls) > 1  # the Jacobian's points came in batches
+    assert batched.nfev == one_by_one.nfev == 40
+    assert batched.x.tobytes() == one_by_one.x.tobytes() and batched.fun == one_by_one.fun
 
 
 def test_a_pickled_problem_evaluates_the_same(viscous_spec: dict[str, Any]) -> None:
@@ -270,6 +306,16 @@ def test_an_unstable_step_is_a_failed_evaluation(tmp_path: Path) -> None:
     x = _points(problem, 1)[0]
     assert problem.phi_reference(x) == np.inf
     assert problem(x) == np.inf
+
+    # With 4 substeps the stiffer points are unstable: a residual batch whose failed row is
+    # followed by a good one still says why the failed one failed.
+    problem = _problem(spec, _set("preprocess.substeps", 4))
+    X = _points(problem, 40)
+    phi = problem.evaluate_batch(X)
+    pair = np.array([X[np.flatnonzero(np.isinf(phi))[0]], X[np.flatnonzero(np.isfinite(phi))[0]]])
+    rows = problem.residuals_batch(pair)
+    assert np.all(np.isinf(rows[0])) and np.all(np.isfinite(rows[1]))
+    assert "step" in (problem.last_failure or "")
 
 
 def test_the_reference_switch(viscous_spec: dict[str, Any],

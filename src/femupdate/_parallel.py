@@ -1,15 +1,17 @@
-"""Worker processes shared by the layers that evaluate in parallel (optimize, runs).
+"""Worker processes and threads shared by the layers that evaluate in parallel (optimize, runs,
+update).
 
 Small dense linear algebra is many times slower with several BLAS threads per process on a
 small machine, and the processes already use the cores: every worker process runs with one
-BLAS thread.
+BLAS thread. Threads serve compiled batches that release the GIL; their pools live as long as
+the process, because each thread keeps its own evaluator buffers (built at its first batch).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import AbstractContextManager
 from typing import Any
 
@@ -33,6 +35,22 @@ def single_blas_thread() -> AbstractContextManager:
 def default_workers() -> int:
     """The number of CPUs (at least 1)."""
     return max(1, os.cpu_count() or 1)
+
+
+_THREAD_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+if hasattr(os, "register_at_fork"):  # a forked child has none of its parent's threads
+    os.register_at_fork(after_in_child=_THREAD_POOLS.clear)
+
+
+def thread_pool(threads: int) -> ThreadPoolExecutor:
+    """This process's pool of ``threads`` threads, made at first use and kept: a batch split
+    over fresh threads would build fresh evaluators every time."""
+    pool = _THREAD_POOLS.get(threads)
+    if pool is None:
+        pool = _THREAD_POOLS[threads] = ThreadPoolExecutor(
+            threads, thread_name_prefix=f"femupdate-{threads}")
+    return pool
 
 
 def process_pool(workers: int) -> ProcessPoolExecutor:

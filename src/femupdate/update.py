@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from femupdate._parallel import thread_pool
 from femupdate.case import Case, CaseModel
 from femupdate.data import signal
 from femupdate.errors import ConfigError, SimulationError
@@ -357,17 +358,33 @@ class UpdateProblem:
 
     def evaluate_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """φ of every row of ``X`` (k, n), each trial's in one compiled loop: bit for bit k
-        single calls. ``threads`` > 1 splits the rows over threads, each with its own
+        single calls. ``threads`` > 1 splits the rows over the threads of a pool kept for the
+        process (:func:`femupdate._parallel.thread_pool`), each thread with its own
         evaluators (the compiled loop releases the GIL); the values are the same."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         if threads > 1 and X.shape[0] > 1:
-            from concurrent.futures import ThreadPoolExecutor
-
             parts = np.array_split(X, min(threads, X.shape[0]))
-            with ThreadPoolExecutor(len(parts), thread_name_prefix="femupdate-phi") as pool:
-                return np.concatenate(list(pool.map(self.evaluate_batch, parts)))
+            pool = thread_pool(threads)
+            return np.concatenate(list(pool.map(self.evaluate_batch, parts)))
         phis = np.array([t.phi_batch(X) for t in self.fitted])
         return np.array([self._combined(phis[:, i]) for i in range(X.shape[0])])
+
+    def residuals_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
+        """The residual vectors of every row of ``X`` (k, n) as the rows of a (k, m) array,
+        each the single call's bit for bit: one compiled evaluation per row (a point's
+        differences are read out before the next overwrites them). ``threads`` as in
+        :meth:`evaluate_batch`: the columns of a finite-difference Jacobian on several
+        cores of one process."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if threads > 1 and X.shape[0] > 1:
+            parts = np.array_split(X, min(threads, X.shape[0]))
+            rows = np.vstack(list(thread_pool(threads).map(self.residuals_batch, parts)))
+        else:
+            rows = np.vstack([self.residuals(x) for x in X])
+        failed = np.flatnonzero(~np.all(np.isfinite(rows), axis=1))
+        if failed.size and (failed[-1] != len(X) - 1 or threads > 1):
+            self.residuals(X[failed[-1]])  # so that last_failure says why (a later row cleared it)
+        return rows
 
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x``, step by step (the compiled evaluator's reference)."""

@@ -216,11 +216,12 @@ class MinimizeState:
         fs = np.empty(k)
         rs: list[np.ndarray] = []
         evaluated = 0
-        batch = None if self.residuals else getattr(fun, "evaluate_batch", None)
+        batch = _batch_of(fun, self.residuals)
         if map is builtins.map and callable(batch) and k > 1:
-            # A population in one call of a function that evaluates batches (femupdate's
-            # update problems: one compiled loop), the values then taken in order as below.
-            results: Iterator[Any] = iter(np.asarray(batch(x), dtype=float).tolist())
+            # A population (or a Jacobian's columns) in one call of a function that evaluates
+            # batches (femupdate's update problems: compiled), taken in order as below.
+            values = np.asarray(batch(x), dtype=float)
+            results: Iterator[Any] = iter(values if self.residuals else values.tolist())
         else:
             results = iter(map(fun, iter(x)))
         try:
@@ -352,6 +353,18 @@ def _as_value(value: Any, x: np.ndarray) -> float:
     return f if math.isfinite(f) else math.inf
 
 
+def _batch_of(fun: Callable[[np.ndarray], Any], residuals: bool
+              ) -> Callable[[np.ndarray], Any] | None:
+    """What evaluates a batch of rows for ``fun`` in one call, if anything: its
+    ``evaluate_batch`` (φ), or for the ``residuals`` method of an object (an update
+    problem's) that object's ``residuals_batch``."""
+    if not residuals:
+        return getattr(fun, "evaluate_batch", None)
+    if getattr(fun, "__name__", None) != "residuals":
+        return None
+    return getattr(getattr(fun, "__self__", None), "residuals_batch", None)
+
+
 def _residual_vector(value: Any, x: np.ndarray, size: int | None) -> tuple[np.ndarray, float]:
     """A residual vector as a flat float array and φ = r·r; a non-finite r is a failed
     evaluation: all inf, φ = inf."""
@@ -454,7 +467,10 @@ def minimize(
         evaluation: counted, treated as +inf. Anything but a real number (a string, a bool)
         is a ConfigError; an exception propagates, with a note giving x. With
         ``residuals=True``: the residual vector r(x) (m,), what
-        ``scipy.optimize.least_squares`` calls ``fun``; φ = r·r.
+        ``scipy.optimize.least_squares`` calls ``fun``; φ = r·r. With ``workers=1``, a step's
+        candidates go in one call when ``fun`` has ``evaluate_batch(X)`` (k values), or is the
+        ``residuals`` method of an object with ``residuals_batch(X)`` (k rows): femupdate's
+        update problems, whose batches are compiled loops with the single calls' values.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter, high − low finite (not overflowing).
     method : {"ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"}
@@ -478,7 +494,8 @@ def minimize(
         As scipy's: 1 (default) evaluates in this process; ``N > 1`` spreads each step's
         candidates over ``N`` worker processes (``fun`` must be picklable); -1 uses every CPU;
         a map-like ``workers(fun, rows)`` (e.g. an executor's ``map``) evaluates the rows in
-        order. Only population methods (cmaes, de, ga) ask several candidates per step.
+        order. Population methods (cmaes, de, ga) and multistart-lm (a Jacobian's points)
+        ask several candidates per step.
     map : callable or None
         Deprecated name of a map-like ``workers``.
     residuals : bool
