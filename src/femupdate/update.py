@@ -364,8 +364,11 @@ class UpdateProblem:
         X = np.atleast_2d(np.asarray(X, dtype=float))
         if threads > 1 and X.shape[0] > 1:
             parts = np.array_split(X, min(threads, X.shape[0]))
-            pool = thread_pool(threads)
-            return np.concatenate(list(pool.map(self.evaluate_batch, parts)))
+            return np.concatenate(list(thread_pool(threads).map(self._phi_rows, parts)))
+        return self._phi_rows(X)
+
+    def _phi_rows(self, X: np.ndarray) -> np.ndarray:
+        """φ of the rows of X in this thread (what a pool thread runs: never the pool again)."""
         phis = np.array([t.phi_batch(X) for t in self.fitted])
         return np.array([self._combined(phis[:, i]) for i in range(X.shape[0])])
 
@@ -378,13 +381,17 @@ class UpdateProblem:
         X = np.atleast_2d(np.asarray(X, dtype=float))
         if threads > 1 and X.shape[0] > 1:
             parts = np.array_split(X, min(threads, X.shape[0]))
-            rows = np.vstack(list(thread_pool(threads).map(self.residuals_batch, parts)))
+            rows = np.vstack(list(thread_pool(threads).map(self._residual_rows, parts)))
         else:
-            rows = np.vstack([self.residuals(x) for x in X])
+            rows = self._residual_rows(X)
         failed = np.flatnonzero(~np.all(np.isfinite(rows), axis=1))
         if failed.size and (failed[-1] != len(X) - 1 or threads > 1):
             self.residuals(X[failed[-1]])  # so that last_failure says why (a later row cleared it)
         return rows
+
+    def _residual_rows(self, X: np.ndarray) -> np.ndarray:
+        """The residual vectors of the rows of X in this thread (a pool thread's task)."""
+        return np.vstack([self.residuals(x) for x in X])
 
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x``, step by step (the compiled evaluator's reference)."""
