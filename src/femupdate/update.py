@@ -14,7 +14,7 @@ import math
 import os
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -362,10 +362,7 @@ class UpdateProblem:
         process (:func:`femupdate._parallel.thread_pool`), each thread with its own
         evaluators (the compiled loop releases the GIL); the values are the same."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        if threads > 1 and X.shape[0] > 1:
-            parts = np.array_split(X, min(threads, X.shape[0]))
-            return np.concatenate(list(thread_pool(threads).map(self._phi_rows, parts)))
-        return self._phi_rows(X)
+        return _over_threads(self._phi_rows, X, threads)
 
     def _phi_rows(self, X: np.ndarray) -> np.ndarray:
         """φ of the rows of X in this thread (what a pool thread runs: never the pool again)."""
@@ -379,11 +376,7 @@ class UpdateProblem:
         :meth:`evaluate_batch`: the columns of a finite-difference Jacobian on several
         cores of one process."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        if threads > 1 and X.shape[0] > 1:
-            parts = np.array_split(X, min(threads, X.shape[0]))
-            rows = np.vstack(list(thread_pool(threads).map(self._residual_rows, parts)))
-        else:
-            rows = self._residual_rows(X)
+        rows = _over_threads(self._residual_rows, X, threads)
         failed = np.flatnonzero(~np.all(np.isfinite(rows), axis=1))
         if failed.size and (failed[-1] != len(X) - 1 or threads > 1):
             self.residuals(X[failed[-1]])  # so that last_failure says why (a later row cleared it)
@@ -443,6 +436,16 @@ class UpdateProblem:
             return parts[0]
         return np.concatenate([math.sqrt(share) * r
                                for share, r in zip(self._shares, parts, strict=True)])
+
+
+def _over_threads(rows_of: Callable[[np.ndarray], np.ndarray], X: np.ndarray,
+                  threads: int) -> np.ndarray:
+    """``rows_of(X)``, its rows split over ``threads`` threads of the process's kept pool
+    when there are several (the results stacked in order)."""
+    if threads <= 1 or X.shape[0] <= 1:
+        return rows_of(X)
+    parts = np.array_split(X, min(threads, X.shape[0]))
+    return np.concatenate(list(thread_pool(threads).map(rows_of, parts)))
 
 
 def _check_external(case: Case, experiment: Experiment, quantity: str) -> None:
