@@ -8,9 +8,16 @@ driver of ``eigh(K, M)``) and the test that they diagonalise C, then the modal r
 (:mod:`femupdate.evaluation.processing`).
 
 Elements with ``k_r = 0`` never carry force and are left out; the slip limit ``f_u / k_r`` of
-the others is computed once per evaluation instead of at every step. A damping matrix that the
-modes do not diagonalise (discrete dashpots) is run by the simulator in physical coordinates:
-the status then sends the caller to it.
+the others is computed once per evaluation instead of at every step. The law is written on the
+element's elastic deformation ``t = clamp(y − y_r, ±f_u/k_r)`` (force ``k_r t``, new offset
+``y − t``): the same law as :func:`femupdate.model.friction.elasto_slip`, which clamps the offset
+and then the force, with two clamps fewer per element and step; ``k_r`` is folded into the
+coefficients that bring the force into the modes, and the base acceleration is interpolated
+once per substep, not mode by mode. Together 1.28 → 1.05 ms for the friction bridge's written-out
+kernel (47,680 steps, timed interleaved); the outputs move by rounding (2e-12 relative).
+
+A damping matrix that the modes do not diagonalise (discrete dashpots) is run by the simulator
+in physical coordinates: the status then sends the caller to it.
 """
 
 from __future__ import annotations
@@ -45,10 +52,11 @@ ABSOLUTE_ACCELERATION = 2
 class CentralWork(NamedTuple):
     """Buffers and coefficients of one central-difference evaluation (allocated once).
 
-    ``modal`` rows: a, b, g (the modal recurrence ``η⁺ = a η − b η⁻ + g a_g − Pᵀ f``);
-    ``yf`` (n_f, n) element deformations from η, ``pf`` (n_f, n) element forces into η⁺,
-    ``po`` (n_out, n) output DOFs from η; ``law`` rows k_r, f_u, f_u / k_r of the elements that
-    carry force (the first ``active``; the other rows are zero).
+    ``modal`` rows: a, b, g (the modal recurrence ``η⁺ = a η − b η⁻ + g a_g − Pᵀ t``);
+    ``yf`` (n_f, n) element deformations from η, ``pf`` (n_f, n) elastic deformations ``t`` of
+    the elements into η⁺ (``k_r`` folded in), ``po`` (n_out, n) output DOFs from η; ``limit``
+    the slip limits ``f_u / k_r`` of the elements that carry force (the first ``active``; the
+    other rows are zero).
     """
 
     a: np.ndarray  # (n, n) work copies for LAPACK
@@ -62,10 +70,9 @@ class CentralWork(NamedTuple):
     yf: np.ndarray  # (n_f, n)
     pf: np.ndarray  # (n_f, n)
     po: np.ndarray  # (n_out, n)
-    law: np.ndarray  # (3, n_f)
+    limit: np.ndarray  # (n_f,)
     eta: np.ndarray  # (3, n): previous, current, next
     eta0: np.ndarray  # (2, n): η_0 and η_-1
-    dq: np.ndarray  # (n,)
     slip: np.ndarray  # (n_f,)
 
 
@@ -77,8 +84,8 @@ def central_work(n: int, n_friction: int, n_out: int) -> CentralWork:
         iwork_gvd=np.empty(liwork, dtype=np.int32), work_gvx=np.empty(sygvx_lwork(n)),
         iwork_gvx=np.empty(6 * n, dtype=np.int32), modal=np.empty((3, n)),
         yf=np.empty((n_friction, n)), pf=np.empty((n_friction, n)), po=np.empty((n_out, n)),
-        law=np.empty((3, n_friction)), eta=np.empty((3, n)), eta0=np.empty((2, n)),
-        dq=np.empty(n), slip=np.empty(n_friction),
+        limit=np.empty(n_friction), eta=np.empty((3, n)), eta0=np.empty((2, n)),
+        slip=np.empty(n_friction),
     )
 
 
@@ -160,16 +167,14 @@ def prepare_central(M: np.ndarray, K: np.ndarray, C: np.ndarray, load: np.ndarra
                 y -= phi[i, fj[e]]
             work.yf[active, i] = y
             gain = 1.0 / (1.0 / h2 + c[i] / (2.0 * h))
-            work.pf[active, i] = y * gain
-        work.law[0, active] = kr[e]
-        work.law[1, active] = fu[e]
-        work.law[2, active] = fu[e] / kr[e]
+            work.pf[active, i] = y * gain * kr[e]
+        work.limit[active] = fu[e] / kr[e]
         active += 1
     # Rows of elements without force stay zero: a kernel that runs every row (the written-out
     # one) then computes a zero force for them.
     work.yf[active:] = 0.0
     work.pf[active:] = 0.0
-    work.law[:, active:] = 0.0
+    work.limit[active:] = 0.0
     for o in range(outputs.shape[0]):
         for i in range(n):
             work.po[o, i] = phi[i, outputs[o]]
@@ -194,9 +199,8 @@ def prepare_central(M: np.ndarray, K: np.ndarray, C: np.ndarray, load: np.ndarra
 
 @njit(cache=True, fastmath=_FASTMATH)
 def _kernel(ag: np.ndarray, substeps: int, h: float, quantity: int, r_out: np.ndarray,
-            modal: np.ndarray, yf: np.ndarray, pf: np.ndarray, law: np.ndarray, active: int,
-            po: np.ndarray, eta: np.ndarray, dq: np.ndarray, slip: np.ndarray,
-            y: np.ndarray) -> bool:
+            modal: np.ndarray, yf: np.ndarray, pf: np.ndarray, limit: np.ndarray, active: int,
+            po: np.ndarray, eta: np.ndarray, slip: np.ndarray, y: np.ndarray) -> bool:
     """The modal central-difference recurrence with elasto-slip elements, the outputs at the
     samples into ``y`` (n_out, n_samples); True if diverged."""
     ns = ag.shape[0]
@@ -209,23 +213,20 @@ def _kernel(ag: np.ndarray, substeps: int, h: float, quantity: int, r_out: np.nd
     for k in range(ns):
         last = k == ns - 1
         ak = ag[k]
-        if not last:
-            for i in range(n):
-                dq[i] = (ag[k + 1] * modal[2, i] - ak * modal[2, i]) / substeps
+        step = 0.0 if last else (ag[k + 1] - ak) / substeps  # a_g linear within the sample
         for j in range(1 if last else substeps):
+            a_j = ak + j * step
             for i in range(n):
                 eta[ix, i] = (modal[0, i] * eta[ic, i] - modal[1, i] * eta[ip, i]
-                              + (ak * modal[2, i] + j * dq[i]))
+                              + modal[2, i] * a_j)
             for e in range(active):
                 u = 0.0  # the element's deformation
                 for i in range(n):
                     u += yf[e, i] * eta[ic, i]
-                limit = law[2, e]
-                u_r = min(max(slip[e], u - limit), u + limit)
-                slip[e] = u_r
-                f = min(max(law[0, e] * (u - u_r), -law[1, e]), law[1, e])
+                t = min(max(u - slip[e], -limit[e]), limit[e])  # its elastic deformation
+                slip[e] = u - t
                 for i in range(n):
-                    eta[ix, i] -= pf[e, i] * f
+                    eta[ix, i] -= pf[e, i] * t
             if j == 0:
                 s = 0.0
                 for i in range(n):
@@ -255,5 +256,5 @@ def run_central(ag: np.ndarray, substeps: int, h: float, quantity: int, r_out: n
     ``y`` (n_out, n_samples). Returns whether the solution diverged."""
     work.eta[0, :] = work.eta0[1]
     work.eta[1, :] = work.eta0[0]
-    return _kernel(ag, substeps, h, quantity, r_out, work.modal, work.yf, work.pf, work.law,
-                   active, work.po, work.eta, work.dq, work.slip, y)
+    return _kernel(ag, substeps, h, quantity, r_out, work.modal, work.yf, work.pf, work.limit,
+                   active, work.po, work.eta, work.slip, y)

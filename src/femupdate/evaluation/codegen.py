@@ -5,7 +5,7 @@ modes, n_f elements): as generic compiled loops the modal state lives in memory 
 coefficient is reloaded at every step, because the compiler cannot prove the arrays distinct.
 Written out for a given (n, n_f, n_out) — every coefficient a local variable loaded once, the
 modal state a set of local variables — the same arithmetic runs about 30 % faster (1.34 against
-1.87 ms on the friction bridge, 47,680 steps).
+1.87 ms on the friction bridge, 47,680 steps, with the law of version 3; see ``central``).
 
 The source is generated into a module file (``kernel_directory()``) and imported from there, so
 that numba caches its compilation like any other kernel (a new size compiles once, in a few
@@ -31,7 +31,7 @@ __all__ = ["MAX_EXACT_MODES", "MAX_TERMS", "exact_kernel", "exact_source", "fric
 #: compile time grows with its length.
 MAX_TERMS = 600
 #: Bump when the generated code changes: the file name carries it.
-GENERATOR_VERSION = 3
+GENERATOR_VERSION = 4
 KERNEL_DIR_ENV = "FEMUPDATE_KERNEL_DIR"
 
 #: The written-out modal filters are used below this many modes; from there the generic
@@ -68,13 +68,14 @@ def _friction_step(n: int, n_friction: int, indent: str, sub: str,
     """One substep of the friction recurrence (``sub``: its index within the sample), the
     lines ``at_sample`` (the outputs) before the states move on."""
     lines = []
-    for e in range(n_friction):
+    for e in range(n_friction):  # w: deformation, t: elastic deformation, s: slip offset
         lines += [f"w{e} = " + _sum([f"Y{e}_{i} * u{i}" for i in range(n)]),
-                  f"s{e} = min(max(s{e}, w{e} - lim{e}), w{e} + lim{e})",
-                  f"f{e} = min(max(kr{e} * (w{e} - s{e}), -fu{e}), fu{e})"]
+                  f"t{e} = min(max(w{e} - s{e}, -lim{e}), lim{e})",
+                  f"s{e} = w{e} - t{e}"]
+    lines.append(f"at = ak + {sub} * step")
     for i in range(n):
-        force = _sum([f"P{e}_{i} * f{e}" for e in range(n_friction)])
-        lines.append(f"v{i} = a{i} * u{i} - b{i} * p{i} + (q{i} + {sub} * d{i}) - ({force})")
+        force = _sum([f"P{e}_{i} * t{e}" for e in range(n_friction)])
+        lines.append(f"v{i} = a{i} * u{i} - b{i} * p{i} + g{i} * at - ({force})")
     lines += at_sample
     lines += [f"p{i} = u{i}; u{i} = v{i}" for i in range(n)]
     return [indent + line for line in lines]
@@ -84,9 +85,9 @@ def friction_source(n: int, n_friction: int, n_out: int, substeps: int) -> str:
     """The source of the written-out kernel for n modes, n_f elements, n_out outputs and
     ``substeps`` substeps per sample.
 
-    The generated ``kernel(ag, substeps, h, quantity, r_out, modal, yf, pf, law, po, eta0, y)``
-    computes what :func:`femupdate.evaluation.central._kernel` computes (the element law rows
-    k_r, f_u, f_u/k_r with zero rows for elements that carry no force), and ``batch`` is
+    The generated ``kernel(ag, substeps, h, quantity, r_out, modal, yf, pf, limit, po, eta0,
+    y)`` computes what :func:`femupdate.evaluation.central._kernel` computes (zero rows for
+    elements that carry no force), and ``batch`` is
     ``evaluator._central_batch`` calling it. The substep at a sample, which writes the
     outputs, is written apart from the others, whose count is a constant: the loop then has
     no branch and a known length (3–8 % faster on the friction bridge, timed interleaved).
@@ -105,12 +106,12 @@ def friction_source(n: int, n_friction: int, n_out: int, substeps: int) -> str:
     ]
     add = lines.append
     add("@njit(cache=True, fastmath={'contract', 'reassoc'})")
-    add("def kernel(ag, substeps, h, quantity, r_out, modal, yf, pf, law, po, eta0, y):")
+    add("def kernel(ag, substeps, h, quantity, r_out, modal, yf, pf, limit, po, eta0, y):")
     add(f"    assert substeps == {substeps}")
     for i in range(n):
         add(f"    a{i} = modal[0, {i}]; b{i} = modal[1, {i}]; g{i} = modal[2, {i}]")
     for e in range(n_friction):
-        add(f"    kr{e} = law[0, {e}]; fu{e} = law[1, {e}]; lim{e} = law[2, {e}]")
+        add(f"    lim{e} = limit[{e}]")
         for i in range(n):
             add(f"    Y{e}_{i} = yf[{e}, {i}]; P{e}_{i} = pf[{e}, {i}]")
     for o in range(n_out):
@@ -126,10 +127,7 @@ def friction_source(n: int, n_friction: int, n_out: int, substeps: int) -> str:
     add("    for k in range(ns):")
     add("        last = k == ns - 1")
     add("        ak = ag[k]")
-    add("        ak1 = ak if last else ag[k + 1]")
-    for i in range(n):
-        add(f"        q{i} = ak * g{i}")
-        add(f"        d{i} = (ak1 * g{i} - q{i}) / substeps")
+    add("        step = 0.0 if last else (ag[k + 1] - ak) / substeps")
     outputs = ["total = " + _sum([f"abs(v{i})" for i in range(n)]),
                "if not total < DIVERGENCE_LIMIT:",
                "    return True"]
@@ -158,7 +156,7 @@ def friction_source(n: int, n_friction: int, n_out: int, substeps: int) -> str:
         "            X[row], plan, p, M, minv, C, K, load, kr, fu, fi, fj, ag, outputs, h, work)",
         "        if status[row] == RUN:",
         "            diverged = kernel(ag, substeps, h, quantity, r_out, work.modal, work.yf,",
-        "                              work.pf, work.law, work.po, work.eta0, y)",
+        "                              work.pf, work.limit, work.po, work.eta0, y)",
         "            phi[row] = compare(diverged, raw, post, y, per_channel, zi)",
         "            status[row] = DONE",
     ]

@@ -378,7 +378,7 @@ class Evaluator:
                 if self._written is not None:
                     w = self.work
                     return self._written.kernel(self.ag, self.substeps, h, self.quantity,
-                                                self.r_out, w.modal, w.yf, w.pf, w.law, w.po,
+                                                self.r_out, w.modal, w.yf, w.pf, w.limit, w.po,
                                                 w.eta0, self.y)
                 return central.run_central(self.ag, self.substeps, h, self.quantity,
                                            self.r_out, size, self.work, self.y)
