@@ -397,6 +397,13 @@ class UpdateProblem:
         return all(t.compiled for t in self.fitted)
 
     @property
+    def parallel_batches(self) -> bool:
+        """Whether ``threads`` > 1 runs the rows of :meth:`evaluate_batch` and
+        :meth:`residuals_batch` in parallel: every fitted trial compiled (its loops release
+        the GIL; the step-by-step path and an external model's exchanges hold it)."""
+        return self.compiled
+
+    @property
     def evaluator(self) -> Evaluator:
         """The first fitted trial's compiled evaluator (in this thread)."""
         return self.fitted[0].evaluator

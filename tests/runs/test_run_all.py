@@ -121,16 +121,33 @@ def test_a_population_spread_over_workers_gives_the_same_run(method: str) -> Non
     assert spread[0].history["fun"].tobytes() == inline[0].history["fun"].tobytes()
 
 
-def test_a_least_squares_run_spread_over_workers_gives_the_same_bits() -> None:
-    # multistart-lm on the bridge (14,304 residuals): its pools and Jacobians go to the
-    # workers, its optimizer and φ = r·r stay here, with one BLAS thread as in a worker (a
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_least_squares_run_spread_over_workers_gives_the_same_bits(
+        compiled: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    # multistart-lm on the bridge (14,304 residuals): its pools and Jacobians go to two
+    # threads of this process when the problem is evaluated compiled, else to the worker
+    # processes; its optimizer and φ = r·r stay here, with one BLAS thread as in a worker (a
     # threaded dot product of that length rounds differently, and the search follows).
     from femupdate.problems.bridge import viscous_problem
+    from femupdate.update import UpdateProblem
 
     problem = viscous_problem()
+    threads_asked: list[int] = []
+    batch = UpdateProblem.residuals_batch
+
+    def counted(self: UpdateProblem, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
+        threads_asked.append(threads)
+        return batch(self, X, threads=threads)
+
+    monkeypatch.setattr(UpdateProblem, "residuals_batch", counted)
+    if not compiled:
+        monkeypatch.setattr(UpdateProblem, "parallel_batches", False)
     kw = dict(runs=1, seed=4, max_evals=260, keep_history=True, residuals=True)
     inline = run_all(problem.residuals, problem.bounds, "multistart-lm", **kw)
+    assert threads_asked and set(threads_asked) == {1}
+    threads_asked.clear()
     spread = run_all(problem.residuals, problem.bounds, "multistart-lm", workers=2, **kw)
+    assert set(threads_asked) == ({2} if compiled else set())  # workers: their own copies
     assert_same_outcomes(inline, spread)
     assert spread[0].history["fun"].tobytes() == inline[0].history["fun"].tobytes()
 

@@ -216,7 +216,7 @@ class MinimizeState:
         fs = np.empty(k)
         rs: list[np.ndarray] = []
         evaluated = 0
-        batch = _batch_of(fun, self.residuals)
+        batch = batch_of(fun, self.residuals)
         if map is builtins.map and callable(batch) and k > 1:
             # A population (or a Jacobian's columns) in one call of a function that evaluates
             # batches (femupdate's update problems: compiled), taken in order as below.
@@ -353,8 +353,8 @@ def _as_value(value: Any, x: np.ndarray) -> float:
     return f if math.isfinite(f) else math.inf
 
 
-def _batch_of(fun: Callable[[np.ndarray], Any], residuals: bool
-              ) -> Callable[[np.ndarray], Any] | None:
+def batch_of(fun: Callable[[np.ndarray], Any], residuals: bool
+             ) -> Callable[..., Any] | None:
     """What evaluates a batch of rows for ``fun`` in one call, if anything: its
     ``evaluate_batch`` (φ), or for the ``residuals`` method of an object (an update
     problem's) that object's ``residuals_batch``."""

@@ -17,6 +17,7 @@ import numpy as np
 from femupdate._optional import require
 from femupdate._parallel import limit_blas_threads
 from femupdate.errors import ConfigError, FemupdateError
+from femupdate.optimize.minimize import batch_of
 
 #: Seconds to wait for a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
@@ -70,7 +71,7 @@ class RunExecutor:
             return obj
         return self.client.scatter(obj, broadcast=True, hash=False)
 
-    def mapper(self, fun: Callable[[np.ndarray], Any]
+    def mapper(self, fun: Callable[[np.ndarray], Any], *, residuals: bool = False
                ) -> Callable[[Callable[[np.ndarray], Any], Iterable[np.ndarray]], Iterator[Any]]:
         """A ``map`` for ``minimize`` that evaluates ``fun`` over the workers.
 
@@ -78,16 +79,36 @@ class RunExecutor:
         evaluates it (``f`` must be that same ``fun``) over ``rows`` in order, split in up to
         ``capacity`` batches run in parallel. Closing the iterator cancels the batches not yet
         started, as ``minimize`` needs when a run stops within a population.
+
+        On local worker processes, a ``fun`` that evaluates batches in parallel threads (an
+        update problem evaluated compiled, or its ``residuals`` with ``residuals=True``: see
+        ``UpdateProblem.parallel_batches``) gets its rows as one batch split over ``capacity``
+        threads of this process instead: nothing is pickled, and the values are the same (a
+        batch gives the single calls' bits).
         """
-        shared = self.share(fun)
+        threaded = self._threaded_batch(fun, residuals)
+        shared = None if threaded is not None else self.share(fun)
 
         def map_rows(f: Callable[[np.ndarray], Any], rows: Iterable[np.ndarray]
                      ) -> Iterator[Any]:
             if f is not fun:
                 raise ConfigError("this map evaluates only the function it was made for")
+            if threaded is not None:
+                return iter(threaded(np.array(list(rows), dtype=float), threads=self.capacity))
             return self._map_batches(shared, list(rows))
 
         return map_rows
+
+    def _threaded_batch(self, fun: Callable[[np.ndarray], Any], residuals: bool
+                        ) -> Callable[..., Any] | None:
+        """``fun``'s batch method when it runs rows in parallel threads and the workers are
+        this machine's processes (not Dask's, nor a caller's executor); else None."""
+        if not (self.owned and isinstance(self.executor, ProcessPoolExecutor)):
+            return None
+        batch = batch_of(fun, residuals)
+        if not getattr(getattr(batch, "__self__", None), "parallel_batches", False):
+            return None
+        return batch
 
     def _map_batches(self, shared: Any, batch: list[np.ndarray]) -> Iterator[Any]:
         if self.inline or self.capacity == 1 or len(batch) <= 1:

@@ -44,7 +44,7 @@ CHUNK_EVALS = 100_000
 CHUNK_SECONDS = 1.0
 #: Methods whose steps evaluate a population (several candidates; multistart-lm: its pools
 #: and Jacobians): with fewer runs than workers their populations are spread over the
-#: workers instead.
+#: workers instead (``RunExecutor.mapper``: compiled problems over threads of this process).
 POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm"})
 
 
@@ -293,9 +293,9 @@ def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: lis
     """Keep ``capacity`` runs in flight, one chunk each, until every run is done."""
     if spec.method in POPULATION_METHODS and len(pending) < ex.capacity and not ex.inline:
         # Fewer runs than workers: the runs go one after the other in this process and each
-        # population is spread over the workers.
+        # population is spread over the workers (or, compiled, over as many threads).
         inline = InlineExecutor()
-        spread = ex.mapper(fun)
+        spread = ex.mapper(fun, residuals=spec.residuals)
 
         def submit(task: ChunkTask) -> Future:
             return inline.submit(advance_chunk, fun, task, spread)
