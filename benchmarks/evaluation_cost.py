@@ -64,6 +64,9 @@ except ImportError:  # a femupdate before issue 14: the reference path only
 
 REPO = Path(__file__).resolve().parents[1]
 BATCHES = (1, 10, 100)
+#: At least this many timed batches (heavy cases have few): a median of three is at the mercy
+#: of one slow moment of the host.
+MIN_BATCH_REPS = 9
 N_POINTS = 64
 
 # --------------------------------------------------------------------------- the cases
@@ -219,7 +222,7 @@ def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
     for k in BATCHES:
         if heavy and k > 10:
             continue
-        reps = max(3, repeat // k // (10 if heavy else 1))
+        reps = max(MIN_BATCH_REPS, repeat // k // (10 if heavy else 1))
         blocks = [np.roll(np.resize(X, (max(k, len(X)), X.shape[1])), -j * k, axis=0)[:k]
                   for j in range(4)]
         wall = median_us(lambda i, blocks=blocks: problem.evaluate_batch(blocks[i % 4]), reps)
@@ -231,7 +234,7 @@ def batch_rows(problem: UpdateProblem, X: np.ndarray, repeat: int
     # Residual vectors (what multistart-lm's finite-difference Jacobian asks, n + 1 points a
     # batch): one call per point, then the batch on one and on two threads.
     k = len(problem.bounds) + 1
-    reps = max(3, repeat // k // (10 if heavy else 1))
+    reps = max(MIN_BATCH_REPS, repeat // k // (10 if heavy else 1))
     blocks = [np.roll(X, -j * k, axis=0)[:k] for j in range(4)]
     for label, run in (
             (f"r, {k} single calls", lambda b: [problem.residuals(x) for x in b]),
