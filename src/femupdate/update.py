@@ -176,6 +176,20 @@ class TrialProblem:
                 return r
         return self.residuals(self.case.to_physical(np.asarray(x, dtype=float)))
 
+    def residuals_rows(self, X: np.ndarray) -> list[np.ndarray]:
+        """:meth:`residuals_at` of every row of ``X``, in order, each bit for bit its single
+        call (the compiled evaluator runs several rows per call where it can)."""
+        rows = (self.evaluator.residuals_batch(X) if self.compiled
+                else [None] * X.shape[0])
+        out = []
+        for x, r in zip(X, rows, strict=True):
+            if r is None:  # step by step, which also says why a failed evaluation failed
+                r = self.residuals(self.case.to_physical(x))
+            else:
+                self.last_failure = None
+            out.append(r)
+        return out
+
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x`` through the simulator, the prediction and the error
         function, step by step (what the compiled evaluator is tested against)."""
@@ -371,10 +385,10 @@ class UpdateProblem:
 
     def residuals_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """The residual vectors of every row of ``X`` (k, n) as the rows of a (k, m) array,
-        each the single call's bit for bit: one compiled evaluation per row (a point's
-        differences are read out before the next overwrites them). ``threads`` as in
-        :meth:`evaluate_batch`: the columns of a finite-difference Jacobian on several
-        cores of one process."""
+        each the single call's bit for bit: one compiled evaluation per row, or per group of
+        rows with the friction kernel in SIMD lanes (each point's differences read out before
+        the next overwrite them). ``threads`` as in :meth:`evaluate_batch`: the columns of a
+        finite-difference Jacobian on several cores of one process."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         rows = _over_threads(self._residual_rows, X, threads)
         failed = np.flatnonzero(~np.all(np.isfinite(rows), axis=1))
@@ -384,7 +398,8 @@ class UpdateProblem:
 
     def _residual_rows(self, X: np.ndarray) -> np.ndarray:
         """The residual vectors of the rows of X in this thread (a pool thread's task)."""
-        return np.vstack([self.residuals(x) for x in X])
+        parts = [t.residuals_rows(X) for t in self.fitted]
+        return np.vstack([self._joined([p[i] for p in parts]) for i in range(X.shape[0])])
 
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x``, step by step (the compiled evaluator's reference)."""
@@ -439,6 +454,11 @@ class UpdateProblem:
         else:
             x = np.asarray(x, dtype=float)
             parts = [t.residuals_at(x) for t in self.fitted]
+        return self._joined(parts)
+
+    def _joined(self, parts: Sequence[np.ndarray]) -> np.ndarray:
+        """r of the case from its fitted trials' (each scaled by the square root of its
+        share of φ)."""
         if len(parts) == 1:
             return parts[0]
         return np.concatenate([math.sqrt(share) * r

@@ -29,6 +29,7 @@ from numba import njit
 from femupdate.data import signal
 from femupdate.evaluation import central, exact
 from femupdate.evaluation.assembly import ASSEMBLY_OK, AssemblyPlan, assemble, plan_assembly
+from femupdate.evaluation.lanes import LANES, LaneWork, lane_work
 from femupdate.evaluation.processing import Post, process_and_compare
 
 
@@ -236,6 +237,7 @@ class Evaluator:
         self._central_batch: Callable[..., None] = _central_batch
         self._exact_batch: Callable[..., None] = _exact_batch
         self._written: Any = None  # the written-out kernel's module (codegen), if used
+        self.lanes: LaneWork | None = None  # the friction kernel's SIMD lanes, if written
         self._written_modes = -1
         if self.method == "exact":
             self.work: Any = exact.exact_work(n, n_out)
@@ -249,6 +251,7 @@ class Evaluator:
                 if written is not None:
                     self._central_batch = written.batch
                     self._written = written
+                    self.lanes = lane_work(n, self.n_friction, n_out, self.ag.size)
         self.y = np.empty((n_out, self.ag.size))
         self.per_channel = np.empty(n_out)
         self.zi = np.empty(2 * self._sos.shape[0])
@@ -284,6 +287,8 @@ class Evaluator:
             self._batch = self._central_batch
             self._static = (*head, self.fi, self.fj, self.ag, self.r_out, self.outputs,
                             self.dt / self.substeps, self.substeps, self.quantity, *tail)
+            if self.lanes is not None:  # the written batch runs rows in SIMD lanes
+                self._static += (self.lanes,)
         self._entry: dict[bool, Callable[..., None]] = {}
         self._single = (np.empty((1, self.plan.log_scale.size)), np.empty(1),
                         np.empty(1, dtype=np.int64))
@@ -332,6 +337,29 @@ class Evaluator:
         if status[0] == REFERENCE or not np.isfinite(phi[0]):
             return None
         return scaled_residuals(self.post, self.y)
+
+    def residuals_batch(self, X: np.ndarray) -> list[np.ndarray | None]:
+        """:meth:`residuals` of every row of ``X`` (k, n_params), each bit for bit its single
+        call; with the friction kernel in SIMD lanes, ``LANES`` rows per compiled call (each
+        lane's differences read out before the next group overwrites them)."""
+        X = np.ascontiguousarray(X, dtype=float)
+        lanes = self.lanes
+        if lanes is None or not self.supported or self.zero_phase:
+            return [self.residuals(x) for x in X]
+        out: list[np.ndarray | None] = []
+        for start in range(0, X.shape[0], LANES):
+            group = X[start:start + LANES]
+            if group.shape[0] == 1:
+                out.append(self.residuals(group[0]))
+                continue
+            phi = np.empty(group.shape[0])
+            status = np.full(group.shape[0], REFERENCE, dtype=np.int64)
+            self._run(group, False, phi, status)
+            lane_of = {int(row): q for q, row in enumerate(lanes.rows) if row >= 0}
+            for i in range(group.shape[0]):
+                ok = status[i] == DONE and np.isfinite(phi[i]) and i in lane_of
+                out.append(scaled_residuals(self.post, lanes.y[lane_of[i]]) if ok else None)
+        return out
 
     def _run(self, X: np.ndarray, raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
         """The compiled batch over the rows of X (C-contiguous float64)."""
