@@ -13,8 +13,9 @@ element's elastic deformation ``t = clamp(y − y_r, ±f_u/k_r)`` (force ``k_r t
 ``y − t``): the same law as :func:`femupdate.model.friction.elasto_slip`, which clamps the offset
 and then the force, with two clamps fewer per element and step; ``k_r`` is folded into the
 coefficients that bring the force into the modes, and the base acceleration is interpolated
-once per substep, not mode by mode. Together 1.28 → 1.05 ms for the friction bridge's written-out
-kernel (47,680 steps, timed interleaved); the outputs move by rounding (2e-12 relative).
+once per substep, not mode by mode. Together 1.28 → 1.05 ms for the friction bridge's kernel
+as numba code written out for its size (47,680 steps, timed interleaved); the outputs move by
+rounding (2e-12 relative). The written-out kernel is now LLVM IR (:mod:`.lanes`).
 
 A damping matrix that the modes do not diagonalise (discrete dashpots) is run by the simulator
 in physical coordinates: the status then sends the caller to it.

@@ -27,6 +27,7 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
+from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from femupdate.simulate._common import DIVERGENCE_LIMIT
@@ -107,7 +108,7 @@ class _Builder:
         return self.b.fsub(x, y, flags=_FLAGS)
 
     def total(self, terms: list[ir.Value]) -> ir.Value:
-        """``terms[0] + terms[1] + …``, left to right (as the written-out scalar kernel)."""
+        """``terms[0] + terms[1] + …``, left to right."""
         acc = terms[0]
         for t in terms[1:]:
             acc = self.add(acc, t)
@@ -134,15 +135,20 @@ def friction_intrinsic(n: int, n_friction: int, n_out: int, substeps: int,
     force or zero rows, n_out outputs, ``substeps`` per sample), the bit mask of the lanes that
     diverged as its value.
 
-    Per lane, the operations of :func:`femupdate.evaluation.central._kernel` in the order of
-    its sums: the element law on the elastic deformation, the modal update, the outputs at
-    each sample's first substep. Once every lane has diverged the remaining samples are
-    skipped.
+    Per lane, the arithmetic of :func:`femupdate.evaluation.central._kernel` (the element law
+    on the elastic deformation, the modal update, the outputs at each sample's first substep),
+    its sums associated otherwise. Once every lane has diverged the remaining samples are
+    skipped. The arrays must be C-contiguous float64 of the sizes given (refused at typing
+    otherwise, for layout and type).
     """
 
     @intrinsic
     def kernel(typingctx: Any, ag: Any, h: Any, quantity: Any, r_out: Any, modal: Any, yf: Any,
                pf: Any, limit: Any, po: Any, eta0: Any, y: Any) -> tuple[Any, Callable]:
+        arrays = (ag, r_out, modal, yf, pf, limit, po, eta0, y)
+        if not all(isinstance(a, types.Array) and a.layout == "C" and a.dtype == types.float64
+                   for a in arrays):
+            raise TypingError("friction lanes: the arrays must be C-contiguous float64")
         sig = types.int64(ag, h, quantity, r_out, modal, yf, pf, limit, po, eta0, y)
 
         def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> ir.Value:
