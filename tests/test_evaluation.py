@@ -17,8 +17,8 @@ relative, physically nothing), capped at 1e-10.
 - The frictional bridge, compared to 1e-10 outright: stick-slip transitions amplify rounding
   along the record (one ulp of one parameter moves the reference's φ by up to 1.5e-11 on the
   paper-length record) and central differences at ten substeps form accelerations as second
-  differences that cancel four digits (differences up to 6e-12 measured at eight points, 2.4e-11
-  with a zero-phase filter of the prediction; the same with the generic kernel).
+  differences that cancel four digits (differences up to 7e-12 measured at eight points, 7e-11
+  with a zero-phase filter of the prediction; 1e-12 and 5e-11 with the generic kernel).
 
 A batch gives the single calls' values bit for bit. No timings here:
 ``benchmarks/evaluation_cost.py`` measures them.
