@@ -74,7 +74,7 @@ def _lanes(module: ModuleType, works: list[central.CentralWork], ag: np.ndarray,
            quantity: int) -> tuple[np.ndarray, int]:
     lanes = lane_work(3, 3, OUTPUTS.size, ag.size)
     for q, w in enumerate(works):
-        to_lane(w.modal, w.yf, w.pf, w.limit, w.po, w.eta0, lanes, q)
+        to_lane(w, lanes, q)
     mask = module.run_lanes(ag, DT / SUBSTEPS, quantity, np.ones(OUTPUTS.size), lanes)
     return lanes.y.copy(), int(mask)
 

@@ -169,12 +169,7 @@ class TrialProblem:
     def residuals_at(self, x: np.ndarray) -> np.ndarray:
         """The residual vector at search point ``x``: compiled when it can be, else (and for
         a failed evaluation, which then says why) step by step."""
-        if self.compiled:
-            r = self.evaluator.residuals(np.asarray(x, dtype=float))
-            if r is not None:
-                self.last_failure = None
-                return r
-        return self.residuals(self.case.to_physical(np.asarray(x, dtype=float)))
+        return self.residuals_rows(np.asarray(x, dtype=float)[None, :])[0]
 
     def residuals_rows(self, X: np.ndarray) -> list[np.ndarray]:
         """:meth:`residuals_at` of every row of ``X``, in order, each bit for bit its single

@@ -132,8 +132,7 @@ def batch(X, plan, p, M, minv, C, K, load, kr, fu, fi, fj, ag, r_out, outputs, h
             phi[row], status[row], active = central_setup(
                 X[row], plan, p, M, minv, C, K, load, kr, fu, fi, fj, ag, outputs, h, work)
             if status[row] == RUN:
-                to_lane(work.modal, work.yf, work.pf, work.limit, work.po, work.eta0,
-                        lane_work, filled)
+                to_lane(work, lane_work, filled)
                 rows[filled] = row
                 filled += 1
             row += 1

@@ -267,12 +267,11 @@ def _store_lanes(v: _Builder, value: ir.Value, y: ir.Value, o: int, n_out: int, 
 
 
 @njit(cache=True)
-def to_lane(modal: np.ndarray, yf: np.ndarray, pf: np.ndarray, limit: np.ndarray,
-            po: np.ndarray, eta0: np.ndarray, lanes: LaneWork, q: int) -> None:
-    """One prepared point's coefficients (``CentralWork``'s arrays) into lane ``q``."""
-    lanes.modal[:, :, q] = modal
-    lanes.yf[:, :, q] = yf
-    lanes.pf[:, :, q] = pf
-    lanes.limit[:, q] = limit
-    lanes.po[:, :, q] = po
-    lanes.eta0[:, :, q] = eta0
+def to_lane(work: Any, lanes: LaneWork, q: int) -> None:
+    """One prepared point's coefficients (a ``central.CentralWork``) into lane ``q``."""
+    lanes.modal[:, :, q] = work.modal
+    lanes.yf[:, :, q] = work.yf
+    lanes.pf[:, :, q] = work.pf
+    lanes.limit[:, q] = work.limit
+    lanes.po[:, :, q] = work.po
+    lanes.eta0[:, :, q] = work.eta0
