@@ -7,7 +7,8 @@ build function (`[model.opensees]`: femupdate runs the analysis under the measur
 motion). Both run in a child process of their own. Here the paper's viscous bridge, written
 both ways in `examples/bridge-external/` (`bridge_model.py`: numpy and scipy only;
 `bridge_opensees.py`: `ElasticTimoshenkoBeam`, `zeroLength` springs and dampers), is updated
-from the same virtual experiment as the built-in model. See [Your own model](../../external-models.md).
+from the same virtual experiment as the built-in model. See
+[Your own model](../../external-models.md).
 
 The full comparison (the three models updated, about 2.5 minutes, most of it OpenSees):
 
