@@ -209,3 +209,19 @@ def test_bash_blocks_run(document: Path, checkout_copy: Path) -> None:
                     assert _squeezed(line) in output, (
                         f"{printed.label}: {line.strip()!r} is not what it prints now:\n"
                         + done.stdout[-3000:])
+
+
+def test_the_api_page_documents_every_public_name() -> None:
+    """docs/api.md has one ``::: module.NAME`` directive per name of ``femupdate.__all__``,
+    each naming where the object is defined."""
+    import importlib
+
+    import femupdate
+
+    directives = re.findall(r"^::: ([\w.]+)$", (ROOT / "docs" / "api.md").read_text(),
+                            flags=re.MULTILINE)
+    documented = {path.rsplit(".", 1)[1]: path for path in directives}
+    assert set(documented) == set(femupdate.__all__) - {"__version__"}
+    for name, path in documented.items():
+        module, attribute = path.rsplit(".", 1)
+        assert getattr(importlib.import_module(module), attribute) is getattr(femupdate, name)
