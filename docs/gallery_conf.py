@@ -1,0 +1,50 @@
+"""mkdocs-gallery configuration (``conf_script`` in mkdocs.yml).
+
+femupdate draws its figures outside pyplot (``femupdate.report.canvas.new_figure``: nothing to
+close, no global state), so matplotlib's own scraper never sees them. This scraper shows every
+matplotlib ``Figure`` an example binds to a top-level name (or puts in a top-level list), once,
+after the code block that made it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from mkdocs_gallery.scrapers import HLIST_HEADER, figure_md_or_html
+
+#: Marks a figure already shown, so that a figure kept in a variable is drawn once.
+_SHOWN = "_femupdate_docs_shown"
+
+
+def _figures(value: Any) -> list[Any]:
+    from matplotlib.figure import Figure
+
+    if isinstance(value, Figure):
+        return [value]
+    if isinstance(value, list | tuple):
+        return [v for v in value if isinstance(v, Figure)]
+    return []
+
+
+def femupdate_figures(block: Any, script: Any, **kwargs: Any) -> str:
+    """Save the example's new figures as PNG and return the markdown that shows them."""
+    new = []
+    for value in list(script.run_vars.example_globals.values()):
+        for fig in _figures(value):
+            if not getattr(fig, _SHOWN, False) and all(fig is not f for f in new):
+                new.append(fig)
+    if not new:
+        return ""
+    paths = []
+    for fig, path in zip(new, script.run_vars.image_path_iterator, strict=False):
+        fig.savefig(Path(path), dpi=100)
+        setattr(fig, _SHOWN, True)
+        paths.append(Path(path))
+    if len(paths) == 1:
+        return figure_md_or_html(paths, script)
+    items = (f"<li>\n{figure_md_or_html([p], script, raw_html=True)}\n</li>" for p in paths)
+    return HLIST_HEADER % "".join(items)
+
+
+conf = {"image_scrapers": ("matplotlib", femupdate_figures)}
