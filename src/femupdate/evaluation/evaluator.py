@@ -9,7 +9,7 @@ loop, the raw outputs into a preallocated buffer (or a kernel written out for th
 share a batch); a single point is a batch of one, so the two give the same bits.
 
 What the compiled path does not cover is evaluated by the reference (``UpdateProblem``'s
-simulator path), point by point: Newmark, a damping matrix the undamped modes do not
+simulator path), point by point: Newmark, Bouc–Wen elements, a damping matrix the undamped modes do not
 diagonalise under central differences, an ill-conditioned eigenvector matrix in the exact
 discretisation (the simulator's dense fallback), parameter values out of range or a mass matrix
 that is not positive definite (the reference raises the ModelError that says which element).
@@ -202,7 +202,8 @@ class Evaluator:
         self.plan = plan_assembly(structure, names, [p.scale == "log" for p in case.parameters],
                                   problem.direction, case.nominal())
         n = self.plan.n
-        fr = structure.assemble(case.nominal(), problem.direction).friction
+        nominal_system = structure.assemble(case.nominal(), problem.direction)
+        fr = nominal_system.friction
         self.n_friction = 0 if fr is None else fr.count
         self.fi = (np.zeros(0, dtype=np.int64) if fr is None
                    else np.ascontiguousarray(fr.dof_i, dtype=np.int64))
@@ -232,7 +233,9 @@ class Evaluator:
         self.zero_phase = bool(problem.filter and pre.zero_phase)
         self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
                           problem.integrate, self.dt)
-        self.supported = self.method in ("exact", "nonlinear", "central_difference")
+        # Bouc–Wen elements run on the simulator's compiled kernels, point by point.
+        self.supported = (self.method in ("exact", "nonlinear", "central_difference")
+                          and not nominal_system.n_bouc_wen)
         n_out = self.outputs.size
         self._central_batch: Callable[..., None] = _central_batch
         self._exact_batch: Callable[..., None] = _exact_batch

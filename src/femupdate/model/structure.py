@@ -923,12 +923,16 @@ def shear_building(
     masses: Sequence[Value],
     stiffnesses: Sequence[Value],
     dampers: Sequence[Value] | None = None,
+    *,
+    frictions: Sequence[Mapping[str, Value]] | None = None,
+    bouc_wen: Sequence[Mapping[str, Value]] | None = None,
 ) -> Structure:
     """A shear building: one horizontal DOF per storey, storey springs between floors.
 
     Floors are nodes ``"F1"`` (lowest) … ``"Fn"`` with DOF ``ux``; storey ``i`` has a spring
-    ``"k<i>"`` (and a damper ``"c<i>"``) between floor ``i`` and the floor below (the ground for
-    ``i = 1``), and floor ``i`` a mass ``"m<i>"``. Any value may be a parameter name.
+    ``"k<i>"`` (and a damper ``"c<i>"``, an elasto-slip element ``"f<i>"``, a Bouc–Wen element
+    ``"bw<i>"``) between floor ``i`` and the floor below (the ground for ``i = 1``), and floor
+    ``i`` a mass ``"m<i>"``. Any value may be a parameter name.
 
     Parameters
     ----------
@@ -936,6 +940,11 @@ def shear_building(
         Floor masses and storey stiffnesses, bottom up, of equal length.
     dampers : sequence of float or str, optional
         Storey viscous damping coefficients, same length.
+    frictions : sequence of mapping, optional
+        Per storey ``{"k_r": ..., "f_u": ...}`` (:meth:`Structure.add_friction`), same length.
+    bouc_wen : sequence of mapping, optional
+        Per storey ``{"k", "alpha", "A", "beta", "gamma", "n"}`` (:meth:`Structure.add_bouc_wen`;
+        ``alpha``, ``A`` and ``n`` may be left out), same length.
     """
     n = len(masses)
     if n == 0:
@@ -944,10 +953,12 @@ def shear_building(
         raise ModelError(
             f"shear_building: {len(stiffnesses)} stiffnesses for {n} masses; give one per storey"
         )
-    if dampers is not None and len(dampers) != n:
-        raise ModelError(
-            f"shear_building: {len(dampers)} dampers for {n} masses; give one per storey"
-        )
+    for what, given in (("dampers", dampers), ("frictions", frictions),
+                        ("bouc_wen", bouc_wen)):
+        if given is not None and len(given) != n:
+            raise ModelError(
+                f"shear_building: {len(given)} {what} for {n} masses; give one per storey"
+            )
     s = Structure(dofs_per_node=1)
     for i in range(1, n + 1):
         s.add_node(f"F{i}", x=0.0, y=float(i))
@@ -957,4 +968,9 @@ def shear_building(
         s.add_spring(f"F{i}", "ux", stiffnesses[i - 1], name=f"k{i}", **below)
         if dampers is not None:
             s.add_damper(f"F{i}", "ux", dampers[i - 1], name=f"c{i}", **below)
+        if frictions is not None:
+            fr = frictions[i - 1]
+            s.add_friction(f"F{i}", "ux", fr["k_r"], fr["f_u"], name=f"f{i}", **below)
+        if bouc_wen is not None:
+            s.add_bouc_wen(f"F{i}", "ux", name=f"bw{i}", **below, **bouc_wen[i - 1])
     return s

@@ -35,7 +35,8 @@ def _model_text(ctx: Context) -> str:
     else:
         parts = [f"{len(model.nodes)} nodes"]
         parts += [f"{len(getattr(model, key))} {key}"
-                  for key in ("beams", "springs", "dampers", "frictions", "masses", "supports")
+                  for key in ("beams", "springs", "dampers", "frictions", "bouc_wen", "masses",
+                              "supports")
                   if getattr(model, key)]
     dofs = (f"{ctx.model.structure.n_dof} free DOFs" if ctx.model is not None
             else str(ctx.model_note))
