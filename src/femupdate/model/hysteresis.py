@@ -35,7 +35,7 @@ from numba import njit
 
 from femupdate.errors import ModelError
 
-__all__ = ["BOUC_WEN_PARAMETERS", "bouc_wen_force", "bouc_wen_initial_tangent",
+__all__ = ["BOUC_WEN_PARAMETERS", "bouc_wen_force", "bouc_wen_initial_tangent", "bouc_wen_loop",
            "bouc_wen_max_tangent", "bouc_wen_rate", "bouc_wen_step_limit", "bouc_wen_update",
            "check_bouc_wen_parameters"]
 
@@ -79,6 +79,38 @@ def bouc_wen_update(z: float, dy: float, A: float, beta: float, gamma: float, n:
 def bouc_wen_force(y: float, z: float, k: float, alpha: float) -> float:
     """Force ``α k y + (1 − α) k z``, positive in tension."""
     return k * (alpha * y + (1.0 - alpha) * z)
+
+
+@njit(cache=True)
+def _loop(y: np.ndarray, table: np.ndarray, dy_max: float) -> tuple[np.ndarray, np.ndarray]:
+    k, alpha, A, beta, gamma, n = table
+    z = np.zeros(y.shape[0])
+    f = np.zeros(y.shape[0])
+    f[0] = bouc_wen_force(y[0], 0.0, k, alpha)
+    for i in range(1, y.shape[0]):
+        z[i] = bouc_wen_update(z[i - 1], y[i] - y[i - 1], A, beta, gamma, n, dy_max)
+        f[i] = bouc_wen_force(y[i], z[i], k, alpha)
+    return f, z
+
+
+def bouc_wen_loop(y: np.ndarray, k: float, alpha: float, A: float, beta: float,  # noqa: N803
+                  gamma: float, n: float) -> tuple[np.ndarray, np.ndarray]:
+    """Force and ``z`` of one element driven through the deformations ``y`` (from ``z = 0``).
+
+    The update the integrators use between two steps, applied between consecutive samples
+    (the deformation linear in between): a hysteresis loop under a prescribed history.
+
+    Returns
+    -------
+    force, z : ndarray, shape like ``y``
+    """
+    table = np.array([k, alpha, A, beta, gamma, n], dtype=float)
+    check_bouc_wen_parameters(table[None, :])
+    y = np.ascontiguousarray(y, dtype=float)
+    if y.ndim != 1 or y.size == 0 or not np.all(np.isfinite(y)):
+        raise ModelError(f"bouc_wen_loop: y must be a finite 1-D array, got shape {y.shape}")
+    dy_max = float(bouc_wen_step_limit(A, beta, gamma, n))
+    return _loop(y, table, dy_max)
 
 
 def bouc_wen_step_limit(A: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
