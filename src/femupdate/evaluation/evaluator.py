@@ -9,10 +9,10 @@ loop, the raw outputs into a preallocated buffer (or a kernel written out for th
 share a batch); a single point is a batch of one, so the two give the same bits.
 
 What the compiled path does not cover is evaluated by the reference (``UpdateProblem``'s
-simulator path), point by point: Newmark, Bouc–Wen elements, a damping matrix the undamped modes do not
-diagonalise under central differences, an ill-conditioned eigenvector matrix in the exact
-discretisation (the simulator's dense fallback), parameter values out of range or a mass matrix
-that is not positive definite (the reference raises the ModelError that says which element).
+simulator path), point by point: Newmark, Bouc–Wen elements, a damping matrix the undamped
+modes do not diagonalise under central differences, an ill-conditioned eigenvector matrix in the
+exact discretisation (the simulator's dense fallback), parameter values out of range or a mass
+matrix that is not positive definite (the reference raises the ModelError that says which element).
 A zero-phase high-pass of the prediction is applied by scipy between the compiled simulation
 and the compiled comparison.
 """

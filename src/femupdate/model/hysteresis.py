@@ -64,7 +64,7 @@ def bouc_wen_update(z: float, dy: float, A: float, beta: float, gamma: float, n:
     direction = 1.0 if dy > 0.0 else -1.0
     parts = 1
     if abs(dy) > dy_max:
-        parts = int(math.ceil(abs(dy) / dy_max))
+        parts = math.ceil(abs(dy) / dy_max)
     d = dy / parts
     for _ in range(parts):
         k1 = bouc_wen_rate(z, direction, A, beta, gamma, n)
@@ -93,7 +93,7 @@ def _loop(y: np.ndarray, table: np.ndarray, dy_max: float) -> tuple[np.ndarray, 
     return f, z
 
 
-def bouc_wen_loop(y: np.ndarray, k: float, alpha: float, A: float, beta: float,  # noqa: N803
+def bouc_wen_loop(y: np.ndarray, k: float, alpha: float, A: float, beta: float,
                   gamma: float, n: float) -> tuple[np.ndarray, np.ndarray]:
     """Force and ``z`` of one element driven through the deformations ``y`` (from ``z = 0``).
 

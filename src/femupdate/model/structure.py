@@ -33,8 +33,8 @@ from femupdate.model.elements import (
     frame_stiffness,
     spring_matrix,
 )
-from femupdate.model.modes import check_mass_matrix
 from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
+from femupdate.model.modes import check_mass_matrix
 from femupdate.model.system import BoucWenElements, FrictionElements, System
 
 __all__ = ["DOF_NAMES", "Structure", "shear_building"]
@@ -401,7 +401,7 @@ class Structure:
         k: Value,
         *,
         alpha: Value = 0.0,
-        A: Value = 1.0,  # noqa: N803 (the law's symbol)
+        A: Value = 1.0,
         beta: Value,
         gamma: Value,
         n: Value = 1.0,
