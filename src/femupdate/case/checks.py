@@ -179,6 +179,7 @@ def case_issues(case: Case) -> list[Issue]:
     if case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
                        "has friction or Bouc–Wen elements", "'nonlinear' (or leave it out)"))
+    issues += bouc_wen_bound_issues(case)
     if case.trials and case.data is None:
         issues.append(("trials", "[[trials]] given without [data]",
                        "a [data] section: how to read the records, and the channels a trial "
@@ -191,6 +192,38 @@ def case_issues(case: Case) -> list[Issue]:
                            "at least one trial with role = \"fit\""))
     for spec in case.trial_specs():
         issues += _data_issues(case, spec.data, spec.path)
+    return issues
+
+
+def bouc_wen_bound_issues(case: Case) -> list[Issue]:
+    """Bouc–Wen elements whose (beta, gamma) can leave −β < γ ≤ β inside the parameters'
+    bounds: the search would reach points without hysteresis."""
+    bounds = {p.name: (p.lower, p.upper) for p in case.parameters}
+    model = case.model
+    pairs: list[tuple[str, object, object]] = [
+        (f"model.bouc_wen[{i}].gamma", bw.beta, bw.gamma) for i, bw in enumerate(model.bouc_wen)]
+    storeys = model.shear_building.bouc_wen if model.shear_building is not None else None
+    if storeys is not None:
+        n = len(model.shear_building.masses)
+        for i in range(n):
+            beta, gamma = (v[i] if isinstance(v, list) else v for v in (storeys.beta,
+                                                                        storeys.gamma))
+            pairs.append((f"model.shear_building.bouc_wen.gamma (storey {i + 1})", beta,
+                          gamma))
+    issues: list[Issue] = []
+    for path, beta, gamma in pairs:
+        if not (isinstance(beta, str) or isinstance(gamma, str)):
+            continue  # two numbers: checked with the section
+        if (isinstance(beta, str) and beta not in bounds) or (
+                isinstance(gamma, str) and gamma not in bounds):
+            continue  # an undeclared parameter: said elsewhere
+        b_low = bounds[beta][0] if isinstance(beta, str) else beta
+        g_low, g_high = bounds[gamma] if isinstance(gamma, str) else (gamma, gamma)
+        if not (-b_low < g_low and g_high <= b_low):
+            issues.append((path, f"beta = {format_value(beta)} and gamma = "
+                           f"{format_value(gamma)} can leave -beta < gamma <= beta within "
+                           "the parameters' bounds (no hysteresis there)",
+                           "bounds with -(lowest beta) < gamma <= lowest beta everywhere"))
     return issues
 
 
