@@ -212,6 +212,7 @@ def identification(seeds: int, max_evals: int) -> dict[str, Any]:
     motion = ec8_motion(np.random.default_rng(2026), rate=RATE, duration=4.0, pga_g=0.35)
     names = list(TRUTH)
     estimates, phis, walls, yielded = [], [], [], []
+    costs: dict[str, float] = {}
     for child in np.random.SeedSequence(22).spawn(seeds):
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp)
@@ -232,6 +233,8 @@ def identification(seeds: int, max_evals: int) -> dict[str, Any]:
                 z_u = [(1.0 / (TRUTH[b] + 2.5e5)) ** 0.5 for b in ("b1", "b2")]
                 yielded = [float(np.abs(z[:, i]).max() / z_u[i]) for i in range(2)]
                 del response
+            if not costs:
+                costs.update(phi_cost(case))
             start = time.perf_counter()
             result = run_case(case, None, sensitivities=False)
             walls.append(time.perf_counter() - start)
@@ -256,10 +259,38 @@ def identification(seeds: int, max_evals: int) -> dict[str, Any]:
         ", ".join(f"{n}={v:.5g}" for n, v in zip(names, row, strict=True))
         + f" (φ {phi:.3e})" for row, phi in zip(est, phis, strict=True)))
     print(f"   wall per seed: {np.median(walls):.1f} s (median), load {os.getloadavg()}")
+    print(f"   φ per evaluation: compiled {1e3 * costs['compiled_s']:.2f} ms, step-by-step "
+          f"reference {1e3 * costs['reference_s']:.2f} ms (medians of {costs['calls']:.0f} "
+          "points; the two agree to "
+          f"{costs['max_relative_difference']:.1e} relative)")
     return {"names": names, "truth": truth.tolist(), "estimates": est.tolist(),
             "phi": phis, "mean": mean.tolist(), "std": std.tolist(),
             "max_error_over_std": worst.tolist(), "bias_over_sem": bias.tolist(),
-            "peak_z_over_zu": yielded, "wall_s": walls}
+            "peak_z_over_zu": yielded, "wall_s": walls, "phi_cost": costs}
+
+
+def phi_cost(case: Any, calls: int = 30) -> dict[str, float]:
+    """Median time of φ at random points by the compiled evaluator and by the reference."""
+    from femupdate.evaluation import evaluator_for
+    from femupdate.experiment import load_experiments
+    from femupdate.update import UpdateProblem
+
+    trial = UpdateProblem(case, load_experiments(case)).trials[0]
+    evaluator = evaluator_for(trial)
+    lower, upper = (np.array(b) for b in zip(*case.bounds, strict=True))
+    X = lower + (upper - lower) * np.random.default_rng(0).random((calls, lower.size))
+    evaluator(X[0])  # compile or load from the cache
+    times: dict[str, list[float]] = {"compiled_s": [], "reference_s": []}
+    values = {"compiled_s": [], "reference_s": []}
+    for x in X:  # interleaved
+        for key, fun in (("compiled_s", evaluator), ("reference_s", trial.phi_reference)):
+            start = time.perf_counter()
+            values[key].append(fun(x))
+            times[key].append(time.perf_counter() - start)
+    diff = np.max(np.abs(np.subtract(values["compiled_s"], values["reference_s"]))
+                  / np.abs(values["reference_s"]))
+    return {key: float(np.median(v)) for key, v in times.items()} | {
+        "calls": float(calls), "max_relative_difference": float(diff)}
 
 
 SHORTHAND = """\

@@ -51,7 +51,9 @@ def bouc_wen_rate(z: float, direction: float, A: float, beta: float, gamma: floa
     if az == 0.0:
         return A
     psi = gamma + (beta if direction * z > 0.0 else -beta)
-    return A - psi * az ** n
+    # the common exponents without pow (the same values: both are correctly rounded)
+    power = az if n == 1.0 else (az * az if n == 2.0 else az ** n)
+    return A - psi * power
 
 
 @njit(cache=True, inline="always")
