@@ -1,11 +1,11 @@
 """A planar structure of nodes and elements, assembled into a ``System`` for given parameters.
 
-The structure is described once (nodes, beams, springs, dampers, friction elements, masses,
-supports); any numeric property may be a number or the name of a parameter. The topology (DOF
-map, scatter indices) is built once, lazily, and ``assemble`` then only evaluates the element
-matrices of all elements of a kind together and scatters them with precomputed flat indices,
-which keeps re-assembly for new parameter values cheap (it runs once per evaluation of the
-objective in model updating).
+The structure is described once (nodes, beams, springs, dampers, friction and Bouc–Wen
+elements, masses, supports); any numeric property may be a number or the name of a parameter.
+The topology (DOF map, scatter indices) is built once, lazily, and ``assemble`` then only
+evaluates the element matrices of all elements of a kind together and scatters them with
+precomputed flat indices, which keeps re-assembly for new parameter values cheap (it runs once
+per evaluation of the objective in model updating).
 
 Why this file is long (about 900 lines): it is one class on purpose. The description methods
 (``add_*``, with their checks and messages, half of the file) and the compiled topology and
