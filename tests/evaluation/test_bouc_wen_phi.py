@@ -117,14 +117,17 @@ def test_compiled_phi_equals_the_reference(tmp_path: Path, quantity: str) -> Non
     assert r is not None and r @ r == pytest.approx(batch[0], rel=1e-12)
 
 
-def test_non_proportional_damping_goes_to_the_reference(tmp_path: Path) -> None:
-    """Storey dashpots couple the undamped modes: the reference's physical kernel runs."""
+def test_non_proportional_damping_runs_the_physical_kernel(tmp_path: Path) -> None:
+    """Storey dashpots couple the undamped modes: the physical-coordinate recurrence runs,
+    compiled, and agrees with the reference's physical kernel to rounding (measured 4.4e-13;
+    9.6e-13 in displacements)."""
     problem = _problem(tmp_path, "acceleration", "dampers = [0.5, 0.4]")
     trial = problem.trials[0]
     evaluator = evaluator_for(trial)
-    X = _points(problem, 2)
-    phi = np.empty(2)
-    status = np.zeros(2, dtype=np.int64)
+    X = _points(problem, 4)
+    phi = np.empty(4)
+    status = np.ones(4, dtype=np.int64)
     evaluator._run(np.ascontiguousarray(X), False, phi, status)
-    assert status.tolist() == [1, 1]
-    np.testing.assert_array_equal(evaluator.batch(X), [trial.phi_reference(x) for x in X])
+    assert not status.any()
+    reference = [trial.phi_reference(x) for x in X]
+    np.testing.assert_allclose(evaluator.batch(X), reference, rtol=1e-10, atol=0)

@@ -14,7 +14,8 @@ modes do not diagonalise under central differences, an ill-conditioned eigenvect
 exact discretisation (the simulator's dense fallback), parameter values out of range or a mass
 matrix that is not positive definite (the reference raises the ModelError that says which element).
 Models with Bouc–Wen elements run their own batch (:mod:`.hysteresis`): the generic
-central-difference kernel with the elements' hysteresis, no written-out kernel or SIMD lanes.
+central-difference kernels (modal, or physical for non-proportional damping) with the elements'
+hysteresis, no written-out kernel or SIMD lanes.
 A zero-phase high-pass of the prediction is applied by scipy between the compiled simulation
 and the compiled comparison.
 """
@@ -236,7 +237,7 @@ class Evaluator:
         self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
                           problem.integrate, self.dt)
         self.supported = self.method in ("exact", "nonlinear", "central_difference")
-        self.bouc_wen: Any = None  # hysteresis.BoucWenPlan of a model with Bouc–Wen elements
+        self.bouc_wen: Any = None  # (BoucWenPlan, PhysicalWork) of a Bouc–Wen model
         n_out = self.outputs.size
         self._central_batch: Callable[..., None] = _central_batch
         self._exact_batch: Callable[..., None] = _exact_batch
@@ -248,11 +249,13 @@ class Evaluator:
             self._write_exact_kernel(case.nominal(), problem)
         else:
             self.work = central.central_work(n, self.n_friction, n_out)
-            if nominal_system.n_bouc_wen:  # the generic kernel with the hysteresis
-                from femupdate.evaluation.hysteresis import bouc_wen_batch, bouc_wen_plan
+            if nominal_system.n_bouc_wen:  # the generic kernels with the hysteresis
+                from femupdate.evaluation import hysteresis
 
-                self.bouc_wen = bouc_wen_plan(structure, names)
-                self._central_batch = bouc_wen_batch
+                self.bouc_wen = (hysteresis.bouc_wen_plan(structure, names),
+                                 hysteresis.physical_work(n, self.n_friction,
+                                                          nominal_system.n_bouc_wen))
+                self._central_batch = hysteresis.bouc_wen_batch
             elif self.n_friction and self.supported:
                 from femupdate.evaluation.codegen import friction_kernel
 
@@ -299,7 +302,7 @@ class Evaluator:
             if self.lanes is not None:  # the written batch runs rows in SIMD lanes
                 self._static += (self.lanes,)
             if self.bouc_wen is not None:
-                self._static += (self.bouc_wen,)
+                self._static += self.bouc_wen
         self._entry: dict[bool, Callable[..., None]] = {}
         self._single = (np.empty((1, self.plan.log_scale.size)), np.empty(1),
                         np.empty(1, dtype=np.int64))

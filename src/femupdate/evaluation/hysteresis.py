@@ -8,7 +8,10 @@ element), the modal recurrence (:func:`.central.prepare_central`), the elements'
 modes, and the stable-step check with the elements at their largest tangent stiffness (as
 :class:`femupdate.simulate.central_difference.CentralDifferenceSimulator`); then the recurrence
 of the simulator's modal kernel, element law and order of operations included, so the two agree
-to rounding. The written-out kernels and SIMD lanes of the friction models are not used here.
+to rounding. When the damping couples the undamped modes (storey dashpots), the simulator's
+physical-coordinate recurrence runs instead (``u⁺ = G1 u − G2 u⁻ + g a_g − H f``, the matrices
+from ``A_eff = M/h² + C/2h`` by one inversion). The written-out kernels and SIMD lanes of the
+friction models are not used here.
 """
 
 from __future__ import annotations
@@ -25,11 +28,12 @@ from femupdate.evaluation.assembly import ASSEMBLY_OK, AssemblyPlan, assemble
 from femupdate.evaluation.central import CentralWork
 from femupdate.evaluation.lapack import sygvx_largest
 from femupdate.evaluation.processing import Post, process_and_compare
+from femupdate.model.friction import elasto_slip
 from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, bouc_wen_force, bouc_wen_update
 from femupdate.model.structure import Structure
 from femupdate.simulate._common import DIVERGENCE_LIMIT
 
-__all__ = ["BoucWenPlan", "bouc_wen_batch", "bouc_wen_plan"]
+__all__ = ["BoucWenPlan", "PhysicalWork", "bouc_wen_batch", "bouc_wen_plan", "physical_work"]
 
 _FASTMATH = {"contract", "reassoc"}  # as central._FASTMATH
 
@@ -59,6 +63,25 @@ class BoucWenPlan(NamedTuple):
     yb: np.ndarray
     pb: np.ndarray
     state: np.ndarray
+
+
+class PhysicalWork(NamedTuple):
+    """The physical-coordinate recurrence's matrices (transposed: rows contiguous) and state."""
+
+    G1T: np.ndarray  # (n, n)
+    G2T: np.ndarray  # (n, n)
+    g: np.ndarray  # (n,) A_eff⁻¹ (−p)
+    HT: np.ndarray  # (n_f, n) friction forces into u⁺
+    HbT: np.ndarray  # (n_h, n) Bouc–Wen forces into u⁺
+    u: np.ndarray  # (3, n) previous, current, next
+    slip: np.ndarray  # (n_f,)
+
+
+def physical_work(n: int, n_friction: int, n_bouc_wen: int) -> PhysicalWork:
+    """Buffers of :class:`PhysicalWork` for an ``n``-DOF system."""
+    return PhysicalWork(G1T=np.zeros((n, n)), G2T=np.zeros((n, n)), g=np.zeros(n),
+                        HT=np.zeros((n_friction, n)), HbT=np.zeros((n_bouc_wen, n)),
+                        u=np.zeros((3, n)), slip=np.zeros(n_friction))
 
 
 def bouc_wen_plan(structure: Structure, names: Sequence[str]) -> BoucWenPlan:
@@ -226,6 +249,103 @@ def _kernel(ag: np.ndarray, substeps: int, h: float, quantity: int, r_out: np.nd
     return False
 
 
+@njit(cache=True)
+def _prepare_physical(M: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
+                      minv: np.ndarray, fi: np.ndarray, fj: np.ndarray, bw: BoucWenPlan,
+                      h: float, a_g0: float, phys: PhysicalWork) -> None:
+    """The simulator's ``_prepare_physical`` and its initial state (from rest) into ``phys``."""
+    n = M.shape[0]
+    h2 = h * h
+    a_inv = np.linalg.inv(M / h2 + C / (2.0 * h))
+    phys.G1T[:, :] = (a_inv @ (2.0 * M / h2 - K)).T
+    phys.G2T[:, :] = (a_inv @ (M / h2 - C / (2.0 * h))).T
+    phys.g[:] = a_inv @ -load
+    for e in range(fi.shape[0]):  # H = A_eff⁻¹ Bᵀ: column e is A_eff⁻¹ (e_i − e_j)
+        for r in range(n):
+            phys.HT[e, r] = a_inv[r, fi[e]] - (a_inv[r, fj[e]] if fj[e] >= 0 else 0.0)
+    for e in range(bw.dof_i.shape[0]):
+        i0, j0 = bw.dof_i[e], bw.dof_j[e]
+        for r in range(n):
+            phys.HbT[e, r] = a_inv[r, i0] - (a_inv[r, j0] if j0 >= 0 else 0.0)
+    um1 = 0.5 * h2 * (minv @ (-a_g0 * load))  # u_-1 from rest, as the simulator's
+    phys.u[0, :] = um1
+    phys.u[1, :] = 0.0
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _physical_kernel(ag: np.ndarray, substeps: int, h: float, quantity: int,
+                     r_out: np.ndarray, outputs: np.ndarray, kr: np.ndarray, fu: np.ndarray,
+                     fi: np.ndarray, fj: np.ndarray, phys: PhysicalWork, bw: BoucWenPlan,
+                     y: np.ndarray) -> bool:
+    """The simulator's physical ``_cd_kernel`` (sliders, then Bouc–Wen elements) with the
+    outputs into ``y``; True if diverged."""
+    ns = ag.shape[0]
+    n = phys.g.shape[0]
+    nf = kr.shape[0]
+    nh = bw.table.shape[0]
+    invh2 = 1.0 / (h * h)
+    ip, ic, ix = 0, 1, 2
+    u = phys.u
+    for e in range(nf):
+        phys.slip[e] = 0.0
+    for e in range(nh):
+        bw.state[0, e] = 0.0
+        bw.state[1, e] = 0.0
+    for k in range(ns):
+        last = k == ns - 1
+        for j in range(1 if last else substeps):
+            if last:
+                for i in range(n):
+                    u[ix, i] = phys.g[i] * ag[k]
+            else:
+                alpha = j / substeps
+                for i in range(n):
+                    qk = phys.g[i] * ag[k]
+                    u[ix, i] = qk + alpha * (phys.g[i] * ag[k + 1] - qk)
+            for c in range(n):
+                a = u[ic, c]
+                b = u[ip, c]
+                for i in range(n):
+                    u[ix, i] += phys.G1T[c, i] * a - phys.G2T[c, i] * b
+            for e in range(nf):
+                d = u[ic, fi[e]]
+                if fj[e] >= 0:
+                    d -= u[ic, fj[e]]
+                f, y_r = elasto_slip(d, phys.slip[e], kr[e], fu[e])
+                phys.slip[e] = y_r
+                for i in range(n):
+                    u[ix, i] -= phys.HT[e, i] * f
+            for e in range(nh):
+                d = u[ic, bw.dof_i[e]]
+                if bw.dof_j[e] >= 0:
+                    d -= u[ic, bw.dof_j[e]]
+                z = bouc_wen_update(bw.state[1, e], d - bw.state[0, e], bw.table[e, 2],
+                                    bw.table[e, 3], bw.table[e, 4], bw.table[e, 5],
+                                    bw.dy_max[e])
+                bw.state[0, e] = d
+                bw.state[1, e] = z
+                f = bouc_wen_force(d, z, bw.table[e, 0], bw.table[e, 1])
+                for i in range(n):
+                    u[ix, i] -= phys.HbT[e, i] * f
+            if j == 0:
+                s = 0.0
+                for i in range(n):
+                    s += abs(u[ix, i])
+                if not s < DIVERGENCE_LIMIT:
+                    return True
+                for o in range(outputs.shape[0]):
+                    d = outputs[o]
+                    if quantity == central.DISPLACEMENT:
+                        y[o, k] = u[ic, d]
+                    else:
+                        v = (u[ix, d] - 2.0 * u[ic, d] + u[ip, d]) * invh2
+                        if quantity == central.ABSOLUTE_ACCELERATION:
+                            v += r_out[o] * ag[k]
+                        y[o, k] = v
+            ip, ic, ix = ic, ix, ip
+    return False
+
+
 @njit(cache=True, nogil=True)
 def bouc_wen_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarray,
                    minv: np.ndarray, C: np.ndarray, K: np.ndarray, load: np.ndarray,
@@ -233,7 +353,8 @@ def bouc_wen_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarr
                    ag: np.ndarray, r_out: np.ndarray, outputs: np.ndarray, h: float,
                    substeps: int, quantity: int, work: CentralWork, post: Post,
                    y: np.ndarray, per_channel: np.ndarray, zi: np.ndarray, bw: BoucWenPlan,
-                   raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
+                   phys: PhysicalWork, raw: bool, phi: np.ndarray,
+                   status: np.ndarray) -> None:
     """φ of every row of X (the evaluator's ``_central_batch`` with Bouc–Wen elements);
     status 1 (REFERENCE): not done here; ``raw``: stop at the outputs, φ NaN."""
     for row in range(X.shape[0]):
@@ -245,24 +366,29 @@ def bouc_wen_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarr
             continue
         code, active = central.prepare_central(M, K, C, load, minv, kr, fu, fi, fj, outputs,
                                                h, ag[0], work)
-        if code == central.NOT_DIAGONAL:
+        if code == central.UNSTABLE:
+            status[row] = _DONE
+            phi[row] = np.inf
+            continue
+        modal = code == central.CENTRAL_OK  # else the damping couples the modes
+        if modal:
+            _rows(bw, h, work)
+        code = _stable(M, K, kr, fu, fi, fj, bw, h, work)
+        if code == central.NOT_DIAGONAL:  # LAPACK failed
             continue
         status[row] = _DONE
         if code == central.UNSTABLE:
-            phi[row] = np.inf
-            continue
-        _rows(bw, h, work)
-        code = _stable(M, K, kr, fu, fi, fj, bw, h, work)
-        if code == central.NOT_DIAGONAL:
-            status[row] = _REFERENCE
-            continue
-        if code == central.UNSTABLE:
             phi[row] = np.inf  # the simulator refuses the step: a failed evaluation
             continue
-        work.eta[0, :] = work.eta0[1]
-        work.eta[1, :] = work.eta0[0]
-        diverged = _kernel(ag, substeps, h, quantity, r_out, work.modal, work.yf, work.pf,
-                           work.limit, active, work.po, work.eta, work.slip, bw, y)
+        if modal:
+            work.eta[0, :] = work.eta0[1]
+            work.eta[1, :] = work.eta0[0]
+            diverged = _kernel(ag, substeps, h, quantity, r_out, work.modal, work.yf, work.pf,
+                               work.limit, active, work.po, work.eta, work.slip, bw, y)
+        else:
+            _prepare_physical(M, C, K, load, minv, fi, fj, bw, h, ag[0], phys)
+            diverged = _physical_kernel(ag, substeps, h, quantity, r_out, outputs, kr, fu,
+                                        fi, fj, phys, bw, y)
         if diverged:
             phi[row] = np.inf
         elif not raw:
