@@ -608,7 +608,8 @@ def modes(
     freqs, shapes = natural_frequencies(system)
     damped = damped_modes(system)
     table = Table(title=f"{case.label}: natural frequencies"
-                        + (" (friction elements stuck)" if not system.is_linear else ""))
+                        + (" (friction elements stuck)" if system.n_friction else "")
+                        + (" (Bouc–Wen initial tangent)" if system.n_bouc_wen else ""))
     for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
         table.add_column(col, justify="right")
     above = False

@@ -84,6 +84,8 @@ def _check_supported(model: Model) -> None:
         problems.append(f"direction = {model.excitation_direction!r} (only 'y')")
     if model.rayleigh is not None:
         problems.append("model.rayleigh")
+    if model.bouc_wen:
+        problems.append("model.bouc_wen (not translated)")
     if model.supports:
         problems.append("model.supports (the nodal base-motion load covers free DOFs only)")
     for node in model.nodes:

@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from femupdate.case.model_sections import Model
+from femupdate.case.model_sections import Model, storey_values
 from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError
 
@@ -49,7 +49,11 @@ def build_structure(model: Model) -> Structure:
 
     if model.shear_building is not None:
         sb = model.shear_building
-        structure = shear_building(sb.masses, sb.stiffnesses, sb.dampers)
+        n = len(sb.masses)
+        structure = shear_building(
+            sb.masses, sb.stiffnesses, sb.dampers,
+            frictions=None if sb.frictions is None else storey_values(sb.frictions, n),
+            bouc_wen=None if sb.bouc_wen is None else storey_values(sb.bouc_wen, n))
     else:
         structure = Structure(dofs_per_node=model.dofs_per_node)
         for node in model.nodes:
@@ -68,6 +72,10 @@ def build_structure(model: Model) -> Structure:
         for i, fr in enumerate(model.frictions):
             structure.add_friction(fr.node, fr.dof, fr.k_r, fr.f_u, node2=fr.node2,
                                    dof2=fr.dof2, name=fr.name or f"model.frictions[{i}]")
+        for i, bw in enumerate(model.bouc_wen):
+            structure.add_bouc_wen(bw.node, bw.dof, bw.k, alpha=bw.alpha, A=bw.A, beta=bw.beta,
+                                   gamma=bw.gamma, n=bw.n, node2=bw.node2, dof2=bw.dof2,
+                                   name=bw.name or f"model.bouc_wen[{i}]")
         for i, mass in enumerate(model.masses):
             structure.add_mass(mass.node, m=mass.m, J=mass.J, name=f"model.masses[{i}]")
         for support in model.supports:

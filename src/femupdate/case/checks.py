@@ -21,7 +21,8 @@ if typing.TYPE_CHECKING:
     from femupdate.case.schema import Case, Data
 
 #: The element lists of ``[model]``, in the order of the case file.
-ELEMENT_LISTS = ("nodes", "beams", "springs", "dampers", "frictions", "masses", "supports")
+ELEMENT_LISTS = ("nodes", "beams", "springs", "dampers", "frictions", "bouc_wen", "masses",
+                 "supports")
 
 
 def model_issues(model: Model) -> list[Issue]:
@@ -58,7 +59,7 @@ def model_issues(model: Model) -> list[Issue]:
                        "'y' (the transverse direction of a 2-DOF/node model)"))
     issues += duplicates([(f"nodes[{i}].name", n.name) for i, n in enumerate(model.nodes)],
                           "node name", "model")
-    named = [(f"{key}[{i}].name", e.name) for key in ELEMENT_LISTS[1:5]
+    named = [(f"{key}[{i}].name", e.name) for key in ELEMENT_LISTS[1:6]
              for i, e in enumerate(getattr(model, key)) if e.name is not None]
     issues += duplicates(named, "element name", "model")
 
@@ -90,7 +91,7 @@ def model_issues(model: Model) -> list[Issue]:
             issues.append((f"beams[{i}].nodes", "with dofs_per_node = 2 beams lie along x; "
                            f"nodes {beam.nodes[0]!r} and {beam.nodes[1]!r} have different y",
                            "nodes with equal y, or dofs_per_node = 3 for a plane frame"))
-    for key in ("springs", "dampers", "frictions"):
+    for key in ("springs", "dampers", "frictions", "bouc_wen"):
         for i, link in enumerate(getattr(model, key)):
             node_issue(f"{key}[{i}].node", link.node)
             node_issue(f"{key}[{i}].node2", link.node2)
@@ -108,7 +109,7 @@ def model_issues(model: Model) -> list[Issue]:
                                f"{support.node}.{dof} is already fixed by "
                                f"{fixed[support.node, dof]}", "each DOF fixed once"))
             fixed.setdefault((support.node, dof), f"model.supports[{i}]")
-    for key in ("springs", "dampers", "frictions"):
+    for key in ("springs", "dampers", "frictions", "bouc_wen"):
         for i, link in enumerate(getattr(model, key)):
             ends = [(link.node, link.dof)]
             if link.node2 is not None:
@@ -175,9 +176,10 @@ def case_issues(case: Case) -> list[Issue]:
             issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
                            "model never uses it", f'use it in [model] (e.g. k = "{name}") '
                            "or remove it"))
-    if case.model.has_friction and case.simulation.method not in (None, "nonlinear"):
+    if case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
-                       "has friction elements", "'nonlinear' (or leave it out)"))
+                       "has friction or Bouc–Wen elements", "'nonlinear' (or leave it out)"))
+    issues += bouc_wen_bound_issues(case)
     if case.trials and case.data is None:
         issues.append(("trials", "[[trials]] given without [data]",
                        "a [data] section: how to read the records, and the channels a trial "
@@ -190,6 +192,38 @@ def case_issues(case: Case) -> list[Issue]:
                            "at least one trial with role = \"fit\""))
     for spec in case.trial_specs():
         issues += _data_issues(case, spec.data, spec.path)
+    return issues
+
+
+def bouc_wen_bound_issues(case: Case) -> list[Issue]:
+    """Bouc–Wen elements whose (beta, gamma) can leave −β < γ ≤ β inside the parameters'
+    bounds: the search would reach points without hysteresis."""
+    bounds = {p.name: (p.lower, p.upper) for p in case.parameters}
+    model = case.model
+    pairs: list[tuple[str, object, object]] = [
+        (f"model.bouc_wen[{i}].gamma", bw.beta, bw.gamma) for i, bw in enumerate(model.bouc_wen)]
+    storeys = model.shear_building.bouc_wen if model.shear_building is not None else None
+    if storeys is not None:
+        n = len(model.shear_building.masses)
+        for i in range(n):
+            beta, gamma = (v[i] if isinstance(v, list) else v for v in (storeys.beta,
+                                                                        storeys.gamma))
+            pairs.append((f"model.shear_building.bouc_wen.gamma (storey {i + 1})", beta,
+                          gamma))
+    issues: list[Issue] = []
+    for path, beta, gamma in pairs:
+        if not (isinstance(beta, str) or isinstance(gamma, str)):
+            continue  # two numbers: checked with the section
+        if (isinstance(beta, str) and beta not in bounds) or (
+                isinstance(gamma, str) and gamma not in bounds):
+            continue  # an undeclared parameter: said elsewhere
+        b_low = bounds[beta][0] if isinstance(beta, str) else beta
+        g_low, g_high = bounds[gamma] if isinstance(gamma, str) else (gamma, gamma)
+        if not (-b_low < g_low and g_high <= b_low):
+            issues.append((path, f"beta = {format_value(beta)} and gamma = "
+                           f"{format_value(gamma)} can leave -beta < gamma <= beta within "
+                           "the parameters' bounds (no hysteresis there)",
+                           "bounds with -(lowest beta) < gamma <= lowest beta everywhere"))
     return issues
 
 

@@ -1,22 +1,30 @@
 """The ``[model]`` sections of a case file: nodes, beams, springs, dampers, friction elements,
-masses, supports, Rayleigh damping, or a shear building. Any number may name a parameter.
+Bouc–Wen elements, masses, supports, Rayleigh damping, or a shear building (with friction and
+Bouc–Wen elements per storey). Any number may name a parameter.
 """
 
 from __future__ import annotations
 
+import typing
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, PlainValidator, WithJsonSchema, model_validator
+from pydantic_core import PydanticCustomError
 
 from femupdate.case.checks import model_issues
 from femupdate.case.fields import (
     DOF_NAMES,
     Area,
+    BoucWenA,
+    BoucWenExponent,
+    BoucWenGamma,
+    BoucWenShape,
     Coordinate,
     DampingCoefficient,
     Density,
     DofName,
     ElementName,
+    InitialStiffness,
     MassPerLength,
     Modulus,
     NodalMass,
@@ -31,6 +39,8 @@ from femupdate.case.fields import (
     ShearFactor,
     SlipForce,
     Stiffness,
+    StiffnessRatio,
+    find_range,
     format_value,
     integer_field,
     number_field,
@@ -124,6 +134,32 @@ class Friction(_Link):
     f_u: SlipForce
 
 
+def _gamma_issue(beta: float | str, gamma: float | str, where: str = "gamma") -> list[Issue]:
+    """(β, γ) must satisfy −β < γ ≤ β when both are numbers (parameters: at assembly)."""
+    if isinstance(beta, str) or isinstance(gamma, str) or -beta < gamma <= beta:
+        return []
+    return [(where, f"gamma = {format_value(gamma)} with beta = {format_value(beta)} gives no "
+             "bounded hysteresis loop", f"-beta < gamma <= beta, i.e. in "
+             f"({format_value(-beta)}, {format_value(beta)}]")]
+
+
+class BoucWen(_Link):
+    """``[[model.bouc_wen]]``: a Bouc–Wen hysteretic element, force α k y + (1 − α) k z with
+    ż = A ẏ − β |ẏ| |z|^(n−1) z − γ ẏ |z|^n."""
+
+    k: InitialStiffness
+    alpha: StiffnessRatio = 0.0
+    A: BoucWenA = 1.0
+    beta: BoucWenShape
+    gamma: BoucWenGamma
+    n: BoucWenExponent = 1.0
+
+    @model_validator(mode="after")
+    def _check_shape(self) -> BoucWen:
+        raise_issues(_gamma_issue(self.beta, self.gamma))
+        return self
+
+
 class Mass(Section):
     """``[[model.masses]]``: a lumped mass on the node's translations and a rotary inertia."""
 
@@ -152,12 +188,66 @@ class Rayleigh(Section):
     beta: RayleighBeta = 0.0
 
 
+def _per_storey(value: typing.Any) -> typing.Any:
+    """A list of values, one per storey, or one value for every storey (``value``'s range)."""
+    rng = find_range(value)
+    assert rng is not None
+
+    def check(given: typing.Any) -> typing.Any:
+        if not isinstance(given, list):
+            return rng(given)
+        if not 1 <= len(given) <= 1000:
+            raise PydanticCustomError("storey_count", "got {got} values",
+                                      {"got": len(given), "allowed": "1 to 1000 values, one "
+                                       "per storey, or one value for every storey"})
+        out = []
+        for i, item in enumerate(given):
+            try:
+                out.append(rng(item))
+            except PydanticCustomError as exc:
+                raise PydanticCustomError(exc.type, f"storey {i + 1}: " + exc.message_template,
+                                          exc.context) from None
+        return out
+
+    schema = rng.json_schema()
+    return Annotated[list[value] | value, PlainValidator(check),
+                     WithJsonSchema({"anyOf": [{"type": "array", "items": schema}, schema]}),
+                     rng]
+
+
+class StoreyFrictions(Section):
+    """``[model.shear_building.frictions]``: an elasto-slip element in every storey."""
+
+    k_r: _per_storey(Stiffness)
+    f_u: _per_storey(SlipForce)
+
+
+class StoreyBoucWen(Section):
+    """``[model.shear_building.bouc_wen]``: a Bouc–Wen element in every storey."""
+
+    k: _per_storey(InitialStiffness)
+    alpha: _per_storey(StiffnessRatio) = 0.0
+    A: _per_storey(BoucWenA) = 1.0
+    beta: _per_storey(BoucWenShape)
+    gamma: _per_storey(BoucWenGamma)
+    n: _per_storey(BoucWenExponent) = 1.0
+
+
+def storey_values(section: Section, n: int) -> list[dict[str, float | str]]:
+    """The fields of a per-storey section as one dict per storey (single values repeated)."""
+    return [{key: (value[i] if isinstance(value, list) else value)
+             for key, value in section} for i in range(n)]
+
+
 class ShearBuilding(Section):
-    """``[model.shear_building]``: storeys on a shake table, storey 1 at the bottom."""
+    """``[model.shear_building]``: storeys on a shake table, storey 1 at the bottom; viscous
+    dampers, friction and Bouc–Wen elements per storey."""
 
     masses: Annotated[list[NodalMass], Field(min_length=1, max_length=1000)]
     stiffnesses: Annotated[list[Stiffness], Field(min_length=1, max_length=1000)]
     dampers: Annotated[list[DampingCoefficient], Field(min_length=1, max_length=1000)] | None = None
+    frictions: StoreyFrictions | None = None
+    bouc_wen: StoreyBoucWen | None = None
 
     @model_validator(mode="after")
     def _check(self) -> ShearBuilding:
@@ -167,6 +257,21 @@ class ShearBuilding(Section):
                   for key, values in (("stiffnesses", self.stiffnesses),
                                       ("dampers", self.dampers or self.masses))
                   if len(values) != n]
+        for name in ("frictions", "bouc_wen"):
+            section = getattr(self, name)
+            for key, values in section or ():
+                if isinstance(values, list) and len(values) != n:
+                    issues.append((f"{name}.{key}", f"has {len(values)} values but masses has "
+                                   f"{n}", f"{n} values, one per storey, or one value for "
+                                   "every storey"))
+        bw = self.bouc_wen
+        if bw is not None and not issues:
+            if isinstance(bw.beta, list) or isinstance(bw.gamma, list):
+                for i, storey in enumerate(storey_values(bw, n)):
+                    issues += _gamma_issue(storey["beta"], storey["gamma"],
+                                           f"bouc_wen.gamma (storey {i + 1})")
+            else:
+                issues += _gamma_issue(bw.beta, bw.gamma, "bouc_wen.gamma")
         raise_issues(issues)
         return self
 
@@ -234,6 +339,7 @@ class Model(Section):
     springs: list[Spring] = Field(default_factory=list)
     dampers: list[Damper] = Field(default_factory=list)
     frictions: list[Friction] = Field(default_factory=list)
+    bouc_wen: list[BoucWen] = Field(default_factory=list)
     masses: list[Mass] = Field(default_factory=list)
     supports: list[Support] = Field(default_factory=list)
     shear_building: ShearBuilding | None = None
@@ -252,7 +358,14 @@ class Model(Section):
 
     @property
     def has_friction(self) -> bool:
-        return bool(self.frictions)
+        return bool(self.frictions) or (self.shear_building is not None
+                                        and self.shear_building.frictions is not None)
+
+    @property
+    def has_nonlinear(self) -> bool:
+        """Friction or Bouc–Wen elements (the model needs the nonlinear integrator)."""
+        return self.has_friction or bool(self.bouc_wen) or (
+            self.shear_building is not None and self.shear_building.bouc_wen is not None)
 
     @property
     def excitation_direction(self) -> str:

@@ -395,14 +395,14 @@ class Case(Section):
             return False
         if pre.filter_prediction is not None:
             return pre.filter_prediction
-        return self.model.has_friction  # an external model's linearity is unknown: not filtered
+        return self.model.has_nonlinear  # an external model's linearity is unknown: not filtered
 
     @property
     def simulation_method(self) -> str:
         """``simulation.method``, or its default: ``"nonlinear"`` with frictions, else exact."""
         if self.simulation.method is not None:
             return self.simulation.method
-        return "nonlinear" if self.model.has_friction else "exact"
+        return "nonlinear" if self.model.has_nonlinear else "exact"
 
     # -- trials and data files
 

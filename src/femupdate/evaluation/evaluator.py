@@ -9,10 +9,13 @@ loop, the raw outputs into a preallocated buffer (or a kernel written out for th
 share a batch); a single point is a batch of one, so the two give the same bits.
 
 What the compiled path does not cover is evaluated by the reference (``UpdateProblem``'s
-simulator path), point by point: Newmark, a damping matrix the undamped modes do not
-diagonalise under central differences, an ill-conditioned eigenvector matrix in the exact
-discretisation (the simulator's dense fallback), parameter values out of range or a mass matrix
-that is not positive definite (the reference raises the ModelError that says which element).
+simulator path), point by point: Newmark, a damping matrix the undamped
+modes do not diagonalise under central differences, an ill-conditioned eigenvector matrix in the
+exact discretisation (the simulator's dense fallback), parameter values out of range or a mass
+matrix that is not positive definite (the reference raises the ModelError that says which element).
+Models with Bouc–Wen elements run their own batch (:mod:`.hysteresis`): the generic
+central-difference kernels (modal, or physical for non-proportional damping) with the elements'
+hysteresis, no written-out kernel or SIMD lanes.
 A zero-phase high-pass of the prediction is applied by scipy between the compiled simulation
 and the compiled comparison.
 """
@@ -202,7 +205,8 @@ class Evaluator:
         self.plan = plan_assembly(structure, names, [p.scale == "log" for p in case.parameters],
                                   problem.direction, case.nominal())
         n = self.plan.n
-        fr = structure.assemble(case.nominal(), problem.direction).friction
+        nominal_system = structure.assemble(case.nominal(), problem.direction)
+        fr = nominal_system.friction
         self.n_friction = 0 if fr is None else fr.count
         self.fi = (np.zeros(0, dtype=np.int64) if fr is None
                    else np.ascontiguousarray(fr.dof_i, dtype=np.int64))
@@ -233,6 +237,7 @@ class Evaluator:
         self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
                           problem.integrate, self.dt)
         self.supported = self.method in ("exact", "nonlinear", "central_difference")
+        self.bouc_wen: Any = None  # (BoucWenPlan, PhysicalWork) of a Bouc–Wen model
         n_out = self.outputs.size
         self._central_batch: Callable[..., None] = _central_batch
         self._exact_batch: Callable[..., None] = _exact_batch
@@ -244,7 +249,14 @@ class Evaluator:
             self._write_exact_kernel(case.nominal(), problem)
         else:
             self.work = central.central_work(n, self.n_friction, n_out)
-            if self.n_friction and self.supported:
+            if nominal_system.n_bouc_wen:  # the generic kernels with the hysteresis
+                from femupdate.evaluation import hysteresis
+
+                self.bouc_wen = (hysteresis.bouc_wen_plan(structure, names),
+                                 hysteresis.physical_work(n, self.n_friction,
+                                                          nominal_system.n_bouc_wen))
+                self._central_batch = hysteresis.bouc_wen_batch
+            elif self.n_friction and self.supported:
                 from femupdate.evaluation.codegen import friction_kernel
 
                 written = friction_kernel(n, self.n_friction, n_out, self.substeps)
@@ -289,6 +301,8 @@ class Evaluator:
                             self.dt / self.substeps, self.substeps, self.quantity, *tail)
             if self.lanes is not None:  # the written batch runs rows in SIMD lanes
                 self._static += (self.lanes,)
+            if self.bouc_wen is not None:
+                self._static += self.bouc_wen
         self._entry: dict[bool, Callable[..., None]] = {}
         self._single = (np.empty((1, self.plan.log_scale.size)), np.empty(1),
                         np.empty(1, dtype=np.int64))
@@ -377,6 +391,8 @@ class Evaluator:
         (processing and objective, on the simulated outputs); each call carries its own
         dispatch overhead. The point must be one the compiled path evaluates.
         """
+        if self.bouc_wen is not None:
+            raise ValueError("stages: not available for a model with Bouc–Wen elements")
         m = self.mats
         x = np.ascontiguousarray(x, dtype=float)
         head = (x, self.plan, m.p, m.M, m.minv, m.C, m.K, m.load, m.kr, m.fu)

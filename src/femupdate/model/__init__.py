@@ -1,7 +1,8 @@
 """The structural model: element matrices, structures, assembly and modes.
 
 ``Structure`` describes a planar structure once and ``Structure.assemble`` turns parameter
-values into the ``System`` (M, C, K, r, friction) that the integrators consume.
+values into the ``System`` (M, C, K, r, friction and Bouc–Wen elements) that the integrators
+consume.
 """
 
 from femupdate.model.elements import (
@@ -19,10 +20,11 @@ from femupdate.model.elements import (
 )
 from femupdate.model.modes import DampedModes, damped_modes, initial_stiffness, natural_frequencies
 from femupdate.model.structure import DOF_NAMES, Structure, shear_building
-from femupdate.model.system import FrictionElements, System
+from femupdate.model.system import BoucWenElements, FrictionElements, System
 
 __all__ = [
     "DOF_NAMES",
+    "BoucWenElements",
     "DampedModes",
     "FrictionElements",
     "Structure",

@@ -48,10 +48,14 @@ def check_mass_matrix(M: np.ndarray, dof_labels: Sequence[str] = ()) -> None:
 
 
 def initial_stiffness(system: System) -> np.ndarray:
-    """``K`` plus the stuck stiffness of the friction elements (their initial stiffness)."""
-    if system.is_linear:
-        return system.K
-    return system.K + system.friction.stuck_stiffness(system.n_dof)
+    """``K`` plus the initial stiffness of the nonlinear elements: the friction elements'
+    stuck stiffness ``k_r`` and the Bouc–Wen elements' ``k (α + (1 − α) A)`` at ``z = 0``."""
+    k = system.K
+    if system.n_friction:
+        k = k + system.friction.stuck_stiffness(system.n_dof)
+    if system.n_bouc_wen:
+        k = k + system.bouc_wen.initial_stiffness(system.n_dof)
+    return k
 
 
 def _sign_normalised(shapes: np.ndarray) -> np.ndarray:

@@ -1,11 +1,11 @@
 """A planar structure of nodes and elements, assembled into a ``System`` for given parameters.
 
-The structure is described once (nodes, beams, springs, dampers, friction elements, masses,
-supports); any numeric property may be a number or the name of a parameter. The topology (DOF
-map, scatter indices) is built once, lazily, and ``assemble`` then only evaluates the element
-matrices of all elements of a kind together and scatters them with precomputed flat indices,
-which keeps re-assembly for new parameter values cheap (it runs once per evaluation of the
-objective in model updating).
+The structure is described once (nodes, beams, springs, dampers, friction and Bouc–Wen
+elements, masses, supports); any numeric property may be a number or the name of a parameter.
+The topology (DOF map, scatter indices) is built once, lazily, and ``assemble`` then only
+evaluates the element matrices of all elements of a kind together and scatters them with
+precomputed flat indices, which keeps re-assembly for new parameter values cheap (it runs once
+per evaluation of the objective in model updating).
 
 Why this file is long (about 900 lines): it is one class on purpose. The description methods
 (``add_*``, with their checks and messages, half of the file) and the compiled topology and
@@ -33,8 +33,9 @@ from femupdate.model.elements import (
     frame_stiffness,
     spring_matrix,
 )
+from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
 from femupdate.model.modes import check_mass_matrix
-from femupdate.model.system import FrictionElements, System
+from femupdate.model.system import BoucWenElements, FrictionElements, System
 
 __all__ = ["DOF_NAMES", "Structure", "shear_building"]
 
@@ -73,6 +74,16 @@ _BEAM_SPECS = {
     "mass_per_length": _NONNEG,
 }
 
+# Bouc–Wen properties one by one; the admissible (β, γ) pairs are checked at assembly.
+_BOUC_WEN_SPECS = {
+    "k": _POSITIVE,
+    "alpha": _Spec(0.0, 1.0),
+    "A": _POSITIVE,
+    "beta": _POSITIVE,
+    "gamma": _Spec(-_INF),
+    "n": _POSITIVE,
+}
+
 # Beam properties the mass matrix depends on (besides E, through Φ, when G is given).
 _MASS_PROPS = ("A", "I", "rho", "G", "nu", "kappa", "mass_per_length")
 
@@ -81,7 +92,7 @@ _MASS_PROPS = ("A", "I", "rho", "G", "nu", "kappa", "mass_per_length")
 class _Record:
     """One element as described by the user: its kind, name, where it acts and its properties."""
 
-    kind: str  # "beam", "spring", "damper", "friction", "mass", "rayleigh"
+    kind: str  # "beam", "spring", "damper", "friction", "bouc_wen", "mass", "rayleigh"
     name: str
     props: dict[str, Value]
     nodes: tuple[int, ...] = ()
@@ -176,6 +187,10 @@ class _Topology:
     rayleigh: tuple[_Prop, _Prop] | None
     mass_const: bool  # no parameter changes M: it is assembled and checked once
     cache: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # Bouc–Wen elements: end DOFs and their six properties (BOUC_WEN_PARAMETERS)
+    bouc_wen_i: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    bouc_wen_j: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    bouc_wen_props: tuple[_Prop, ...] = ()
 
 
 class Structure:
@@ -379,6 +394,43 @@ class Structure:
         """Add an elasto-slip element: spring ``k_r ≥ 0`` in series with a slider ``f_u ≥ 0``."""
         return self._add_link("friction", node, dof, node2, dof2, name, {"k_r": k_r, "f_u": f_u})
 
+    def add_bouc_wen(
+        self,
+        node: str,
+        dof: str,
+        k: Value,
+        *,
+        alpha: Value = 0.0,
+        A: Value = 1.0,
+        beta: Value,
+        gamma: Value,
+        n: Value = 1.0,
+        node2: str | None = None,
+        dof2: str | None = None,
+        name: str | None = None,
+    ) -> str:
+        """Add a Bouc–Wen hysteretic element (:mod:`femupdate.model.hysteresis`).
+
+        Force ``α k y + (1 − α) k z`` with ``ż = A ẏ − β |ẏ| |z|^(n−1) z − γ ẏ |z|^n``, ``y``
+        the deformation of ``node.dof`` (minus ``node2.dof2``, or to ground).
+
+        Parameters
+        ----------
+        k : float or str
+            Initial stiffness (``> 0``; for ``A = 1``).
+        alpha : float or str
+            Post-yield to initial stiffness ratio, in ``[0, 1]``.
+        A, beta, gamma, n : float or str
+            ``A > 0``, ``β > 0``, ``−β < γ ≤ β`` (checked at assembly), ``n > 0``.
+        """
+        props = {"k": k, "alpha": alpha, "A": A, "beta": beta, "gamma": gamma, "n": n}
+        values = [props[key] for key in BOUC_WEN_PARAMETERS]
+        if all(isinstance(v, int | float) for v in values):  # constants: say now, not later
+            check_bouc_wen_parameters(np.array([values], dtype=float),
+                                      (name or f"bouc_wen at {node}.{dof}",))
+        return self._add_link("bouc_wen", node, dof, node2, dof2, name, props,
+                              specs=_BOUC_WEN_SPECS)
+
     def add_mass(
         self, node: str, m: Value = 0.0, J: Value = 0.0, *, name: str | None = None
     ) -> str:
@@ -469,7 +521,9 @@ class Structure:
         topo = self._topo()
         rigid = self._rigid(direction)
         r = rigid[topo.free >= 0]
-        m, c, k, friction, beam_m = self._matrices(self._parameter_vector(values))
+        p = self._parameter_vector(values)
+        m, c, k, friction, beam_m = self._matrices(p)
+        bouc_wen = self._bouc_wen(p)
         seismic = None
         rows, keep, gcols = topo.beam_coupling
         if rows.size:  # consistent beam mass couples the moving supports to free DOFs
@@ -477,7 +531,18 @@ class Structure:
                 rows, weights=beam_m.reshape(-1)[keep] * rigid[gcols], minlength=topo.n
             )
         return System(M=m, C=c, K=k, r=r, friction=friction, dof_labels=topo.labels,
-                      seismic=seismic)
+                      seismic=seismic, bouc_wen=bouc_wen)
+
+    def _bouc_wen(self, p: np.ndarray) -> BoucWenElements | None:
+        """The Bouc–Wen elements at parameter vector ``p`` (None without any)."""
+        topo = self._topo()
+        if not topo.bouc_wen_i.size:
+            return None
+        table = np.column_stack([prop.evaluate(p) for prop in topo.bouc_wen_props])
+        names = topo.bouc_wen_props[0].names
+        check_bouc_wen_parameters(table, names)
+        return BoucWenElements(dof_i=topo.bouc_wen_i.copy(), dof_j=topo.bouc_wen_j.copy(),
+                               table=table, names=names)
 
     def seismic_load(
         self, values: Mapping[str, float] | ArrayLike | None = None, direction: str | None = None
@@ -646,6 +711,7 @@ class Structure:
         dof2: str | None,
         name: str | None,
         raw: dict[str, Value],
+        specs: Mapping[str, _Spec] | None = None,
     ) -> str:
         name = self._new_name(name, kind)
         label = f"{kind} {name!r}"
@@ -658,7 +724,8 @@ class Structure:
             n2, d2 = self._node(node2, label), self._dof(dof if dof2 is None else dof2, label)
             if (n1, d1) == (n2, d2):
                 raise ModelError(f"{label}: connects {node}.{dof} to itself")
-        props = {k: self._value(v, label, k, _NONNEG) for k, v in raw.items()}
+        props = {k: self._value(v, label, k, _NONNEG if specs is None else specs[k])
+                 for k, v in raw.items()}
         self._add(_Record(kind, name, props, nodes=(n1, n2), dofs=(d1, d2)))
         return name
 
@@ -773,6 +840,10 @@ class Structure:
         # of the deformation does not matter).
         swap = fr[:, 0] < 0
         fr[swap] = fr[swap][:, ::-1]
+        bouc_wens = by_kind.get("bouc_wen", [])
+        bw = link_map(bouc_wens)
+        swap = bw[:, 0] < 0  # the Bouc–Wen law is odd in (y, z) too
+        bw[swap] = bw[swap][:, ::-1]
 
         # lumped masses
         masses = by_kind.get("mass", [])
@@ -841,6 +912,10 @@ class Structure:
             mass_J_owner=j_owner,
             rayleigh=rayleigh,
             mass_const=mass_const,
+            bouc_wen_i=bw[:, 0].copy(),
+            bouc_wen_j=bw[:, 1].copy(),
+            bouc_wen_props=tuple(self._prop(bouc_wens, "bouc_wen", what, _BOUC_WEN_SPECS[what])
+                                 for what in BOUC_WEN_PARAMETERS),
         )
 
 
@@ -848,12 +923,16 @@ def shear_building(
     masses: Sequence[Value],
     stiffnesses: Sequence[Value],
     dampers: Sequence[Value] | None = None,
+    *,
+    frictions: Sequence[Mapping[str, Value]] | None = None,
+    bouc_wen: Sequence[Mapping[str, Value]] | None = None,
 ) -> Structure:
     """A shear building: one horizontal DOF per storey, storey springs between floors.
 
     Floors are nodes ``"F1"`` (lowest) … ``"Fn"`` with DOF ``ux``; storey ``i`` has a spring
-    ``"k<i>"`` (and a damper ``"c<i>"``) between floor ``i`` and the floor below (the ground for
-    ``i = 1``), and floor ``i`` a mass ``"m<i>"``. Any value may be a parameter name.
+    ``"k<i>"`` (and a damper ``"c<i>"``, an elasto-slip element ``"f<i>"``, a Bouc–Wen element
+    ``"bw<i>"``) between floor ``i`` and the floor below (the ground for ``i = 1``), and floor
+    ``i`` a mass ``"m<i>"``. Any value may be a parameter name.
 
     Parameters
     ----------
@@ -861,6 +940,11 @@ def shear_building(
         Floor masses and storey stiffnesses, bottom up, of equal length.
     dampers : sequence of float or str, optional
         Storey viscous damping coefficients, same length.
+    frictions : sequence of mapping, optional
+        Per storey ``{"k_r": ..., "f_u": ...}`` (:meth:`Structure.add_friction`), same length.
+    bouc_wen : sequence of mapping, optional
+        Per storey ``{"k", "alpha", "A", "beta", "gamma", "n"}`` (:meth:`Structure.add_bouc_wen`;
+        ``alpha``, ``A`` and ``n`` may be left out), same length.
     """
     n = len(masses)
     if n == 0:
@@ -869,10 +953,12 @@ def shear_building(
         raise ModelError(
             f"shear_building: {len(stiffnesses)} stiffnesses for {n} masses; give one per storey"
         )
-    if dampers is not None and len(dampers) != n:
-        raise ModelError(
-            f"shear_building: {len(dampers)} dampers for {n} masses; give one per storey"
-        )
+    for what, given in (("dampers", dampers), ("frictions", frictions),
+                        ("bouc_wen", bouc_wen)):
+        if given is not None and len(given) != n:
+            raise ModelError(
+                f"shear_building: {len(given)} {what} for {n} masses; give one per storey"
+            )
     s = Structure(dofs_per_node=1)
     for i in range(1, n + 1):
         s.add_node(f"F{i}", x=0.0, y=float(i))
@@ -882,4 +968,9 @@ def shear_building(
         s.add_spring(f"F{i}", "ux", stiffnesses[i - 1], name=f"k{i}", **below)
         if dampers is not None:
             s.add_damper(f"F{i}", "ux", dampers[i - 1], name=f"c{i}", **below)
+        if frictions is not None:
+            fr = frictions[i - 1]
+            s.add_friction(f"F{i}", "ux", fr["k_r"], fr["f_u"], name=f"f{i}", **below)
+        if bouc_wen is not None:
+            s.add_bouc_wen(f"F{i}", "ux", name=f"bw{i}", **below, **bouc_wen[i - 1])
     return s

@@ -1,6 +1,7 @@
 """The assembled equations of motion that every integrator consumes.
 
-``M ÿ + C ẏ + K y + B_fᵀ f_D(B_f y) = P u(t)``, with ``y`` relative to the base.
+``M ÿ + C ẏ + K y + B_fᵀ f_D(B_f y) + B_hᵀ f_H(B_h y) = P u(t)``, with ``y`` relative to the base
+(``f_D`` the elasto-slip friction forces, ``f_H`` the Bouc–Wen forces).
 For uniform base excitation ``a_g(t)`` the load is ``P = -M r`` and ``u = a_g``.
 """
 
@@ -51,6 +52,66 @@ class FrictionElements:
         return b.T @ (self.k_r[:, None] * b)
 
 
+def _connectivity(dof_i: np.ndarray, dof_j: np.ndarray, n_dof: int) -> np.ndarray:
+    """Rows ``e_i - e_j`` (``-e_j`` left out where ``dof_j`` is -1, the ground)."""
+    count = int(dof_i.shape[0])
+    b = np.zeros((count, n_dof))
+    rows = np.arange(count)
+    b[rows, dof_i] = 1.0
+    ground = dof_j < 0
+    b[rows[~ground], dof_j[~ground]] = -1.0
+    return b
+
+
+@dataclass(frozen=True)
+class BoucWenElements:
+    """Bouc–Wen hysteretic elements (:mod:`femupdate.model.hysteresis`).
+
+    Element ``e`` deforms by ``y[dof_i[e]] - y[dof_j[e]]`` (``dof_j[e] == -1``: ground) and
+    carries ``α k y + (1 − α) k z``.
+
+    Attributes
+    ----------
+    dof_i, dof_j : ndarray of int64, shape (n_h,)
+        Free-DOF indices (``dof_j`` may be -1 for ground).
+    table : ndarray of float64, shape (n_h, 6)
+        ``k, alpha, A, beta, gamma, n`` per element (``hysteresis.BOUC_WEN_PARAMETERS``).
+    names : tuple of str
+        Element names, for messages.
+    """
+
+    dof_i: np.ndarray
+    dof_j: np.ndarray
+    table: np.ndarray
+    names: tuple[str, ...] = ()
+
+    @property
+    def count(self) -> int:
+        return int(self.table.shape[0])
+
+    def connectivity(self, n_dof: int) -> np.ndarray:
+        """Matrix ``B_h`` (n_h × n_dof) mapping DOF displacements to element deformations."""
+        return _connectivity(self.dof_i, self.dof_j, n_dof)
+
+    def _stiffness(self, n_dof: int, k: np.ndarray) -> np.ndarray:
+        b = self.connectivity(n_dof)
+        return b.T @ (k[:, None] * b)
+
+    def initial_stiffness(self, n_dof: int) -> np.ndarray:
+        """Stiffness the elements add at ``z = 0``: ``B_hᵀ diag(k (α + (1 − α) A)) B_h``."""
+        from femupdate.model.hysteresis import bouc_wen_initial_tangent
+
+        t = self.table
+        return self._stiffness(n_dof, bouc_wen_initial_tangent(t[:, 0], t[:, 1], t[:, 2]))
+
+    def max_stiffness(self, n_dof: int) -> np.ndarray:
+        """Stiffness with every element at its largest tangent (the stable step's)."""
+        from femupdate.model.hysteresis import bouc_wen_max_tangent
+
+        t = self.table
+        return self._stiffness(n_dof, bouc_wen_max_tangent(*t[:, :5].T))
+
+
 @dataclass(frozen=True)
 class System:
     """Mass, damping and stiffness of the free DOFs, and how the base motion loads them.
@@ -62,7 +123,9 @@ class System:
     r : ndarray, shape (n,)
         Influence vector: the displacement of each free DOF for a unit rigid base displacement.
     friction : FrictionElements or None
-        Elasto-slip elements, or None for a linear system.
+        Elasto-slip elements, or None.
+    bouc_wen : BoucWenElements or None
+        Bouc–Wen elements, or None (a system with neither is linear).
     dof_labels : tuple of str
         A label per free DOF (``"P1.uy"``), for messages and outputs.
     seismic : ndarray, shape (n,), optional
@@ -78,6 +141,7 @@ class System:
     friction: FrictionElements | None = None
     dof_labels: tuple[str, ...] = field(default=())
     seismic: np.ndarray | None = None
+    bouc_wen: BoucWenElements | None = None
 
     @property
     def seismic_load(self) -> np.ndarray:
@@ -90,4 +154,18 @@ class System:
 
     @property
     def is_linear(self) -> bool:
-        return self.friction is None or self.friction.count == 0
+        return self.n_friction == 0 and self.n_bouc_wen == 0
+
+    @property
+    def n_friction(self) -> int:
+        return 0 if self.friction is None else self.friction.count
+
+    @property
+    def n_bouc_wen(self) -> int:
+        return 0 if self.bouc_wen is None else self.bouc_wen.count
+
+    def nonlinear_elements(self) -> str:
+        """The nonlinear elements in words, e.g. ``"2 friction elements"``, for messages."""
+        parts = [f"{self.n_friction} friction elements"] if self.n_friction else []
+        parts += [f"{self.n_bouc_wen} Bouc–Wen elements"] if self.n_bouc_wen else []
+        return " and ".join(parts) or "no nonlinear elements"

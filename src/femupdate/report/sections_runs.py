@@ -32,10 +32,14 @@ def _model_text(ctx: Context) -> str:
     model = ctx.res.case.model
     if model.shear_building is not None:
         parts = [f"shear building of {len(model.shear_building.masses)} storeys"]
+        parts += [f"{what} in every storey" for what, section in (
+            ("friction elements", model.shear_building.frictions),
+            ("Bouc–Wen elements", model.shear_building.bouc_wen)) if section is not None]
     else:
         parts = [f"{len(model.nodes)} nodes"]
         parts += [f"{len(getattr(model, key))} {key}"
-                  for key in ("beams", "springs", "dampers", "frictions", "masses", "supports")
+                  for key in ("beams", "springs", "dampers", "frictions", "bouc_wen", "masses",
+                              "supports")
                   if getattr(model, key)]
     dofs = (f"{ctx.model.structure.n_dof} free DOFs" if ctx.model is not None
             else str(ctx.model_note))

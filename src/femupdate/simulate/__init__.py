@@ -76,7 +76,7 @@ def prepare(
     if method in LINEAR_METHODS and not system.is_linear:
         raise SimulationError(
             f"method {method!r} is for linear systems; this system has "
-            f"{system.friction.count} friction elements: use method='nonlinear'"
+            f"{system.nonlinear_elements()}: use method='nonlinear'"
         )
     if method == "exact":
         if substeps != 1:

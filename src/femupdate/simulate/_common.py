@@ -13,6 +13,7 @@ from numba import njit
 
 from femupdate.errors import ConfigError, DataError, ModelError, SimulationError
 from femupdate.model.friction import check_friction_parameters
+from femupdate.model.hysteresis import check_bouc_wen_parameters
 from femupdate.model.system import System
 from femupdate.simulate.response import Response
 
@@ -60,6 +61,19 @@ def check_system(system: System) -> np.ndarray:
                 f"friction.dof_j must lie in [-1, {n - 1}] (-1 = ground); got {fr.dof_j.tolist()}"
             )
         check_friction_parameters(fr.k_r, fr.f_u)
+    bw = system.bouc_wen
+    if bw is not None and bw.count:
+        nb = bw.count
+        if np.shape(bw.table) != (nb, 6) or np.shape(bw.dof_i) != (nb,) or np.shape(
+                bw.dof_j) != (nb,):
+            raise ModelError(f"bouc_wen: table {np.shape(bw.table)}, dof_i "
+                             f"{np.shape(bw.dof_i)}, dof_j {np.shape(bw.dof_j)}; expected "
+                             f"({nb}, 6), ({nb},), ({nb},)")
+        if np.any((bw.dof_i < 0) | (bw.dof_i >= n)) or np.any((bw.dof_j < -1) | (bw.dof_j >= n)):
+            raise ModelError(f"bouc_wen.dof_i must lie in [0, {n - 1}] and dof_j in [-1, "
+                             f"{n - 1}] (-1 = ground); got {bw.dof_i.tolist()}, "
+                             f"{bw.dof_j.tolist()}")
+        check_bouc_wen_parameters(bw.table, bw.names or None)
     return chol
 
 
@@ -225,11 +239,13 @@ def make_response(
     diverged: bool,
     friction_force: np.ndarray | None = None,
     slip: np.ndarray | None = None,
+    hysteretic_force: np.ndarray | None = None,
+    hysteretic_z: np.ndarray | None = None,
 ) -> Response:
     """Wrap output arrays; a diverged simulation gets NaN everywhere (never partial numbers)."""
     if diverged or not (np.all(np.isfinite(disp)) and np.all(np.isfinite(vel))):
         diverged = True
-        for arr in (disp, vel, acc, friction_force, slip):
+        for arr in (disp, vel, acc, friction_force, slip, hysteretic_force, hysteretic_z):
             if arr is not None:
                 arr.fill(np.nan)
     return Response(
@@ -240,6 +256,8 @@ def make_response(
         diverged=diverged,
         friction_force=friction_force,
         slip=slip,
+        hysteretic_force=hysteretic_force,
+        hysteretic_z=hysteretic_z,
     )
 
 
@@ -310,7 +328,8 @@ class Simulator:
         self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
         v0: np.ndarray,
     ) -> tuple:
-        """(displacement, velocity, acceleration, diverged[, friction force, slip]).
+        """(displacement, velocity, acceleration, diverged[, friction force, slip[,
+        Bouc–Wen force, z]]).
 
         The acceleration is relative, or absolute if ``returns_absolute_acceleration``.
         """

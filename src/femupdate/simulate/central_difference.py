@@ -19,8 +19,14 @@ elements' deformations ``y = (B_f Φ) η`` and forces couple the modes. It is th
 results agree to rounding, 1e-12…1e-10) at about half the work per step. Non-proportional damping
 (discrete dashpots) keeps the physical form.
 
-The scheme is stable for ``h < 2/ω_max``; a larger step is refused with the largest stable step
-and the number of substeps that works.
+Bouc–Wen elements (:mod:`femupdate.model.hysteresis`) enter the same way, ``- H_b f_H`` with
+``H_b = A_eff⁻¹ B_hᵀ``: their hysteretic displacement ``z`` is advanced over each step's
+deformation increment (Runge–Kutta in the deformation) before their force is computed from the
+current displacement, so the scheme stays explicit.
+
+The scheme is stable for ``h < 2/ω_max``, of the stuck system and the Bouc–Wen elements at their
+largest tangent stiffness; a larger step is refused with the largest stable step and the number
+of substeps that works.
 """
 
 from __future__ import annotations
@@ -33,6 +39,11 @@ from numba import njit
 
 from femupdate.errors import SimulationError
 from femupdate.model.friction import elasto_slip
+from femupdate.model.hysteresis import (
+    bouc_wen_force,
+    bouc_wen_step_limit,
+    bouc_wen_update,
+)
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     Simulator,
@@ -49,26 +60,46 @@ _FASTMATH = {"contract", "reassoc"}
 
 
 @njit(cache=True)
-def _sample_arrays(ns, no, nf):
-    """Displacement, velocity, acceleration (ns, no); friction force and slip (ns, nf)."""
+def _sample_arrays(ns, no, nf, nb):
+    """Displacement, velocity, acceleration (ns, no); friction force and slip (ns, nf);
+    Bouc–Wen force and z (ns, nb)."""
     return (np.empty((ns, no)), np.empty((ns, no)), np.empty((ns, no)), np.empty((ns, nf)),
-            np.empty((ns, nf)))
+            np.empty((ns, nf)), np.empty((ns, nb)), np.empty((ns, nb)))
+
+
+@njit(cache=True, inline="always")
+def _bouc_wen_step(e, y, yb, zb, bw, dy_max):
+    """Advance element ``e``'s ``z`` to the deformation ``y`` and return its force."""
+    zb[e] = bouc_wen_update(zb[e], y - yb[e], bw[e, 2], bw[e, 3], bw[e, 4], bw[e, 5],
+                            dy_max[e])
+    yb[e] = y
+    return bouc_wen_force(y, zb[e], bw[e, 0], bw[e, 1])
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
-    """Central-difference time stepping with elasto-slip elements (none when ``kr`` is empty).
+def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out, bi, bj, bw, dy_max,
+               HbT):
+    """Central-difference time stepping with elasto-slip elements (none when ``kr`` is empty)
+    and Bouc–Wen elements (none when ``bw`` is empty).
 
-    ``G1T, G2T, HT`` are the transposes of ``G1, G2, H`` (columns contiguous for the updates);
-    ``q`` (ns, n) the loads ``A_eff⁻¹ p`` at the samples, interpolated linearly in between.
+    ``G1T, G2T, HT, HbT`` are the transposes of ``G1, G2, H, H_b`` (columns contiguous for the
+    updates); ``q`` (ns, n) the loads ``A_eff⁻¹ p`` at the samples, interpolated linearly in
+    between; ``bw`` (nb, 6) the Bouc–Wen parameters, ``dy_max`` their Runge–Kutta part limits.
     Returns displacement, velocity and relative acceleration at the output DOFs, friction force
-    and slip offset per element at the samples, and whether the solution diverged.
+    and slip offset per element, Bouc–Wen force and z per element at the samples, and whether
+    the solution diverged.
     """
     ns = q.shape[0]
     n = u0.shape[0]
     nf = kr.shape[0]
+    nb = bw.shape[0]
     no = out.shape[0]
-    disp, vel, acc, ff, slip = _sample_arrays(ns, no, nf)
+    disp, vel, acc, ff, slip, bf, bz = _sample_arrays(ns, no, nf, nb)
+    yb = np.empty(nb)  # deformation at the previous step
+    zb = np.zeros(nb)
+    fb = np.empty(nb)
+    for e in range(nb):
+        yb[e] = u0[bi[e]] - (u0[bj[e]] if bj[e] >= 0 else 0.0)
     u_prev = um1.copy()
     u = u0.copy()
     u_next = np.empty(n)
@@ -100,9 +131,17 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
                 fe[e] = f
                 for i in range(n):
                     u_next[i] -= HT[e, i] * f
+            for e in range(nb):
+                y = u[bi[e]]
+                if bj[e] >= 0:
+                    y -= u[bj[e]]
+                f = _bouc_wen_step(e, y, yb, zb, bw, dy_max)
+                fb[e] = f
+                for i in range(n):
+                    u_next[i] -= HbT[e, i] * f
             if j == 0:
                 if is_diverged(u_next):
-                    return disp, vel, acc, ff, slip, True
+                    return disp, vel, acc, ff, slip, bf, bz, True
                 for o in range(no):
                     d = out[o]
                     disp[k, o] = u[d]
@@ -111,23 +150,38 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out):
                 for e in range(nf):
                     ff[k, e] = fe[e]
                     slip[k, e] = yr[e]
+                for e in range(nb):
+                    bf[k, e] = fb[e]
+                    bz[k, e] = zb[e]
             u_prev, u, u_next = u, u_next, u_prev
-    return disp, vel, acc, ff, slip, False
+    return disp, vel, acc, ff, slip, bf, bz, False
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po):
-    """Central differences in modal coordinates with elasto-slip elements (none if ``kr`` empty).
+def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po, Yb, bw, dy_max,
+                     Pb):
+    """Central differences in modal coordinates with elasto-slip elements (none if ``kr`` empty)
+    and Bouc–Wen elements (none if ``bw`` is empty).
 
-    ``η_{n+1} = a ⊙ η_n - b ⊙ η_{n-1} + q_n - Pfᵀ f`` with the element deformations
-    ``y = Yf η``; ``q`` (ns, n) holds the modal loads at the samples, interpolated linearly in
-    between; ``Po`` maps modes to the output DOFs. Returns what :func:`_cd_kernel` returns.
+    ``η_{n+1} = a ⊙ η_n - b ⊙ η_{n-1} + q_n - Pfᵀ f - Pbᵀ f_b`` with the element deformations
+    ``y = Yf η`` and ``y_b = Yb η``; ``q`` (ns, n) holds the modal loads at the samples,
+    interpolated linearly in between; ``Po`` maps modes to the output DOFs. Returns what
+    :func:`_cd_kernel` returns.
     """
     ns = q.shape[0]
     n = eta0.shape[0]
     nf = kr.shape[0]
+    nb = bw.shape[0]
     no = Po.shape[0]
-    disp, vel, acc, ff, slip = _sample_arrays(ns, no, nf)
+    disp, vel, acc, ff, slip, bf, bz = _sample_arrays(ns, no, nf, nb)
+    yb = np.empty(nb)
+    zb = np.zeros(nb)
+    fb = np.empty(nb)
+    for e in range(nb):
+        y = 0.0
+        for i in range(n):
+            y += Yb[e, i] * eta0[i]
+        yb[e] = y
     eta_prev = eta_m1.copy()
     eta = eta0.copy()
     eta_next = np.empty(n)
@@ -153,9 +207,17 @@ def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po):
                 fe[e] = f
                 for i in range(n):
                     eta_next[i] -= Pf[e, i] * f
+            for e in range(nb):
+                y = 0.0
+                for i in range(n):
+                    y += Yb[e, i] * eta[i]
+                f = _bouc_wen_step(e, y, yb, zb, bw, dy_max)
+                fb[e] = f
+                for i in range(n):
+                    eta_next[i] -= Pb[e, i] * f
             if j == 0:
                 if is_diverged(eta_next):
-                    return disp, vel, acc, ff, slip, True
+                    return disp, vel, acc, ff, slip, bf, bz, True
                 for o in range(no):
                     d = 0.0
                     v = 0.0
@@ -170,8 +232,11 @@ def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po):
                 for e in range(nf):
                     ff[k, e] = fe[e]
                     slip[k, e] = yr[e]
+                for e in range(nb):
+                    bf[k, e] = fb[e]
+                    bz[k, e] = zb[e]
             eta_prev, eta, eta_next = eta, eta_next, eta_prev
-    return disp, vel, acc, ff, slip, False
+    return disp, vel, acc, ff, slip, bf, bz, False
 
 
 def modal_damping(
@@ -223,15 +288,34 @@ class CentralDifferenceSimulator(Simulator):
         else:
             bf = np.zeros((0, n))
             k_stuck = 0.0
+        bw = system.bouc_wen
+        nb = 0 if bw is None else bw.count
+        if nb:
+            hb = bw.connectivity(n)
+            k_stuck = k_stuck + bw.max_stiffness(n)
+            self._bw = np.ascontiguousarray(bw.table, dtype=np.float64)
+            self._bi = np.ascontiguousarray(bw.dof_i, dtype=np.int64)
+            self._bj = np.ascontiguousarray(bw.dof_j, dtype=np.int64)
+            t = self._bw
+            self._dy_max = np.ascontiguousarray(bouc_wen_step_limit(t[:, 2], t[:, 3], t[:, 4],
+                                                                    t[:, 5]))
+        else:
+            hb = np.zeros((0, n))
+            self._bw = np.zeros((0, 6))
+            self._bi = np.zeros(0, dtype=np.int64)
+            self._bj = np.zeros(0, dtype=np.int64)
+            self._dy_max = np.zeros(0)
+        self._hb = hb
+        self.n_bouc_wen = nb
         self.omega_max = omega_max(system.M, system.K + k_stuck)
         check_critical_step(self.dt, self.substeps, self.omega_max, 2.0, method)
         M, C, K = system.M, system.C, system.K
         modal = modal_damping(M, C, K)
         self.modal = modal is not None
         if modal is None:
-            self._prepare_physical(M, C, K, system.seismic_load, bf, method)
+            self._prepare_physical(M, C, K, system.seismic_load, bf, method, hb)
         else:
-            self._prepare_modal(*modal, M, system.seismic_load, bf)
+            self._prepare_modal(*modal, M, system.seismic_load, bf, hb)
         self._bf = bf
         if nf:
             self._fi = np.ascontiguousarray(fr.dof_i, dtype=np.int64)
@@ -246,8 +330,9 @@ class CentralDifferenceSimulator(Simulator):
         self.n_friction = nf
 
     def _prepare_physical(self, M: np.ndarray, C: np.ndarray, K: np.ndarray, p: np.ndarray,
-                          bf: np.ndarray, method: str) -> None:
-        """The fused recurrence's matrices in physical coordinates (module docstring)."""
+                          bf: np.ndarray, method: str, hb: np.ndarray) -> None:
+        """The fused recurrence's matrices in physical coordinates (module docstring); ``hb``
+        the Bouc–Wen connectivity, coupled as the friction elements' ``bf``."""
         h = self.h
         a_eff = M / h**2 + C / (2.0 * h)
         try:
@@ -262,9 +347,10 @@ class CentralDifferenceSimulator(Simulator):
         self._g = solve(-p)
         self._G3 = solve(np.eye(self.n_dof))
         self._HT = np.ascontiguousarray(solve(bf.T).T) if len(bf) else np.zeros((0, self.n_dof))
+        self._HbT = np.ascontiguousarray(solve(hb.T).T) if len(hb) else np.zeros((0, self.n_dof))
 
     def _prepare_modal(self, w2: np.ndarray, phi: np.ndarray, c: np.ndarray, M: np.ndarray,
-                       p: np.ndarray, bf: np.ndarray) -> None:
+                       p: np.ndarray, bf: np.ndarray, hb: np.ndarray) -> None:
         """The same recurrence per mode: ``(1/h² + c/2h) η_{n+1} = …`` divided through."""
         h = self.h
         gain = 1.0 / (1.0 / h**2 + c / (2.0 * h))
@@ -276,16 +362,22 @@ class CentralDifferenceSimulator(Simulator):
         self._Pf = np.ascontiguousarray(bf @ phi * gain[None, :])
         self._Po = np.ascontiguousarray(phi[self.outputs])
         self._to_modal = phi.T @ M  # η = Φᵀ M u
+        self._Yb = np.ascontiguousarray(hb @ phi)
+        self._Pb = np.ascontiguousarray(hb @ phi * gain[None, :])
 
     def _initial_force(self, x0: np.ndarray) -> np.ndarray:
-        """Friction forces on the DOFs at the initial state (slip offsets start at zero)."""
-        if not self.n_friction:
-            return np.zeros(self.n_dof)
-        y = self._bf @ x0
-        f = np.array(
-            [elasto_slip(y[e], 0.0, self._kr[e], self._fu[e])[0] for e in range(self.n_friction)]
-        )
-        return self._bf.T @ f
+        """Friction and Bouc–Wen forces on the DOFs at the initial state (slip offsets and
+        ``z`` start at zero)."""
+        force = np.zeros(self.n_dof)
+        if self.n_friction:
+            y = self._bf @ x0
+            f = np.array([elasto_slip(y[e], 0.0, self._kr[e], self._fu[e])[0]
+                          for e in range(self.n_friction)])
+            force += self._bf.T @ f
+        if self.n_bouc_wen:
+            y = self._hb @ x0
+            force += self._hb.T @ (self._bw[:, 0] * self._bw[:, 1] * y)  # α k y at z = 0
+        return force
 
     def _integrate(
         self, ag: np.ndarray | None, force: np.ndarray | None, ns: int, x0: np.ndarray,
@@ -298,15 +390,20 @@ class CentralDifferenceSimulator(Simulator):
         um1 = x0 - h * v0 + 0.5 * h * h * a0
         friction = (self._kr, self._fu)
         if self.modal:
-            disp, vel, acc, ff, slip, diverged = _modal_cd_kernel(
+            disp, vel, acc, ff, slip, bf, bz, diverged = _modal_cd_kernel(
                 self._a, self._b, q, self.substeps, h, self._to_modal @ x0,
                 self._to_modal @ um1, self._Yf, *friction, self._Pf, self._Po,
+                self._Yb, self._bw, self._dy_max, self._Pb,
             )
         else:
-            disp, vel, acc, ff, slip, diverged = _cd_kernel(
+            disp, vel, acc, ff, slip, bf, bz, diverged = _cd_kernel(
                 self._G1T, self._G2T, q, self.substeps, h, x0, um1, self._fi, self._fj,
-                *friction, self._HT, self.outputs,
+                *friction, self._HT, self.outputs, self._bi, self._bj, self._bw,
+                self._dy_max, self._HbT,
             )
+        if self.n_bouc_wen:
+            return (disp, vel, acc, diverged, ff if self.n_friction else None,
+                    slip if self.n_friction else None, bf, bz)
         if self.n_friction:
             return disp, vel, acc, diverged, ff, slip
         return disp, vel, acc, diverged
@@ -339,6 +436,6 @@ def prepare_central_difference(
     if not system.is_linear:
         raise SimulationError(
             "method 'central_difference' is for linear systems; this system has "
-            f"{system.friction.count} friction elements: use method='nonlinear'"
+            f"{system.nonlinear_elements()}: use method='nonlinear'"
         )
     return CentralDifferenceSimulator(system, dt, outputs, substeps)

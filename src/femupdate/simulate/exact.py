@@ -194,7 +194,7 @@ class ExactSimulator(Simulator):
         if not system.is_linear:
             raise SimulationError(
                 "method 'exact' is for linear systems; this system has "
-                f"{system.friction.count} friction elements: use method='nonlinear'"
+                f"{system.nonlinear_elements()}: use method='nonlinear'"
             )
         n = self.n_dof
         minv = self._minv

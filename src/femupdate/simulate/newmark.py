@@ -130,7 +130,7 @@ class NewmarkSimulator(Simulator):
         if not system.is_linear:
             raise SimulationError(
                 "method 'newmark' is for linear systems; this system has "
-                f"{system.friction.count} friction elements: use method='nonlinear'"
+                f"{system.nonlinear_elements()}: use method='nonlinear'"
             )
         self.beta, self.gamma = check_newmark_parameters(beta, gamma)
         n, h = self.n_dof, self.h

@@ -23,6 +23,9 @@ class Response:
         True when the solution overflowed or became NaN; the arrays are then not meaningful.
     friction_force, slip : ndarray, shape (n_samples, n_friction) or None
         Force in, and slip offset of, each elasto-slip element (nonlinear simulations only).
+    hysteretic_force, hysteretic_z : ndarray, shape (n_samples, n_bouc_wen) or None
+        Force in, and hysteretic displacement ``z`` of, each Bouc–Wen element (nonlinear
+        simulations of systems with Bouc–Wen elements only).
     """
 
     t: np.ndarray
@@ -32,3 +35,5 @@ class Response:
     diverged: bool = False
     friction_force: np.ndarray | None = None
     slip: np.ndarray | None = None
+    hysteretic_force: np.ndarray | None = None
+    hysteretic_z: np.ndarray | None = None

@@ -1,0 +1,133 @@
+"""φ of a model with Bouc–Wen elements: the compiled path against the step-by-step reference."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femupdate.case import load_case
+from femupdate.evaluation import evaluator_for
+from femupdate.experiment import load_experiments
+from femupdate.update import UpdateProblem
+from femupdate.virtual import virtual_experiment
+
+CASE = """\
+[case]
+name = "two storeys, Bouc-Wen links"
+
+[model.shear_building]
+masses = [1.0, 0.8]
+stiffnesses = [500.0, 0.0]
+DAMPERS
+
+[model.shear_building.bouc_wen]
+k = ["k1", "k2"]
+alpha = 0.1
+beta = ["b1", 1.0e6]
+gamma = "g"
+n = 2.0
+
+[model.shear_building.frictions]
+k_r = [0.0, 800.0]
+f_u = 0.8
+
+[[parameters]]
+name = "k1"
+lower = 2000.0
+upper = 8000.0
+[[parameters]]
+name = "k2"
+lower = 1500.0
+upper = 6000.0
+[[parameters]]
+name = "b1"
+lower = 3.0e5
+upper = 3.0e6
+scale = "log"
+[[parameters]]
+name = "g"
+lower = -2.0e5
+upper = 2.5e5
+
+[preprocess]
+substeps = 5
+
+[objective]
+quantity = "QUANTITY"
+
+[data]
+format = "csv"
+directory = "data"
+time_column = "t"
+
+[data.input]
+file = "table.csv"
+column = "table"
+
+[[data.outputs]]
+file = "floors.csv"
+column = "a1"
+node = "F1"
+dof = "ux"
+[[data.outputs]]
+file = "floors.csv"
+column = "a2"
+node = "F2"
+dof = "ux"
+"""
+TRUTH = {"k1": 4000.0, "k2": 3000.0, "b1": 7.5e5, "g": 2.0e5}
+
+
+def _problem(folder: Path, quantity: str, dampers: str) -> UpdateProblem:
+    text = CASE.replace("QUANTITY", quantity).replace("DAMPERS", dampers)
+    (folder / "case.toml").write_text(text)
+    case = load_case(folder / "case.toml")
+    virtual_experiment(case, TRUTH, folder / "data", seed=7, rate=200.0, duration=1.5,
+                       pga_g=0.35)
+    return UpdateProblem(case, load_experiments(case))
+
+
+def _points(problem: UpdateProblem, count: int) -> np.ndarray:
+    lower, upper = (np.array(b) for b in zip(*problem.bounds, strict=True))
+    rng = np.random.default_rng(1)
+    return lower + (upper - lower) * rng.random((count, lower.size))
+
+
+@pytest.mark.parametrize("quantity", ["acceleration", "displacement"])
+def test_compiled_phi_equals_the_reference(tmp_path: Path, quantity: str) -> None:
+    """Same recurrence, same law: φ to rounding; a batch is its
+    single calls bit for bit; the residuals give φ. Measured: 2.6e-14 (accelerations),
+    1.1e-13 (displacements)."""
+    problem = _problem(tmp_path, quantity, "[model.rayleigh]\nalpha = 0.6")
+    trial = problem.trials[0]
+    evaluator = evaluator_for(trial)
+    assert evaluator.bouc_wen is not None
+    X = _points(problem, 6)
+    reference = np.array([trial.phi_reference(x) for x in X])
+    batch = evaluator.batch(X)
+    phi = np.empty(len(X))
+    status = np.ones(len(X), dtype=np.int64)
+    evaluator._run(np.ascontiguousarray(X), False, phi, status)
+    assert not status.any()  # every point on the compiled path
+    np.testing.assert_allclose(batch, reference, rtol=1e-10, atol=0)
+    assert np.array_equal(batch, [evaluator(x) for x in X])
+    r = evaluator.residuals(X[0])
+    assert r is not None and r @ r == pytest.approx(batch[0], rel=1e-12)
+
+
+def test_non_proportional_damping_runs_the_physical_kernel(tmp_path: Path) -> None:
+    """Storey dashpots couple the undamped modes: the physical-coordinate recurrence runs,
+    compiled, and agrees with the reference's physical kernel to rounding (measured 4.4e-13;
+    9.6e-13 in displacements)."""
+    problem = _problem(tmp_path, "acceleration", "dampers = [0.5, 0.4]")
+    trial = problem.trials[0]
+    evaluator = evaluator_for(trial)
+    X = _points(problem, 4)
+    phi = np.empty(4)
+    status = np.ones(4, dtype=np.int64)
+    evaluator._run(np.ascontiguousarray(X), False, phi, status)
+    assert not status.any()
+    reference = [trial.phi_reference(x) for x in X]
+    np.testing.assert_allclose(evaluator.batch(X), reference, rtol=1e-10, atol=0)
