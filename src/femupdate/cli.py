@@ -671,6 +671,9 @@ def validate(
         case = with_data_directory(case, data)
     values = _read_params("--params", params, case)
     result = validate_case(case, values)
+    if result.frequencies_hz:
+        say("natural frequencies of the model [Hz]: "
+            + ", ".join(f"{f:.3f}" for f in result.frequencies_hz))
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
     if out is not None:
         from femupdate.report.figures import plot_fit, save_png
