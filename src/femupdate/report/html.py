@@ -56,7 +56,7 @@ body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2e
        max-width: 72em; padding: 0 1em; color: #222; line-height: 1.4; }
 h1 { font-size: 1.6em; margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc;
      margin-top: 2em; } h3 { font-size: 1.05em; margin-bottom: 0.3em; }
-table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.88em; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.88em; line-height: 1.25; }
 th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; vertical-align: top;
          overflow-wrap: anywhere; }
 td.code { font-family: ui-monospace, monospace; font-size: 0.95em; overflow-wrap: normal; }
