@@ -9,6 +9,7 @@ hits); pycma runs ``cma.fmin2`` with IPOP restarts (λ default, doubled at each 
 
     pip install coco-experiment cma
     python benchmarks/coco_bbob.py [--methods multistart-lm,ab,pycma] [--dim 5]
+    python benchmarks/coco_bbob.py --quick    # f1–f4, instance 1, d = 2, 100·d: a smoke run
 
 The scalar mode's local method was chosen with this script: ``--methods`` also accepts
 ``multistart-lm:OPTIONS_JSON`` to compare settings.
@@ -32,16 +33,17 @@ import femupdate
 DELTA = 1e-8
 
 
-def problems(dim: int) -> Iterator[Any]:
-    """The 48 bbob problems of dimension ``dim``, instances 1 and 2, one at a time (cocoex
-    frees a problem when the suite hands out the next)."""
+def problems(dim: int, instances: str = "1-2", functions: str = "1-24") -> Iterator[Any]:
+    """The bbob problems of dimension ``dim`` (default: all 24 functions, instances 1 and 2),
+    one at a time (cocoex frees a problem when the suite hands out the next)."""
     try:
         import cocoex
     except ImportError:
         raise SystemExit("coco_bbob.py needs COCO's Python package: pip install "
                          "coco-experiment") from None
 
-    suite = cocoex.Suite("bbob", "instances: 1-2", f"dimensions: {dim}")
+    suite = cocoex.Suite("bbob", f"instances: {instances}",
+                         f"dimensions: {dim} function_indices: {functions}")
     yield from suite
 
 
@@ -100,8 +102,13 @@ def main() -> None:
     parser.add_argument("--methods", default="multistart-lm,ab,pycma")
     parser.add_argument("--dim", type=int, default=5)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--quick", action="store_true",
+                        help="f1–f4, instance 1, d = 2, 100·d evaluations (a smoke run)")
     args = parser.parse_args()
-    budget = 1000 * args.dim
+    instances, functions, budget = "1-2", "1-24", 1000 * args.dim
+    if args.quick:
+        args.dim, instances, functions = 2, "1", "1-4"
+        budget = 100 * args.dim
     runners: dict[str, Callable[[Any], float]] = {}
     for spec in re.split(r",(?![^{]*})", args.methods):  # commas outside JSON options
         name, _, opts = spec.partition(":")
@@ -114,7 +121,7 @@ def main() -> None:
     hits = {name: 0 for name in runners}
     start = time.perf_counter()
     rows = []
-    for problem in problems(args.dim):
+    for problem in problems(args.dim, instances, functions):
         cells = []
         for name, run in runners.items():
             gap = run(problem)
@@ -124,8 +131,8 @@ def main() -> None:
         rows.append(f"{problem.id}: " + "  ".join(cells))
         print(rows[-1], flush=True)
     total = len(rows)
-    print(f"# bbob d={args.dim}, instances 1-2, budget {budget} evaluations, target "
-          f"f - f_opt < {DELTA:g}, {time.perf_counter() - start:.0f} s")
+    print(f"# bbob d={args.dim}, functions {functions}, instances {instances}, budget {budget} "
+          f"evaluations, target f - f_opt < {DELTA:g}, {time.perf_counter() - start:.0f} s")
     for name, count in hits.items():
         print(f"{name}: {count}/{total} targets hit")
 

@@ -15,6 +15,7 @@ The bounds come from its ``bounds`` attribute (or ``--bounds``, a JSON list of p
     python benchmarks/dask_runs.py [--fun femupdate.problems.dynamic:DynamicProblem]
         [--method ab] [--runs 25] [--workers 2] [--max-evals 50000] [--f-target 1e-10]
         [--seed 0] [--skip-inline]
+    python benchmarks/dask_runs.py --quick     # 2 runs of 300 evaluations: a smoke run (CI)
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.runs.runner import RunOutcome, repeat, run_all
+from femupdate.runs import Execution, RunOutcome, repeat, run_all
 
 
 def load_fun(path: str) -> Any:
@@ -46,7 +47,7 @@ def timed(label: str, out: Path, fun: Any, bounds: Any, args: argparse.Namespace
     start = time.perf_counter()
     outcomes = run_all(fun, bounds, args.method, runs=args.runs, seed=args.seed,
                        max_evals=args.max_evals, f_target=args.f_target, options=options,
-                       store_dir=out / label, **where)
+                       store_dir=out / label, execution=Execution(**where))
     wall = time.perf_counter() - start
     evals = sum(o.nfev for o in outcomes)
     print(f"{label:>10}: {wall:7.2f} s  {evals:>9,} evals  {evals / wall:>9,.0f} evals/s",
@@ -71,7 +72,11 @@ def main() -> None:
     parser.add_argument("--f-target", type=float, default=1e-10)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--skip-inline", action="store_true", help="skip the 1-process run")
+    parser.add_argument("--quick", action="store_true",
+                        help="2 runs of at most 300 evaluations (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.runs, args.max_evals = 2, 300
 
     from dask.distributed import LocalCluster
 

@@ -2,6 +2,7 @@
 
     python benchmarks/evaluation_cost.py [--repeat N] [--no-run | --only-run] [--no-opensees]
                                          [--data DIR] [--json PATH]
+    python benchmarks/evaluation_cost.py --quick   # 3 calls per stage, no run rows (CI)
 
 Four cases: the paper's viscous bridge (10 DOF, exact discretisation, 4,768 samples), the
 friction bridge (central differences with 10 substeps: 47,680 steps), the real one-storey
@@ -426,7 +427,11 @@ def main() -> None:
                         help="shared data directory (holding minishake_1story/)")
     parser.add_argument("--work", type=Path, default=None, help="where records are written")
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    parser.add_argument("--quick", action="store_true",
+                        help="3 timed calls per stage, no run rows, no OpenSeesPy (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.repeat, args.no_run, args.no_opensees = 3, True, True
     work = args.work or Path(tempfile.gettempdir()) / "femupdate-evaluation-cost"
     work.mkdir(parents=True, exist_ok=True)
     results: dict[str, Any] = {"load_start": os.getloadavg(), "cases": {}}

@@ -17,6 +17,7 @@ best x and φ) are bit-identical across the three.
     python benchmarks/external_parallel.py [--workload batch|search] [--candidates 24]
         [--substeps 10] [--seed 0] [--workers 2] [--repeats 2] [--method multistart-lm]
         [--max-evals 2000] [--f-target 1e-6] [--json out.json]
+    python benchmarks/external_parallel.py --quick  # 4 candidates, 1 substep, 1 warm batch (CI)
 """
 
 from __future__ import annotations
@@ -104,7 +105,11 @@ def main() -> None:
     parser.add_argument("--f-target", type=float, default=1e-6)
     parser.add_argument("--repeats", type=int, default=2, help="warm batches (the shortest)")
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--quick", action="store_true",
+                        help="batch of 4 candidates, 1 substep, 1 warm batch (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.workload, args.candidates, args.substeps, args.repeats = "batch", 4, 1, 1
 
     from dask.distributed import LocalCluster
 

@@ -17,6 +17,7 @@ Both cost n simulations per Jacobian (every simulation is an evaluation), so the
 in accuracy and wall time.
 
     python benchmarks/jacobian_cost.py [--points 5]
+    python benchmarks/jacobian_cost.py --quick     # one point: a smoke run (CI)
 """
 
 from __future__ import annotations
@@ -48,9 +49,10 @@ def sensitivity_jacobian(problem, low: np.ndarray, span: np.ndarray,
     names = problem.names
     values = problem.values(x)
     system = problem.system(values)
+    trial = problem.fitted[0]  # the case's one trial
     sim = prepare(system, problem.experiment.dt, method="exact")  # all DOFs out
-    state = sim.run(problem._ag)
-    yhat = problem.prediction(_at_outputs(state, problem.outputs))
+    state = sim.run(trial._ag)
+    yhat = trial.scored(problem.prediction(_at_outputs(state, trial.outputs)))
     obj = problem.objective
     q, target = obj._q, obj.target
     d = yhat - target
@@ -66,12 +68,13 @@ def sensitivity_jacobian(problem, low: np.ndarray, span: np.ndarray,
         c_p = (bumped.C - system.C) / delta
         force = -(state.displacement @ k_p.T + state.velocity @ c_p.T)
         sens = sim.run(None, force)
-        acc = sens.acceleration[:, problem.outputs]  # relative: no base motion here
-        dyhat = signal.integrate_twice(acc, problem.experiment.dt)
+        acc = sens.acceleration[:, trial.outputs]  # relative: no base motion here
+        # the prediction's processing is linear: high-pass (if any), integrate, score
+        dyhat = trial.scored(signal.integrate_twice(trial._highpass(acc), problem.experiment.dt))
         dproj = dyhat - q @ (q.T @ dyhat)
         denergy = 2.0 * np.sum(qty * (q.T @ dyhat), axis=0)
         dscale = -0.5 * scale * denergy / energy
-        cols.append(((dproj * scale + proj * dscale) * span[i]).ravel())
+        cols.append(((dproj * scale + proj * dscale) * span[i]).ravel(order="F"))  # as r
     return np.column_stack(cols)
 
 
@@ -87,7 +90,10 @@ def _at_outputs(response, outputs: np.ndarray):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--points", type=int, default=5)
+    parser.add_argument("--quick", action="store_true", help="one point (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.points = 1
     problem = viscous_problem(seed=0, snr=0.0)
     low, high = np.array(problem.bounds).T
     span = high - low

@@ -4,15 +4,18 @@ Builds, once per size, a results directory of a shear building with a stiffness 
 parameter per storey (2 × storeys parameters; every 5th floor measured): a noise-free virtual
 experiment of 2 s at 120 Hz, then ``run_case`` with 2 runs of 20 AB evaluations (and the
 identifiability analysis, as ``femupdate run``). Then prints the wall and CPU time of
-``write_report``, the size of the page and the time per part (loading, each section). The
-results directories are kept under ``--work`` and reused.
+``write_report``, the size of the page and the time per part (loading, each section). With
+``--work`` the results directories are kept there and reused; without it they are built in a
+temporary directory removed at the end (building the 200-parameter one takes about 30 s).
 
     python benchmarks/report_speed.py [--parameters 50 200] [--work report-speed]
+    python benchmarks/report_speed.py --quick     # 10 parameters: a smoke run (CI)
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 
@@ -88,14 +91,29 @@ def time_sections(out: Path) -> dict[str, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--parameters", type=int, nargs="+", default=[50, 200])
-    parser.add_argument("--work", type=Path, default=Path("report-speed"))
+    parser.add_argument("--work", type=Path, default=None,
+                        help="keep the results directories here and reuse them "
+                             "(default: a temporary directory, removed at the end)")
+    parser.add_argument("--quick", action="store_true",
+                        help="one case of 10 parameters (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.parameters = [10]
+    if args.work is not None:
+        time_reports(args.parameters, args.work)
+    else:
+        with tempfile.TemporaryDirectory(prefix="report-speed-") as work:
+            time_reports(args.parameters, Path(work))
+
+
+def time_reports(parameters: list[int], work: Path) -> None:
+    """Print the report's times for each size in ``parameters`` (results under ``work``)."""
     from femupdate.report.html import write_report
 
     # Matplotlib and the report modules imported before timing: a command pays this once.
-    write_report(results_dir(args.parameters[0], args.work))
-    for n in args.parameters:
-        out = results_dir(n, args.work)
+    write_report(results_dir(parameters[0], work))
+    for n in parameters:
+        out = results_dir(n, work)
         wall, cpu = time.perf_counter(), time.process_time()
         path = write_report(out)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu

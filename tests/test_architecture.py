@@ -10,7 +10,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "femupdate"
 #: The layers, bottom up: a module may import its own top-level package and the layers below.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors", "units"),
-    ("_optional", "_parallel"),
+    ("_optional", "_parallel", "console"),
     ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
     ("objective", "case", "evaluation"),

@@ -89,6 +89,11 @@ max_evals = 60
 runner = CliRunner()
 
 
+def _said(output: str) -> str:
+    """What a command printed, its lines (wrapped at 80 columns) joined by single spaces."""
+    return " ".join(output.split())
+
+
 @pytest.fixture(scope="module")
 def records(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Noise-free records of the truth, 2 s at 200 Hz."""
@@ -120,7 +125,8 @@ def _scale_column(path: Path, column: int, factor: float) -> None:
 
 def _main(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
           *args: str) -> tuple[int, str]:
-    """``femupdate ARGS`` through the console entry point: (exit code, what it printed)."""
+    """``femupdate ARGS`` through the console entry point: (exit code, what it printed, its
+    lines, wrapped to the console's 80 columns, joined by single spaces)."""
     monkeypatch.setattr(sys, "argv", ["femupdate", *args])
     code = 0
     try:
@@ -128,7 +134,9 @@ def _main(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else 0
     captured = capsys.readouterr()
-    return code, captured.out + captured.err
+    text = captured.out + captured.err
+    assert max(map(len, text.splitlines()), default=0) <= 80, text
+    return code, _said(text)
 
 
 # ============================================================================ 2. resume, restart
@@ -225,8 +233,8 @@ def test_ctrl_c_says_how_to_resume_and_the_resume_finishes(
     out = tmp_path / "out"
     result = runner.invoke(app, ["run", str(path), "--out", str(out), "--quiet"])
     assert result.exit_code == 130
-    assert (f"interrupted; the runs so far are kept: resume with femupdate run {path} --out "
-            f"{out} --resume") in result.output
+    assert ("interrupted; the runs so far are kept: resume with\n"
+            f"femupdate run {path} --out {out} --resume\n") in result.output  # whole: to copy
     from femupdate.runs.store import ResultsStore
 
     with ResultsStore.open(out, read_only=True) as store:
@@ -289,8 +297,8 @@ def test_synth_warns_of_a_truth_outside_the_bounds(tmp_path: Path, records: Path
                                  str(tmp_path / "s"), "--duration", "0.5", "--rate", "200"])
     assert result.exit_code == 0, result.output
     assert ("warning: --truth: k1 = 20000 is outside its bounds [1000, 10000] "
-            "(parameters[0].upper)") in result.output
-    assert "k2" not in result.output.split("warning:")[1].split("\n")[0]
+            "(parameters[0].upper)") in _said(result.output)
+    assert "k2" not in _said(result.output).split("warning:")[1].split(" in ")[0]
     assert json.loads((tmp_path / "s" / "truth.json").read_text()) == truth
 
 
@@ -307,7 +315,7 @@ def test_synth_adds_and_says_exactly_its_sensor_errors(tmp_path: Path, records: 
                                  str(tmp_path / "s"), "--duration", "0.5", "--rate", "200",
                                  "--snr", snr, *extra])
     assert result.exit_code == 0, result.output
-    assert said in result.output
+    assert said in _said(result.output)
     manifest = json.loads((tmp_path / "s" / "manifest.json").read_text())
     offsets, drifts = np.abs(manifest["offsets_m_s2"]), np.abs(manifest["drifts_m_s3"])
     assert (offsets.max() > 0) == ("offsets" in said) and (drifts.max() > 0) == ("drifts" in said)
@@ -520,12 +528,13 @@ def test_the_run_table_reads_at_80_columns(width: int) -> None:
     tables = [line for line in text.splitlines() if line[:1] in "┏┃┡│└"]
     assert len(tables) > 2 * len(summary.runs)
     assert max(len(line) for line in tables) <= width
+    assert max(len(line) for line in text.splitlines()) <= width  # the sentences wrapped too
     for r in summary.runs:  # every value of every run is shown whole
         for value in r.params.values():
             assert f"{value:.4g}" in text
     assert "✓: the run reached φ ≤ f_target = 1e-06 ([search] f_target)" in text
     assert "φ ≤ target" in text  # the column says what ✓ means
-    improper = next(line for line in text.splitlines() if line.startswith("unsuccessful"))
+    improper = _said(text).split("unsuccessful runs:")[1]
     assert improper.endswith("fu3 lower, kr4 upper")
 
 
@@ -537,9 +546,10 @@ def test_failures_without_improper_minima_end_in_words() -> None:
     out = io.StringIO()
     cli.print_update_summary(summary, Console(file=out, width=80, color_system=None))
     text = out.getvalue()
-    line = next(x for x in text.splitlines() if x.startswith("unsuccessful"))
-    assert not line.rstrip().endswith(":") and "none with a parameter at a bound" in line
-    assert "≈ best" in text and "relative to the best run, not to an absolute target" in text
+    line = _said(text).split("unsuccessful runs:")[1]
+    assert not line.endswith(":") and "none with a parameter at a bound" in line
+    assert "≈ best" in text
+    assert "relative to the best run, not to an absolute target" in _said(text)
 
 
 def test_the_progress_bar_moves_with_evaluations_and_shows_time_left() -> None:

@@ -167,6 +167,18 @@ def test_validate_command(records: Path, tmp_path: Path) -> None:
     direct = validate_case(load_case(path), OFF)
     assert [t["phi"] for t in saved["trials"]] == [t.phi for t in direct.trials]
     assert "NMSE" in result.output and "validate" in result.output
+    # the model's natural frequencies, printed and recorded: the 2-storey shear building's
+    # closed form, det(K − ω²M) = 0 with M = diag(m1, m2), K = [[k1 + k2, −k2], [−k2, k2]]
+    (m1, m2), k1, k2 = (1.0, 0.8), OFF["k1"], OFF["k2"]
+    b, c = -((k1 + k2) * m2 + k2 * m1) / (m1 * m2), k1 * k2 / (m1 * m2)
+    omega2 = (-b + np.array([-1.0, 1.0]) * np.sqrt(b * b - 4 * c)) / 2
+    expected = np.sqrt(omega2) / (2 * np.pi)
+    np.testing.assert_allclose(saved["frequencies_hz"], expected, rtol=1e-10)
+    assert saved["frequencies_hz"] == direct.frequencies_hz
+    said = " ".join(result.output.split())
+    assert ("natural frequencies of the model [Hz]: "
+            + ", ".join(f"{f:.3f}" for f in expected)) in said
+    assert max(map(len, result.output.splitlines())) <= 80  # CliRunner: 80 columns
 
 
 def test_a_split_record_is_simulated_through(records: Path) -> None:

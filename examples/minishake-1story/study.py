@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
+from femupdate.console import one_line_warnings
 from femupdate.data import signal
 from femupdate.errors import DataError, FemupdateError
 from femupdate.experiment import Experiment
@@ -307,8 +308,9 @@ def main(argv: list[str] | None = None) -> int:
               if v is not None}
     try:
         data = find_data(args.data or os.environ.get(DATA_ENV) or default)
-        study = run_study(data, models=args.models.split(","), search=search,
-                          workers=args.workers, out_dir=args.out, quiet=False)
+        with one_line_warnings():  # e.g. records cut to their overlap, without source echo
+            study = run_study(data, models=args.models.split(","), search=search,
+                              workers=args.workers, out_dir=args.out, quiet=False)
     except FemupdateError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

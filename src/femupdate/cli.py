@@ -25,7 +25,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from femupdate.errors import ConfigError, FemupdateError, FemupdateWarning
+from femupdate.errors import ConfigError, FemupdateError
 
 if TYPE_CHECKING:
     from femupdate.case import Case
@@ -54,9 +54,11 @@ WorkersOption = Annotated[
 ]
 
 
-def say(message: str, style: str | None = None, *, out: Console | None = None) -> None:
-    """Print ``message`` as written (no markup), unwrapped so that commands stay whole."""
-    (out or console).print(Text(message, style=style or ""), soft_wrap=True)
+def say(message: str, style: str | None = None, *, out: Console | None = None,
+        whole: bool = False) -> None:
+    """Print ``message`` as written (no markup), wrapped at spaces to the console's width;
+    ``whole``: unwrapped (a command to copy)."""
+    (out or console).print(Text(message, style=style or ""), soft_wrap=whole)
 
 
 def _write_json(path: Path | None, data: Any) -> None:
@@ -227,8 +229,10 @@ def bench_bridge(
     max_evals: Annotated[int | None, typer.Option(min=1, help="Budget per run (default: the "
                                                   "case's: 20,000 viscous, 5,000 friction).")
                          ] = None,
-    work_dir: Annotated[Path | None, typer.Option(help="Keep the data and results here.")
-                        ] = None,
+    work_dir: Annotated[Path | None, typer.Option(
+        "--work-dir", "--out", help="Keep the records and results here (default: "
+        "$XDG_CACHE_HOME/femupdate/bench-bridge, else ~/.cache/femupdate/bench-bridge).")
+    ] = None,
     options: Annotated[str | None, typer.Option(
         help='Options of the method(s) as JSON, e.g. \'{"tolfun": 0, "tolfunhist": 0}\', or '
              'per method: \'{"cmaes": {"restarts": 20, "stall_window": 1000}}\'.')
@@ -240,10 +244,10 @@ def bench_bridge(
     )] = False,
 ) -> None:
     """Benchmark 2 of the paper: update the 1:50 bridge from a virtual experiment."""
-    from femupdate.bench.bridge import run_bridge_benchmark
+    from femupdate.bench.bridge import default_work_dir, run_bridge_benchmark
 
     method_options = _json_object("--options", options)
-    work = work_dir or Path("femupdate-bench-bridge")
+    work = work_dir or default_work_dir()
     rows = []
     for m in (m.strip() for m in method.split(",")):
         try:
@@ -266,6 +270,7 @@ def bench_bridge(
         rows.append(summary)
     if len(rows) > 1:
         console.print(_methods_table(rows))
+    say(f"records and results in {work.resolve()}")
     dumped = [r.model_dump() for r in rows]
     _write_json(json_path, dumped[0] if len(dumped) == 1 else dumped)
 
@@ -431,7 +436,8 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
 
 def _resume_hint(words: list[str]) -> None:
     """Say how to continue after Ctrl-C (the store keeps every finished chunk)."""
-    say("interrupted; the runs so far are kept: resume with " + shlex.join(words), "yellow")
+    say("interrupted; the runs so far are kept: resume with", "yellow")
+    say(shlex.join(words), "yellow", whole=True)
 
 
 def print_trials(trials: list[TrialRecord], title: str, *, out: Console | None = None) -> None:
@@ -666,6 +672,9 @@ def validate(
         case = with_data_directory(case, data)
     values = _read_params("--params", params, case)
     result = validate_case(case, values)
+    if result.frequencies_hz:
+        say("natural frequencies of the model [Hz]: "
+            + ", ".join(f"{f:.3f}" for f in result.frequencies_hz))
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
     if out is not None:
         from femupdate.report.figures import plot_fit, save_png
@@ -745,14 +754,10 @@ def synth(
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: Any = None, line: str | None = None) -> None:
-    """femupdate's warnings as one line on the console (others as Python prints them)."""
-    if issubclass(category, FemupdateWarning):
-        say(f"warning: {message}", "yellow")
-    else:
-        _python_showwarning(message, category, filename, lineno, file, line)
+    """Every warning as one line on the console, without Python's source echo."""
+    from femupdate.console import warning_text
 
-
-_python_showwarning = warnings.showwarning
+    say(warning_text(message, category), "yellow")
 
 
 def main() -> None:
@@ -762,7 +767,7 @@ def main() -> None:
     try:
         app()
     except FemupdateError as exc:
-        console.print(Text("error: ", style="red") + Text(str(exc)), soft_wrap=True)
+        console.print(Text("error: ", style="red") + Text(str(exc)))
         raise SystemExit(2) from None
     except KeyboardInterrupt:
         say("interrupted", "yellow")

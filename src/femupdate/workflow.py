@@ -387,10 +387,14 @@ class Validation:
     params: dict[str, float]
     trials: list[TrialRecord]
     fits: list[Fit]
+    #: The lowest natural frequencies (Hz) of the model at ``params`` (friction stuck).
+    frequencies_hz: list[float] = dataclasses.field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: the case, the parameters and every trial's figures."""
+        """JSON-ready: the case, the parameters, the model's natural frequencies and every
+        trial's figures."""
         return {"case": self.case, "params": self.params,
+                "frequencies_hz": self.frequencies_hz,
                 "trials": [t.model_dump() for t in self.trials]}
 
 
@@ -411,4 +415,5 @@ def validate_case(case: Case, params: dict[str, float], *,
     values = check_parameter_values(params, case.parameter_names, "parameter values")
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]
     records = [trial_record(t, values) for t in trials]
-    return Validation(case.label, values, records, _fits(trials, values))
+    freqs = trials[0].frequencies(values)[:N_FREQUENCIES].tolist() if trials else []
+    return Validation(case.label, values, records, _fits(trials, values), freqs)

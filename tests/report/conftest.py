@@ -4,7 +4,9 @@
   3 runs;
 - ``rayleigh_dir``: a 3-storey building whose Rayleigh coefficients are parameters, channel
   delays estimated and given, a record long enough for the detail window;
-- ``wide_dir``: 25 storeys with k and c per storey (50 parameters), 2 short runs.
+- ``wide_dir``: 25 storeys with k and c per storey (50 parameters), 2 short runs;
+- ``many_runs_dir``: the 2-storey building on noisy records updated by 25 runs of
+  multistart-lm (stop reasons with values, restarts: the table that must fit one screen).
 """
 
 from __future__ import annotations
@@ -85,10 +87,10 @@ def wide_case(data_dir: Path, storeys: int = WIDE_STOREYS) -> Case:
     })
 
 
-def _run(root: Path, case: Case, truth: dict[str, float], *, duration: float, rate: float
-         ) -> Path:
+def _run(root: Path, case: Case, truth: dict[str, float], *, duration: float, rate: float,
+         snr: float = 0.0) -> Path:
     virtual_experiment(case, truth, root / "data", seed=0, duration=duration, rate=rate,
-                       snr=0.0, offset=0.0, drift=0.0)
+                       snr=snr, offset=0.0, drift=0.0)
     out = root / "out"
     run_case(case, out, workers=1)
     return out
@@ -113,6 +115,16 @@ def wide_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     case = wide_case(root / "data")
     truth = {n: 2000.0 if n.startswith("k") else 1.0 for n in case.parameter_names}
     return _run(root, case, truth, duration=2.0, rate=120.0)
+
+
+@pytest.fixture(scope="session")
+def many_runs_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("many-runs")
+    case = two_storey_case(root / "data")
+    spec = case.to_dict()
+    spec["search"] = {"method": "multistart-lm", "runs": 25, "seed": 4, "max_evals": 300}
+    return _run(root, parse_case(spec, source=case.source), TRUTH, duration=3.0, rate=200.0,
+                snr=0.01)
 
 
 @pytest.fixture

@@ -59,6 +59,42 @@ def open_in_chromium(html: str, tmp_path: Path) -> tuple[dict, list[str]]:
     return json.loads(unescape(found.group(1))), console
 
 
+#: Once laid out, measures every table's horizontal overflow: how far each table (and the
+#: whole page) is wider than the space it has, in CSS pixels (0: it fits).
+OVERFLOW_PROBE = """<script>
+window.addEventListener("load", () => {
+  const page = document.documentElement;
+  const tables = Array.from(document.querySelectorAll("table")).map(t => {
+    const box = t.parentElement;  // the scrolling wrapper, or the section
+    return {id: t.id || t.className || "?",
+            over: box.classList.contains("scroll") ? box.scrollWidth - box.clientWidth
+                  : t.getBoundingClientRect().width - box.clientWidth};
+  });
+  const result = {viewport: window.innerWidth, page: page.scrollWidth - page.clientWidth,
+                  tables: tables};
+  document.body.setAttribute("data-overflow", JSON.stringify(result));
+});
+</script>"""
+
+
+def overflow_in_chromium(html: str, tmp_path: Path, width: int) -> dict:
+    """The overflow probe's result for ``html`` laid out in a window ``width`` px wide."""
+    folder = tmp_path / f"w{width}"
+    folder.mkdir()
+    page = folder / "report.html"
+    page.write_text(html.replace("</body>", OVERFLOW_PROBE + "</body>"), encoding="utf-8")
+    command = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+               "--disable-background-networking", "--disable-component-update",
+               "--disable-sync", f"--user-data-dir={folder / 'profile'}",
+               "--hide-scrollbars", f"--window-size={width},900",
+               "--virtual-time-budget=10000", "--dump-dom", page.as_uri()]
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    found = re.search(r'data-overflow="([^"]*)"', proc.stdout)
+    assert found, "the probe did not run: " + proc.stderr[-2000:]
+    return json.loads(unescape(found.group(1)))
+
+
 def image_widths(html: str) -> list[int]:
     return [int(w) for w in re.findall(r'<img src="data:[^"]*" width="(\d+)"', html)]
 
@@ -83,3 +119,29 @@ def test_the_browser_check_sees_a_broken_page(tmp_path: Path) -> None:
     assert probe["images"] == 3 and probe["decoded"] == 0
     assert probe["resources"] == ["http://example.com/x.png"]
     assert any("Uncaught ReferenceError" in line for line in console), console
+
+
+@pytest.mark.parametrize("width", [1280, 800])
+@pytest.mark.parametrize("results", ["many_runs_dir", "wide_dir"])
+def test_no_table_overflows_the_window(results: str, width: int, tmp_path: Path,
+                                       request: pytest.FixtureRequest) -> None:
+    # 25 runs of multistart-lm (stop codes, restarts), and 50 parameters: every table fits
+    # the window's width, none scrolls sideways, and neither does the page.
+    from femupdate.report.html import render_report
+
+    html = render_report(request.getfixturevalue(results))
+    probe = overflow_in_chromium(html, tmp_path, width)
+    assert probe["viewport"] == width
+    assert len(probe["tables"]) >= 8
+    assert [t for t in probe["tables"] if t["over"] > 0.5] == [], probe
+    assert probe["page"] <= 0, probe
+
+
+def test_the_overflow_check_sees_a_table_too_wide(tmp_path: Path) -> None:
+    cells = "".join(f"<td>{'x' * 30}{i}</td>" for i in range(12))
+    html = (f'<!DOCTYPE html><html><body><div style="overflow-x: auto"><table id="wide">'
+            f"<tr>{cells}</tr></table></div>{'<table><tr><td>1</td></tr></table>' * 7}"
+            "</body></html>")
+    probe = overflow_in_chromium(html, tmp_path, 800)
+    over = {t["id"]: t["over"] for t in probe["tables"]}
+    assert over["wide"] > 100

@@ -77,6 +77,20 @@ class Page(HTMLParser):
         header, *body = self.tables[table]
         return [dict(zip([h for h, _ in header], row, strict=True)) for row in body]
 
+    def run_parameters(self) -> list[dict[str, tuple[str, str]]]:
+        """The rows of the runs' parameter tables (``run-parameters``, ``-2`` …) joined."""
+        ids = sorted((t for t in self.tables if t.startswith("run-parameters")),
+                     key=lambda t: int(t.rsplit("-", 1)[1]) if t[-1].isdigit() else 1)
+        joined: list[dict[str, tuple[str, str]]] = []
+        for k, ident in enumerate(ids):
+            for i, row in enumerate(self.rows(ident)):
+                if k == 0:
+                    joined.append(row)
+                else:
+                    assert row["run"] == joined[i]["run"]
+                    joined[i].update(row)
+        return joined
+
 
 def parse(path: Path) -> tuple[Page, str]:
     text = path.read_text(encoding="utf-8")
@@ -181,7 +195,7 @@ def test_the_page_alone_is_the_whole_report(report: Path, tmp_path: Path) -> Non
 
 
 def test_runs_table_holds_the_summary(report: Path, summary: dict) -> None:
-    page, _ = parse(report)
+    page, text = parse(report)
     rows = page.rows("runs")
     assert len(rows) == len(summary["runs"]) == 3
     names = list(summary["best"]["params"])
@@ -192,7 +206,12 @@ def test_runs_table_holds_the_summary(report: Path, summary: dict) -> None:
         assert_printed(row["NMSE %"][0], 100.0 * run["phi"])
         assert int(row["evaluations"][0].replace(",", "")) == run["nfev"]
         assert row["success"][0] == ("yes" if run["success"] else "no")
-        assert "max_evals" in row["stop"][0] and "restart" not in row["stop"][0]
+        assert row["stop"] == ("max_evals", "code")  # the code; in full in the legend
+        assert "restarts" not in row  # no run restarted
+    assert '<p class="note" id="stop-legend">stop: max_evals = 300 (3 runs).</p>' in text
+    params = page.run_parameters()
+    assert [int(r["run"][0]) for r in params] == [r["index"] for r in summary["runs"]]
+    for row, run in zip(params, summary["runs"], strict=True):
         for name in names:
             cell = next(v for k, v in row.items() if k.split()[0] == name)
             assert_printed(cell[0], run["params"][name])
@@ -247,12 +266,12 @@ def test_parameters_at_a_bound_are_flagged(copy_results: Callable[[], Path]) -> 
     path.write_text(json.dumps(summary))
     page, _ = parse(write_report(out))
     rows = page.rows("runs")
-    assert "improper minimum" in rows[0]["improper minimum"][0]
-    assert "c2 (lower)" in rows[0]["improper minimum"][0]
-    assert "bound" in rows[0]["c2 [N·s/m]"][1]
-    assert "k2 (upper)" in rows[1]["improper minimum"][0]
-    assert "bound" not in rows[2]["c1 [N·s/m]"][1]
-    assert "c1" not in rows[2]["improper minimum"][0]
+    params = page.run_parameters()
+    assert rows[0]["improper minimum"] == ("c2 (lower)", "bound")
+    assert "bound" in params[0]["c2 [N·s/m]"][1]
+    assert rows[1]["improper minimum"] == ("k2 (upper)", "bound")
+    assert "bound" not in params[2]["c1 [N·s/m]"][1]
+    assert rows[2]["improper minimum"] == ("", "")
     assert "improper" in page.ids
 
 
@@ -264,10 +283,11 @@ def test_restarts_are_shown_with_the_stop(copy_results: Callable[[], Path]) -> N
     summary["runs"][0]["restarts"] = 2
     summary["runs"][1]["restarts"] = 1
     path.write_text(json.dumps(summary))
-    rows = parse(write_report(out))[0].rows("runs")
-    assert rows[0]["stop"][0].endswith("(after 2 restarts)")
-    assert rows[1]["stop"][0].endswith("(after 1 restart)")
-    assert "restart" not in rows[2]["stop"][0]
+    page, text = parse(write_report(out))
+    rows = page.rows("runs")
+    assert [r["restarts"][0] for r in rows] == ["2", "1", "0"]
+    assert all(r["stop"][0] == "max_evals" for r in rows)  # the code stays short
+    assert 'title="max_evals = 300 (after 2 restarts)"' in text  # in full on hovering
 
 
 def test_without_store_or_fit_the_report_says_what_it_could_not_draw(

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import RAYLEIGH_TRUTH, TRUTH, WIDE_STOREYS
+from conftest import RAYLEIGH_TRUTH, TINY_PNG, TRUTH, WIDE_STOREYS
 from test_report import assert_printed, assert_self_contained, decode_png, number, parse
 
 from femupdate.report.html import write_report
@@ -185,8 +185,8 @@ def test_fifty_parameters(wide_dir: Path) -> None:
         # One panel for all the parameters, not 50: no image grows with them beyond a page.
         assert image.shape[0] <= 2000 and image.shape[1] <= 1300
     assert "all 50 in one panel" in text
-    runs = page.rows("runs")
-    assert len(runs) == 2
+    runs = page.run_parameters()  # 6 parameters to a table: 9 tables
+    assert len(runs) == 2 and "run-parameters-9" in page.tables
     for row, run in zip(runs, summary["runs"], strict=True):
         for name in names:
             cell = next(v for k, v in row.items() if k.split()[0] == name)
@@ -201,7 +201,7 @@ def test_fifty_parameters(wide_dir: Path) -> None:
 
 def test_validation_section() -> None:
     page = Page()
-    assert "No validation trials" in section_validation({}, page)
+    assert section_validation({}, page) == ""  # one trial: no section
     assert not page.figures
     html = section_validation({"trial 2": {"F1": 0.01, "F2": 0.02}, "trial 3": {"F1": 0.5}},
                               page)
@@ -214,6 +214,34 @@ def test_validation_section() -> None:
     assert page.figures == ["validation"]
 
 
-def test_the_report_has_a_validation_section(report: Path) -> None:
+def test_a_report_of_one_trial_has_no_validation_section(report: Path) -> None:
     page, text = parse(report)
-    assert "validation" in page.ids and "No validation trials" in text
+    assert "validation" not in page.ids and "8. Validation" not in text  # one trial: none
+
+
+def test_one_channel_draws_one_bar_per_trial(monkeypatch: pytest.MonkeyPatch) -> None:
+    # With one channel a trial's NMSE over its channels ("all") is that channel's: drawn and
+    # tabulated once, not as two equal bars.
+    drawn = []
+    monkeypatch.setattr("femupdate.report.markup.png_bytes",
+                        lambda fig: drawn.append(fig) or TINY_PNG)
+    html = section_validation({"a (fit)": {"all": 0.02, "roof": 0.02},
+                               "b (validate)": {"all": 0.3, "roof": 0.3}}, Page())
+    from test_report import Page as Parsed
+
+    rows = Parsed(html).rows("validation")
+    assert [list(r) for r in rows] == [["trial", "roof: NMSE %"]] * 2
+    (fig,) = drawn
+    assert len(fig.axes[0].patches) == 2  # one bar per trial
+    drawn.clear()
+    section_validation({"a (fit)": {"all": 0.02, "F1": 0.01, "F2": 0.03}}, Page())
+    assert len(drawn[0].axes[0].patches) == 3  # two channels: "all" is their mean, kept
+
+
+def test_a_method_without_beta_trace_has_no_not_drawn_box(many_runs_dir: Path) -> None:
+    page, text = parse(write_report(many_runs_dir))
+    assert "multistart-lm" in text
+    assert "missing" not in page.ids and "Not drawn" not in text
+    assert "figure-beta" not in page.ids and "a, b and σ" not in text
+    assert len(page.rows("runs")) == 25
+    assert {r["stop"][1] for r in page.rows("runs")} == {"code"}

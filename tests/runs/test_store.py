@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import multiprocessing
@@ -60,8 +61,44 @@ def test_meta_runs_and_versions(tmp_path: Path) -> None:
         assert meta["versions"]["numpy"] == np.__version__
         assert [(r.run, r.status, r.nfev) for r in store.runs()] == [(0, "pending", 0),
                                                                      (1, "pending", 0)]
-    with sqlite3.connect(tmp_path / FILENAME) as conn:
-        assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+        with contextlib.closing(sqlite3.connect(tmp_path / FILENAME)) as conn:
+            assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"  # while open
+    # closed: the WAL folded in, rollback journal, no journal or lock files left beside it
+    assert sorted(p.name for p in tmp_path.iterdir()) == [FILENAME]
+    with contextlib.closing(sqlite3.connect(tmp_path / FILENAME)) as conn:
+        assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "delete"
+
+
+def test_a_closed_store_reads_and_resumes_without_leaving_journal_files(tmp_path: Path) -> None:
+    _new_store(tmp_path).close()
+    with ResultsStore.open(tmp_path, read_only=True) as store:  # as a report reads it
+        assert len(store.runs()) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == [FILENAME]
+    with ResultsStore.open(tmp_path, fingerprint=fingerprint_of(CASE),
+                           settings=SETTINGS) as store:
+        assert store._conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+        assert (tmp_path / (FILENAME + ".lock")).is_file()  # held while writing
+    assert sorted(p.name for p in tmp_path.iterdir()) == [FILENAME]
+
+
+def test_a_lock_file_removed_under_a_waiting_opener_is_not_shared(tmp_path: Path) -> None:
+    from femupdate.runs.lock import StoreLock, _names
+
+    store_path = tmp_path / FILENAME
+    first = StoreLock.acquire(store_path)
+    stale = os.open(first.path, os.O_RDWR)  # a second process got this far before the release
+    assert _names(first.path, stale)
+    first.release()
+    assert not first.path.exists()
+    assert not _names(first.path, stale)  # its flock would not count: acquire() retries
+    second = StoreLock.acquire(store_path)  # a new lock file, not the removed one
+    try:
+        assert os.fstat(second.fd).st_ino != os.fstat(stale).st_ino
+        with pytest.raises(StoreError, match="in use"):
+            StoreLock.acquire(store_path)
+    finally:
+        os.close(stale)
+        second.release()
 
 
 def test_fingerprint_is_canonical() -> None:

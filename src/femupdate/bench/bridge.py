@@ -8,6 +8,7 @@ sensitivities at the best run.
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -20,6 +21,14 @@ from femupdate.problems.bridge import bridge_case, ensure_records, truth
 from femupdate.results import BridgeBenchmark, Summary, write_summary
 from femupdate.update import UpdateProblem
 from femupdate.workflow import run_case
+
+
+def default_work_dir() -> Path:
+    """Where ``femupdate bench bridge`` keeps its records and results without ``--work-dir``:
+    ``$XDG_CACHE_HOME/femupdate/bench-bridge`` (``~/.cache/femupdate/bench-bridge`` when
+    XDG_CACHE_HOME is unset), not the working folder."""
+    cache = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(cache) / "femupdate" / "bench-bridge"
 
 
 def run_bridge_benchmark(

@@ -56,8 +56,12 @@ body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2e
        max-width: 72em; padding: 0 1em; color: #222; line-height: 1.4; }
 h1 { font-size: 1.6em; margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc;
      margin-top: 2em; } h3 { font-size: 1.05em; margin-bottom: 0.3em; }
-table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.88em; }
-th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; vertical-align: top; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.88em; line-height: 1.25; }
+th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; vertical-align: top;
+         overflow-wrap: anywhere; }
+td.code { font-family: ui-monospace, monospace; font-size: 0.95em; overflow-wrap: normal; }
+@media (max-width: 900px) { body { padding: 0 0.5em; } table { font-size: 0.8em; }
+         th, td { padding: 0.2em 0.4em; } }
 thead th { background: #f2f2f2; } table.pairs th { text-align: left; background: #fafafa;
      font-weight: normal; color: #555; }
 caption { caption-side: top; text-align: left; color: #555; padding-bottom: 0.3em; }
@@ -65,7 +69,7 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: now
 td.bound { background: #fde2c8; } td.ok { color: #176117; } td.fail { color: #a31515; }
 .note { color: #666; font-style: italic; } .warn { color: #8a4b00; }
 figure { margin: 1em 0; } figure img { max-width: 100%; height: auto;
-     border: 1px solid #eee; }
+     border: 1px solid #eee; box-sizing: border-box; }
 td.truth { color: #1b5e20; }
 figcaption { color: #555; font-size: 0.9em; } .missing { background: #fff8e5;
      border: 1px solid #f0d48a; padding: 0.5em 1em; } code { font-size: 0.95em; }
@@ -104,6 +108,7 @@ def _render(res: Results) -> str:
         ("validation", "8. Validation",
          section_validation(validation_trials(res.summary), page)),
     ]
+    sections = [(key, title, content) for key, title, content in sections if content]
     toc = " · ".join(f'<a href="#{key}">{esc(title)}</a>' for key, title, _ in sections)
     missing = ""
     if page.missing:

@@ -220,14 +220,21 @@ def validation_trials(summary: Summary) -> dict[str, dict[str, float]]:
             for t in summary.trials}
 
 
+def _without_repeated_totals(trials: Mapping[str, Mapping[str, float]]
+                             ) -> dict[str, dict[str, float]]:
+    """The trials without their "all" NMSE where it repeats their one channel's."""
+    return {name: {c: v for c, v in values.items()
+                   if not (c == "all" and len(values) == 2)}
+            for name, values in trials.items()}
+
+
 def section_validation(trials: Mapping[str, Mapping[str, float]], page: Page) -> str:
     """The best model on the records it was not fitted to: NMSE per trial and channel."""
     from femupdate.report.plots import plot_trial_nmse
 
-    if not trials:
-        return note("No validation trials: the case has one trial, the record the model was "
-                    "fitted to ([[trials]] with role = \"validate\" add records it is only "
-                    "compared with).")
+    if not trials:  # one trial, the record fitted: no section ([[trials]] add records)
+        return ""
+    trials = _without_repeated_totals(trials)
     channels = sorted({c for values in trials.values() for c in values})
     rows = [[td(esc(name)), *(td(num(100.0 * values[c]) if c in values else "–", "num")
                               for c in channels)]
@@ -236,8 +243,9 @@ def section_validation(trials: Mapping[str, Mapping[str, float]], page: Page) ->
                trials.items()}
     return "\n".join([
         table(["trial", *(f"{c}: NMSE %" for c in channels)], rows, table_id="validation",
-              caption="NMSE of the best model on each trial, fitted or validated ("
-                      "\"all\": the trial's NMSE over its channels)"),
+              caption="NMSE of the best model on each trial, fitted or validated"
+                      + (" (\"all\": the trial's NMSE over its channels)"
+                         if "all" in channels else "")),
         page.figure(plot_trial_nmse(percent), "validation",
                     "NMSE of the best model on each validation trial, per channel (log)"),
     ])

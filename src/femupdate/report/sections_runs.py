@@ -178,53 +178,103 @@ def run_positions(ctx: Context) -> tuple[np.ndarray, np.ndarray]:
     return pos, bound_flags(pos)
 
 
+#: The methods that sample Beta distributions (the paper's IB and AB): the only ones whose
+#: runs have a trace of a, b and σ to draw.
+BETA_METHODS = frozenset({"ib", "ab"})
+
+#: Parameter columns per table of the runs' parameters: with the run column, a table of this
+#: many numbers fits an 800 px wide window (checked in headless Chromium).
+PARAMETERS_PER_TABLE = 6
+
+
 def stop_text(run: RunRecord) -> str:
-    """Why a run stopped: its criteria (``max_evals = 300``) and its restarts."""
+    """Why a run stopped, in full: its criteria (``max_evals = 300``) and its restarts."""
     after = (f" (after {run.restarts} restart{'s' if run.restarts > 1 else ''})"
              if run.restarts else "")
     if not run.stop:
         return run.message + after
-    parts = []
-    for key, value in run.stop.items():
-        if isinstance(value, bool) or value is None:
-            parts.append(key)
-        elif isinstance(value, (int, float)):
-            parts.append(f"{key} = {format_number(value)}")
+    return ", ".join(_criterion(key, value) for key, value in run.stop.items()) + after
+
+
+def _criterion(key: str, value: object) -> str:
+    if isinstance(value, bool) or value is None:
+        return key
+    if isinstance(value, (int, float)):
+        return f"{key} = {format_number(value)}"
+    return f"{key}: {value}"
+
+
+def stop_codes(runs: list[RunRecord]) -> tuple[list[str], list[str]]:
+    """A short code of why each run stopped, and the legend that gives them in full.
+
+    The code of a run is the names of the criteria that fired (``f_target``, ``max_evals``),
+    or ``note 1``, ``note 2`` … for a run that stopped with a message only; the legend gives
+    each criterion's values over the runs (one value, or the range) and each note's message,
+    with the number of runs, so that a table of many runs keeps one line per run.
+    """
+    codes: list[str] = []
+    values: dict[str, list[object]] = {}
+    notes: dict[str, int] = {}
+    for run in runs:
+        if run.stop:
+            codes.append(", ".join(run.stop))
+            for key, value in run.stop.items():
+                values.setdefault(key, []).append(value)
         else:
-            parts.append(f"{key}: {value}")
-    return ", ".join(parts) + after
+            k = notes.setdefault(run.message, len(notes) + 1)
+            codes.append(f"note {k}")
+    legend = [_criterion_range(key, found) for key, found in values.items()]
+    for message, k in notes.items():
+        count = sum(1 for run in runs if not run.stop and run.message == message)
+        legend.append(f"note {k}: {message} ({_count(count)})")
+    return codes, legend
+
+
+def _criterion_range(key: str, found: list[object]) -> str:
+    numbers = [float(v) for v in found
+               if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    if len(numbers) == len(found) and numbers:
+        low, high = min(numbers), max(numbers)
+        shown = (format_number(found[0]) if low == high
+                 else f"{format_number(low)} … {format_number(high)}")
+        return f"{key} = {shown} ({_count(len(found))})"
+    texts = sorted({_criterion(key, v) for v in found})
+    return f"{'; '.join(texts)} ({_count(len(found))})"
+
+
+def _count(runs: int) -> str:
+    return f"{runs} run{'s' if runs != 1 else ''}"
 
 
 def section_runs(ctx: Context) -> str:
-    """Every run (the paper's Tables 3–6 and 9), values at a bound marked, and the statistics."""
+    """Every run (the paper's Tables 3–6 and 9) in one line each: NMSE, evaluations, why it
+    stopped (a code, the legend below), success and values at a bound; then the parameters of
+    every run, PARAMETERS_PER_TABLE to a table, and the statistics."""
     res = ctx.res
     summary = res.summary
     names = res.names
-    units = {p.name: p.unit for p in res.case.parameters}
     _, flags = run_positions(ctx)
-    header = ["run", "NMSE %", "evaluations", "stop", "success",
-              *[f"{n} [{units[n]}]" if units[n] else n for n in names], "improper minimum"]
+    restarted = any(run.restarts for run in summary.runs)
+    codes, legend = stop_codes(summary.runs)
+    header = ["run", "NMSE %", "evaluations", "stop", *(["restarts"] if restarted else []),
+              "success", "improper minimum"]
     rows = []
-    for run, row_flags in zip(summary.runs, flags, strict=True):
+    for run, row_flags, code in zip(summary.runs, flags, codes, strict=True):
         best = run.index == res.best_index
+        at_bound = [f"{name} ({'lower' if flag < 0 else 'upper'})"
+                    for name, flag in zip(names, row_flags, strict=True) if flag]
         cells = [td(esc(f"{run.index} (best)" if best else run.index)),
                  td(num(100.0 * run.phi), "num"), td(num(run.nfev), "num"),
-                 td(esc(stop_text(run)), title=run.message),
-                 td("yes" if run.success else "no", "ok" if run.success else "fail")]
-        at_bound = []
-        for name, flag in zip(names, row_flags, strict=True):
-            if flag:
-                side = "lower" if flag < 0 else "upper"
-                at_bound.append(f"{name} ({side})")
-                cells.append(td(num(run.params[name]), "num bound", f"at the {side} bound"))
-            else:
-                cells.append(td(num(run.params[name]), "num"))
-        cells.append(td(esc("improper minimum: " + ", ".join(at_bound)) if at_bound else "",
-                        "bound" if at_bound else ""))
+                 td(esc(code), "code", title=stop_text(run)),
+                 *([td(num(run.restarts), "num")] if restarted else []),
+                 td("yes" if run.success else "no", "ok" if run.success else "fail"),
+                 td(esc(", ".join(at_bound)), "bound" if at_bound else "")]
         rows.append(cells)
     out = [table(header, rows, table_id="runs",
-                 caption="Every run: NMSE = 100 φ, evaluations, why it stopped, parameters "
-                         "(cells at a bound are marked)")]
+                 caption="Every run: NMSE = 100 φ, evaluations, why it stopped, a parameter "
+                         "at a bound (an improper minimum)"),
+           f'<p class="note" id="stop-legend">stop: {esc("; ".join(legend))}.</p>']
+    out += _parameter_tables(ctx, flags)
     n_runs = len(summary.runs)
     ok = summary.successes
     items = [("successful runs", esc(f"{ok}/{n_runs} ({format_number(100.0 * ok / n_runs, 3)}"
@@ -246,6 +296,35 @@ def section_runs(ctx: Context) -> str:
                         f"{format_number(BOUND_TOL)} of its search range from a bound: an "
                         "improper minimum, unless the bound is the physical answer."))
     return "\n".join(out)
+
+
+def _parameter_tables(ctx: Context, flags: np.ndarray) -> list[str]:
+    """The parameters of every run, PARAMETERS_PER_TABLE to a table (ids ``run-parameters``,
+    then ``run-parameters-2`` …), cells at a bound marked."""
+    res = ctx.res
+    names = res.names
+    units = {p.name: p.unit for p in res.case.parameters}
+    groups = [list(range(j, min(j + PARAMETERS_PER_TABLE, len(names))))
+              for j in range(0, len(names), PARAMETERS_PER_TABLE)]
+    out = []
+    for g, group in enumerate(groups):
+        rows = []
+        for run, row_flags in zip(res.summary.runs, flags, strict=True):
+            cells = [td(esc(run.index))]
+            for j in group:
+                flag = row_flags[j]
+                side = "lower" if flag < 0 else "upper"
+                cells.append(td(num(run.params[names[j]]), "num bound" if flag else "num",
+                                f"at the {side} bound" if flag else ""))
+            rows.append(cells)
+        header = ["run", *(f"{names[j]} [{units[names[j]]}]" if units[names[j]] else names[j]
+                           for j in group)]
+        span = (f" ({names[group[0]]} … {names[group[-1]]}, {g + 1} of {len(groups)})"
+                if len(groups) > 1 else "")
+        out.append(table(header, rows, table_id="run-parameters" + (f"-{g + 1}" if g else ""),
+                         caption=f"The parameters of every run{span}; cells at a bound are "
+                                 "marked"))
+    return out
 
 
 # ----------------------------------------------------------------------------- convergence
@@ -284,10 +363,9 @@ def section_convergence(ctx: Context, page: Page) -> str:
         fig = plot_beta(best, res.names, title=f"run {res.best_index} (the best)")
         out.append(page.figure(fig, "beta", f"run {res.best_index}: Beta parameters a, b of "
                                             "every parameter and σ against step (log)"))
-    else:
+    elif res.summary.method in BETA_METHODS:  # other methods never have one: nothing to say
         out.append(page.absent("a, b and σ against step",
-                               f"the store holds no Beta trace: method {res.summary.method!r} "
-                               "is not IB or AB"))
+                               "the store holds no Beta trace of the best run"))
     if np.size(best["x"]):
         params = res.case.parameters
         fig = plot_parameters(physical_history(res.case, best["x"]), best["fun"], res.names,

@@ -8,6 +8,11 @@ A ``flock`` belongs to the open file, which a forked child shares: a worker proc
 the store is open would hold the lock after the writer died (a killed run's orphaned workers
 finishing their evaluation would refuse the resume). Forked children therefore close their
 copies at once; the writer's own descriptor keeps the lock.
+
+The writer removes the lock file when it releases the lock, so that a finished results
+directory does not keep it (a killed writer leaves it: the next one takes it over). A process
+that opened the file just before it was removed would lock a file no longer in the directory,
+so a lock counts only once the path still names the file locked; else it is taken again.
 """
 
 from __future__ import annotations
@@ -53,6 +58,17 @@ class StoreLock:
     @classmethod
     def acquire(cls, store_path: Path) -> StoreLock:
         path = store_path.with_name(store_path.name + LOCK_SUFFIX)
+        while True:
+            fd = cls._lock_file(store_path, path)
+            if _names(path, fd):
+                break
+            os.close(fd)  # removed by the writer that just released it: lock the new one
+        _held.add(fd)
+        return cls(path, fd)
+
+    @staticmethod
+    def _lock_file(store_path: Path, path: Path) -> int:
+        """A descriptor of ``path`` holding its exclusive flock, the pid written in it."""
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             if fcntl is not None:
@@ -69,14 +85,26 @@ class StoreLock:
         except BaseException:
             os.close(fd)
             raise
-        _held.add(fd)
-        return cls(path, fd)
+        return fd
 
     def release(self) -> None:
+        """Remove the lock file, then drop the lock (idempotent)."""
         if self.fd is not None:
             _held.discard(self.fd)
+            if _names(self.path, self.fd):
+                self.path.unlink(missing_ok=True)
             os.close(self.fd)  # closing drops the flock
             self.fd = None
+
+
+def _names(path: Path, fd: int) -> bool:
+    """Whether ``path`` is the file open as ``fd`` (not removed or replaced since)."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return False
+    own = os.fstat(fd)
+    return (st.st_dev, st.st_ino) == (own.st_dev, own.st_ino)
 
 
 def _read_pid(fd: int) -> int | None:

@@ -110,7 +110,7 @@ class RunProgress:
                 # Compact, to fit 80 columns: the label goes on its own line above the bar, and
                 # the pace shows as the time left (the rate is in the log).
                 console.print(Text(f"{self.label}: {self.total_runs} runs of at most "
-                                   f"{self.max_evals:,} evaluations"), soft_wrap=True)
+                                   f"{self.max_evals:,} evaluations"))
                 columns: tuple[ProgressColumn, ...] = (
                     BarColumn(bar_width=10),
                     TextColumn("{task.fields[runs]} runs · best φ {task.fields[best]} · "

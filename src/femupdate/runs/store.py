@@ -395,8 +395,15 @@ class ResultsStore:
     # -- plumbing ------------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Close the database and release the lock (idempotent)."""
+        """Close the database and release the lock (idempotent).
+
+        The writer first folds the write-ahead log into the database and returns it to a
+        rollback journal (:func:`_settle`), so that a finished results directory holds
+        ``results.sqlite`` alone; the next writer turns WAL on again.
+        """
         if self._conn is not None:
+            if self._lock is not None and self.path is not None:
+                _settle(self._conn)
             self._conn.close()
             self._conn = None  # type: ignore[assignment]
         if self._lock is not None:
@@ -595,6 +602,18 @@ def _configure(conn: sqlite3.Connection) -> None:
     """
     conn.execute("PRAGMA journal_mode=WAL")
     conn.execute("PRAGMA synchronous=NORMAL")
+
+
+def _settle(conn: sqlite3.Connection) -> None:
+    """Checkpoint the WAL into the database (truncating it) and leave WAL mode, so that no
+    ``-wal`` and ``-shm`` files stay beside a closed store (a read-only reader of a WAL-mode
+    database would create them again, and could not remove them). A reader still connected
+    (``femupdate report`` of a running set) keeps WAL on: the files then stay, harmless."""
+    try:
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        conn.execute("PRAGMA journal_mode=DELETE")
+    except sqlite3.OperationalError:  # busy: another connection reads it now
+        pass
 
 
 def _check_header(path: Path) -> None:
