@@ -338,6 +338,24 @@ def test_a_run_ends_when_searches_keep_finding_the_best() -> None:
     assert off.nfev == 3_000 and "max_evals" in off.stop
 
 
+def test_patience_ends_a_run_whose_best_is_zero(monkeypatch: pytest.MonkeyPatch) -> None:
+    # An exactly solvable linear problem: searches end at φ = 0 or at rounding (1e-31 …),
+    # where 0.5 % of a best of 0 is 0: the absolute floor makes them "the same φ".
+    a = np.array([[1.0, 2.0], [3.0, -1.0], [0.5, 0.25]])
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        return a @ (np.asarray(x) - np.array([0.3, -0.2]))
+
+    res = minimize(residuals, [(-1.0, 1.0)] * 2, "multistart-lm", seed=1, max_evals=50_000,
+                   residuals=True)
+    assert res.stop == {"patience": 5} and res.fun < 1e-28 and res.nfev < 1_000
+    from femupdate.optimize import multistart
+    monkeypatch.setattr(multistart, "PATIENCE_FLOOR_NOISE", 0.0)  # the relative rule alone
+    without = minimize(residuals, [(-1.0, 1.0)] * 2, "multistart-lm", seed=1,
+                       max_evals=3_000, residuals=True)
+    assert "max_evals" in without.stop
+
+
 # --- options and contracts ---------------------------------------------------------------------
 
 

@@ -98,6 +98,11 @@ EXTEND_SLOW = 0.5
 #: same E–kp4 to 1e-4: at 0.1 % a run took 9,000–13,000 evaluations to see five of them.
 PATIENCE = 5
 PATIENCE_TOL = 5e-3
+#: ... and within an absolute floor: φ of residuals that differ from the best by this many
+#: times the rounding noise of one component (measured, or ε times the residuals' RMS at the
+#: first start, whichever is larger). At φ = 0 a relative tolerance is zero: on an exactly
+#: solvable problem searches end at 1e-31, 1e-30, … around a best of 0 and never "equal" it.
+PATIENCE_FLOOR_NOISE = 10.0
 
 #: The scalar mode's polish steps are at most this share of the last accepted step (chosen
 #: with benchmarks/coco_bbob.py: 0.001, 0.01, 0.1, 0.3 hit 24, 24, 22, 22 of 48 targets;
@@ -264,8 +269,19 @@ class MultistartLM(KeepsBest):
         """How many searches have ended at the best φ found so far (within PATIENCE_TOL)."""
         if not math.isfinite(self.best_f):
             return 0
-        level = self.best_f + PATIENCE_TOL * abs(self.best_f)
+        level = self.best_f + max(PATIENCE_TOL * abs(self.best_f), self.phi_floor())
         return sum(phi <= level for phi in self.search_ends)
+
+    def phi_floor(self) -> float:
+        """The absolute floor of "the same φ": m·(PATIENCE_FLOOR_NOISE·δ)² with δ the larger of
+        the measured noise of a residual component and ε times their RMS at the first start
+        (m = 1 and δ the noise of φ itself in scalar mode). 0 before the noise table."""
+        if math.isnan(self.noise):
+            return 0.0
+        delta = PATIENCE_FLOOR_NOISE * max(self.noise, np.finfo(float).eps * self.scale)
+        if self.mode == "residuals":
+            return getattr(self, "components", 1) * delta * delta
+        return delta
 
     def trace_since(self, step: int) -> dict[str, np.ndarray]:
         """Per step from ``step`` on (rows held): ``f_best``, the damping ``lambda``, the
@@ -342,6 +358,7 @@ class MultistartLM(KeepsBest):
         self.noise = noise_level(table)
         slope = float(np.sqrt(np.mean((table[1] - table[0]) ** 2))) / NOISE_SPACING
         self.scale = float(np.sqrt(np.mean(table[0] ** 2)))
+        self.components = table.shape[1]  # m: residual components (1 in scalar mode)
         if self.fd_step is None:
             self.h = forward_steps(self.noise, np.full(self.n, slope), self.scale)
         self.phi = self.stage_phi = self.history[0] = float(fs[0])
