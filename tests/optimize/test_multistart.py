@@ -356,6 +356,41 @@ def test_patience_ends_a_run_whose_best_is_zero(monkeypatch: pytest.MonkeyPatch)
     assert "max_evals" in without.stop
 
 
+def test_patience_is_off_when_a_target_says_when_to_stop() -> None:
+    def residuals(x: np.ndarray) -> np.ndarray:  # every search ends at φ = 1 > f_target
+        return np.array([x[0] - 0.3, x[1] - 0.6, 1.0])
+
+    res = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=3_000,
+                   residuals=True, f_target=0.5)
+    assert res.nfev == 3_000 and "patience" not in res.stop
+    kept = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=3_000,
+                    residuals=True, f_target=0.5, patience=5)
+    assert kept.stop == {"patience": 5}
+
+
+def _rippled_valley(x: np.ndarray) -> np.ndarray:
+    # A valley along x1, which the residuals hardly determine, with ripples of local minima
+    # along its floor; the global minimum, 0, at x = (0.51, 0.55).
+    x = np.asarray(x)
+    return np.array([20.0 * (x[0] - 0.4 - 0.2 * x[1]), 0.05 * (x[1] - 0.55),
+                     0.02 * np.sin(80.0 * np.pi * (x[1] - 0.55))])
+
+
+def test_valley_hops_find_the_deepest_ripple_sooner(monkeypatch: pytest.MonkeyPatch) -> None:
+    from femupdate.optimize import multistart
+
+    def total(hops: int) -> tuple[int, int]:
+        monkeypatch.setattr(multistart, "HOPS", hops)
+        runs = [minimize(_rippled_valley, [(0.0, 1.0)] * 2, "multistart-lm", seed=seed,
+                         residuals=True, max_evals=20_000, f_target=1e-10)
+                for seed in range(10)]
+        return sum(r.nfev for r in runs), sum(r.success for r in runs)
+
+    with_hops, without = total(multistart.HOPS), total(0)
+    assert with_hops[1] == 10 and without[1] <= 10
+    assert with_hops[0] < 0.7 * without[0]  # measured: 19,883 against 36,656
+
+
 # --- options and contracts ---------------------------------------------------------------------
 
 

@@ -29,7 +29,8 @@ the unit cube:
    ends — at a proper minimum, an improper one or a stall — and the next starts from the
    pool. The run ends when ``patience`` searches have ended at the best φ (with residuals: the
    best has been found again and again, as on noisy or real data, where no target says when
-   to stop), or at ``minimize``'s budget or target.
+   to stop; off by default when an ``f_target`` is given), or at ``minimize``'s budget or
+   target. A search that ends at the run's best is followed by a few valley hops (HOPS).
 
 The result is the best point over all searches. Without residuals (``minimize(...,
 residuals=False)``) the local phase is a bounded quasi-Newton method on φ itself: the same
@@ -104,6 +105,19 @@ PATIENCE_TOL = 5e-3
 #: solvable problem searches end at 1e-31, 1e-30, … around a best of 0 and never "equal" it.
 PATIENCE_FLOOR_NOISE = 10.0
 
+#: Valley hops (residual mode): a search that ends at the run's best is followed by up to HOPS
+#: short searches from the best point moved along the valley, the softest direction of the
+#: coarse stage's Gauss–Newton Hessian H, by s uniform in ±√(2φ/λ_min(H)) (where the valley's
+#: trend would at most double φ), at most HOP_MAX; HOPS more after each new best. Where the
+#: data hardly determine a parameter its valley floor is a plateau of local minima (on the
+#: noise-free broad-band bridge, a stiff abutment mode's phase turns with kp1: φ ripples
+#: between 7e-7 and 2e-6 along a valley whose global minimum, 0, has a basin 100 times
+#: narrower than the valley); a hop reaches the next of them in a few steps where a search
+#: from the pool takes hundreds of evaluations to get back into the valley. Hops do not count
+#: for ``patience``: they are not independent searches.
+HOPS = 4
+HOP_MAX = 0.1
+
 #: The scalar mode's polish steps are at most this share of the last accepted step (chosen
 #: with benchmarks/coco_bbob.py: 0.001, 0.01, 0.1, 0.3 hit 24, 24, 22, 22 of 48 targets;
 #: with 0.01, seeds 2 and 3 hit 20 and 20, against 18 and 17 without the bound).
@@ -154,7 +168,7 @@ class MultistartLM(KeepsBest):
     patience : int, None or "auto"
         End the run when this many searches have ended at the best φ (within 0.5 %): the best
         has been found again and again. None: only ``minimize``'s budget or target end it.
-        "auto" (default): 5 with residuals, None without.
+        "auto" (default): 5 with residuals and no ``f_target``, None otherwise.
     x0 : ndarray or None
         Start of the first local search (unit cube; e.g. the nominal model), before any pool;
         None (default): the best point of the first pool.
@@ -208,6 +222,12 @@ class MultistartLM(KeepsBest):
         self.scale = 0.0  # RMS of a residual component (or |φ|) at the first start
         self.h = np.full(n, math.nan if fd_step is None else fd_step)  # fine steps
         self.visited = np.empty((0, n))  # starts and end points of the searches
+        self.valley: np.ndarray | None = None  # H of the search's last coarse stage
+        self.hop_x = np.full(n, math.nan)  # the point hops start from, its φ and H
+        self.hop_phi = math.inf
+        self.hop_hess: np.ndarray | None = None
+        self.hops_left = 0
+        self.hopping = False  # the current search is a hop
         self._clear_search()
         if x0 is None:
             self._new_pool()
@@ -265,6 +285,13 @@ class MultistartLM(KeepsBest):
             return {"patience": self.patience}
         return {}
 
+    def target_given(self) -> None:
+        """``minimize`` has an ``f_target``: it says when to stop, so ``patience = "auto"`` is
+        off. (A spurious minimum whose basin draws most starts — φ = 3.4e-2 on the broad-band
+        bridge — would otherwise end a run found five times before the target.)"""
+        if self.patience_option == "auto":
+            self.patience_option = None
+
     def confirmations(self) -> int:
         """How many searches have ended at the best φ found so far (within PATIENCE_TOL)."""
         if not math.isfinite(self.best_f):
@@ -312,6 +339,7 @@ class MultistartLM(KeepsBest):
 
     def _next_start(self) -> None:
         """The best pool point away from every start and end so far, or a new pool."""
+        self.hopping = False
         for i in np.argsort(self.pool_f, kind="stable"):
             if not math.isfinite(self.pool_f[i]):
                 break
@@ -332,6 +360,7 @@ class MultistartLM(KeepsBest):
         """A local search from x (evaluated again: with the Jacobian, or as the first point of
         the noise table on the run's first search)."""
         self._clear_search()
+        self.valley = None
         self.x = x.copy()
         self.visited = np.vstack([self.visited, x])
         if math.isnan(self.noise):
@@ -400,6 +429,8 @@ class MultistartLM(KeepsBest):
             assert rs is not None and self.r is not None
             jac = self._differences(self.r, rs)
             self.hess, self.grad, col2 = gram_factor(jac, self.r)
+            if self.coarse:
+                self.valley = self.hess.copy()
             self.d2 = np.maximum(self.d2, 2.0 * col2)
             slopes = np.sqrt(col2 / self.r.size)
         else:
@@ -515,8 +546,36 @@ class MultistartLM(KeepsBest):
             self._polish()
             return
         self.visited = np.vstack([self.visited, self.x])
-        self.search_ends.append(self.phi)
+        if not self.hopping:
+            self.search_ends.append(self.phi)
+        if reason != "failed" and self._hop():
+            return
         self._next_start()
+
+    def _hop(self) -> bool:
+        """Start a valley hop (see HOPS) if the search ended at the run's best or hops are
+        left from one; False otherwise."""
+        if self.mode != "residuals" or self.coarse_step is None:
+            return False
+        if self.valley is not None and self._at_best():
+            if self.phi < self.hop_phi * (1.0 - PATIENCE_TOL):
+                self.hops_left = HOPS  # a new best: its valley gets its own hops
+            self.hop_x, self.hop_phi, self.hop_hess = self.x.copy(), self.phi, self.valley
+        if self.hops_left <= 0 or self.hop_hess is None:
+            return False
+        self.hops_left -= 1
+        values, vectors = np.linalg.eigh(self.hop_hess)
+        reach = min(math.sqrt(2.0 * self.hop_phi / max(float(values[0]), 1e-300)), HOP_MAX)
+        start = np.clip(self.hop_x + self.rng.uniform(-reach, reach) * vectors[:, 0], 0.0, 1.0)
+        self.restarts_done += 1
+        self.searches += 1
+        self._start_search(start)
+        self.hopping = True
+        return True
+
+    def _at_best(self) -> bool:
+        """Whether the search stands at the run's best φ (within patience's tolerance)."""
+        return self.phi <= self.best_f + max(PATIENCE_TOL * abs(self.best_f), self.phi_floor())
 
     def _polish(self) -> None:
         """The scalar mode's last stage of a search: central differences from where forward
@@ -588,7 +647,8 @@ def make_multistart_lm(n: int, rng: np.random.Generator, **options: Any) -> Mult
     ``xtol`` (≥ 0, 1e-13), ``fd_step`` ((0, 0.1] or None: from the noise), ``coarse_step``
     ((0, 0.25], None: no coarse stages, or "auto": 0.01 with residuals, None without),
     ``stage_gain`` ([0, 1), 0.1), ``extend`` (bool, true), ``polish`` (bool, true),
-    ``patience`` (int ≥ 1, None or "auto": 5 with residuals, None without), ``x0``
+    ``patience`` (int ≥ 1, None or "auto": 5 with residuals and no f_target, None
+    otherwise), ``x0``
     (n numbers in [0, 1] or None); see :class:`MultistartLM`."""
     m = "multistart-lm"
     check_option_names(m, options, _OPTIONS)
