@@ -99,14 +99,12 @@ def test_bench_bridge_resume_continues_the_stored_runs(tmp_path: Path) -> None:
 
 def test_bench_bridge_seed_seeds_the_runs_too(tmp_path: Path) -> None:
     # --seed S: the accelerogram and run i's SeedSequence (child i of SeedSequence(S)).
-    for seed in (0, 3):
-        result = runner.invoke(app, ["bench", "bridge", "--runs", "2", "--max-evals", "10",
-                                     "--workers", "1", "--seed", str(seed), "--work-dir",
-                                     str(tmp_path), "--json", str(tmp_path / f"{seed}.json")])
-        assert result.exit_code == 0, result.output
-        runs = json.loads((tmp_path / f"{seed}.json").read_text())["runs"]
-        assert [r["seed"] for r in runs] == [{"entropy": seed, "spawn_key": [i]}
-                                             for i in range(2)]
+    result = runner.invoke(app, ["bench", "bridge", "--runs", "2", "--max-evals", "10",
+                                 "--workers", "1", "--seed", "3", "--work-dir", str(tmp_path),
+                                 "--json", str(tmp_path / "3.json")])
+    assert result.exit_code == 0, result.output
+    runs = json.loads((tmp_path / "3.json").read_text())["runs"]
+    assert [r["seed"] for r in runs] == [{"entropy": 3, "spawn_key": [i]} for i in range(2)]
 
 
 @pytest.mark.parametrize(("text", "expected"), [("{tolfun: 0}", "neither a JSON file"),
