@@ -97,6 +97,16 @@ def test_bench_bridge_resume_continues_the_stored_runs(tmp_path: Path) -> None:
     assert b["runs"][1]["wall_s"] != a["runs"][1]["wall_s"]  # run 1 run again
 
 
+def test_bench_bridge_seed_seeds_the_runs_too(tmp_path: Path) -> None:
+    # --seed S: the accelerogram and run i's SeedSequence (child i of SeedSequence(S)).
+    result = runner.invoke(app, ["bench", "bridge", "--runs", "2", "--max-evals", "10",
+                                 "--workers", "1", "--seed", "3", "--work-dir", str(tmp_path),
+                                 "--json", str(tmp_path / "3.json")])
+    assert result.exit_code == 0, result.output
+    runs = json.loads((tmp_path / "3.json").read_text())["runs"]
+    assert [r["seed"] for r in runs] == [{"entropy": 3, "spawn_key": [i]} for i in range(2)]
+
+
 @pytest.mark.parametrize(("text", "expected"), [("{tolfun: 0}", "neither a JSON file"),
                                                 ("[0]", "expected a JSON object")])
 def test_bench_bridge_options_must_be_a_json_object(text: str, expected: str) -> None:

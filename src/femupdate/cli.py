@@ -365,6 +365,10 @@ def _success_words(summary: Summary) -> tuple[str, str, str]:
     if target is not None:
         rule = f"φ ≤ f_target = {target:g}"
         return "φ ≤ target", f"✓: the run reached {rule} ([search] f_target)", rule
+    if summary.verdict is not None:  # docs/verdicts.md
+        rule = "at the best minimum, found again, NMSE < 100 %"
+        return ("found again", "✓: the run ended at the best minimum and that minimum was "
+                               "found again by independent searches (no f_target given)", rule)
     rule = f"φ within {NEAR_BEST:g} × the best run's φ"
     return ("≈ best", f"✓: {rule}; no f_target was given, so success is relative to the best "
                       "run, not to an absolute target", rule)
@@ -417,6 +421,9 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
         f"median {_fmt(summary.evals_median)}; per success, failed runs "
         f"included: {_fmt(summary.evals_per_success)}; "
         f"wall {summary.wall_s:.1f} s", out=out)
+    if summary.verdict is not None:
+        say(f"verdict: {summary.verdict.words}", "green" if summary.verdict.converged
+            and summary.verdict.fits else "yellow", out=out)
     if restarted:
         counts = [r.restarts for r in summary.runs]
         say(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "

@@ -143,6 +143,19 @@ class BridgeBenchmark(_Record):
     within_1_5_noise_floor: int | None
 
 
+class VerdictRecord(_Record):
+    """Whether the best was found again by independent searches (docs/verdicts.md): see
+    :class:`femupdate.runs.verdict.Verdict`."""
+
+    converged: bool
+    agreeing_runs: list[int]
+    confirmations: int
+    minima: int
+    phi_range: list[float]
+    fits: bool
+    words: str
+
+
 class Summary(_Record):
     """``summary.json``: the case, the settings, every run, the best and the spread.
 
@@ -171,6 +184,7 @@ class Summary(_Record):
     trials: list[TrialRecord] = Field(default_factory=list)
     identifiability: dict[str, Any] | None = None
     benchmark: BridgeBenchmark | None = None
+    verdict: VerdictRecord | None = None
 
     @property
     def name(self) -> str:

@@ -29,6 +29,7 @@ from femupdate.results import (
     Spread,
     Summary,
     TrialRecord,
+    VerdictRecord,
     save_fits,
     write_summary,
 )
@@ -36,6 +37,7 @@ from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.runs.store import FILENAME, ResultsStore, discard
+from femupdate.runs.verdict import run_verdict, success_rule, successes
 from femupdate.update import TrialProblem, UpdateProblem
 
 #: Without a target φ_s, a run counts as successful when its φ is within this factor of the
@@ -102,12 +104,10 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     names = problem.names
     phis = np.array([o.fun for o in outcomes])
     best = outcomes[int(np.argmin(phis))]
-    if f_target is not None:
-        success = [o.success for o in outcomes]
-        rule = f"reached f_target = {f_target:g}"
-    else:
-        success = [bool(o.fun <= NEAR_BEST * best.fun) for o in outcomes]
-        rule = f"φ within {NEAR_BEST:g} × the best run's φ (no f_target given)"
+    verdict = run_verdict(problem, outcomes)
+    success = successes(verdict, phis, [o.success for o in outcomes]
+                        if f_target is not None else None)
+    rule = success_rule(f_target)
     runs = [RunRecord(**{**o.to_dict(), "params": problem.values(o.x), "success": ok,
                          "at_bounds": at_bounds(o.x, problem.bounds, names)})
             for o, ok in zip(outcomes, success, strict=True)]
@@ -150,6 +150,8 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         ),
         trials=trials,
         identifiability=ident,
+        verdict=VerdictRecord(**{**dataclasses.asdict(verdict),
+                                 "phi_range": list(verdict.phi_range)}),
     )
 
 

@@ -166,6 +166,32 @@ def test_cmaes_tolerances_reach_pycma() -> None:
     assert off.nfev > default.nfev
 
 
+def test_cmaes_resampling_is_capped_then_projects() -> None:
+    # The mean at a corner of a 40-dimensional box: a draw lands inside with probability
+    # 2^-40, so resampling without a cap would not end; with it, each candidate takes at most
+    # MAX_RESAMPLES redraws and is then clipped into the box (and told to pycma as such).
+    from femupdate.optimize import cmaes
+
+    opt = cmaes.CMAES(40, np.random.default_rng(0), sigma0=0.3)
+    opt.es.mean[:] = 0.0
+    xs = opt.ask()
+    assert xs.shape == (5, 40) and np.all((xs >= 0.0) & (xs <= 1.0))
+    assert opt.projected == 5 and opt.resamples == 5 * cmaes.MAX_RESAMPLES
+    assert np.any(xs == 0.0, axis=1).all()  # projected onto the box's faces
+    opt.tell(xs, np.sum(xs, axis=1))  # pycma takes the projected points
+
+
+def test_cmaes_resamples_inside_when_cheap() -> None:
+    # Well inside the box the truncated Gaussian is drawn exactly: no candidate projected.
+    from femupdate.optimize import cmaes
+
+    opt = cmaes.CMAES(4, np.random.default_rng(1))
+    for _ in range(40):
+        xs = opt.ask()
+        opt.tell(xs, np.sum((xs - 0.1) ** 2, axis=1))
+    assert opt.resamples > 0 and opt.projected == 0
+
+
 def test_partial_batch_is_not_told() -> None:
     res = minimize(sphere, BOX, "cmaes", seed=0, max_evals=12, popsize=5)
     assert res.nfev == 12 and res.nit == 2  # the third population was cut after 2

@@ -340,6 +340,59 @@ def test_a_run_ends_when_searches_keep_finding_the_best() -> None:
     assert off.nfev == 3_000 and "max_evals" in off.stop
 
 
+def test_patience_ends_a_run_whose_best_is_zero(monkeypatch: pytest.MonkeyPatch) -> None:
+    # An exactly solvable linear problem: searches end at φ = 0 or at rounding (1e-31 …),
+    # where 0.5 % of a best of 0 is 0: the absolute floor makes them "the same φ".
+    a = np.array([[1.0, 2.0], [3.0, -1.0], [0.5, 0.25]])
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        return a @ (np.asarray(x) - np.array([0.3, -0.2]))
+
+    res = minimize(residuals, [(-1.0, 1.0)] * 2, "multistart-lm", seed=1, max_evals=50_000,
+                   residuals=True)
+    assert res.stop == {"patience": 5} and res.fun < 1e-28 and res.nfev < 1_000
+    from femupdate.optimize import multistart
+    monkeypatch.setattr(multistart, "PATIENCE_FLOOR_NOISE", 0.0)  # the relative rule alone
+    without = minimize(residuals, [(-1.0, 1.0)] * 2, "multistart-lm", seed=1,
+                       max_evals=3_000, residuals=True)
+    assert "max_evals" in without.stop
+
+
+def test_patience_is_off_when_a_target_says_when_to_stop() -> None:
+    def residuals(x: np.ndarray) -> np.ndarray:  # every search ends at φ = 1 > f_target
+        return np.array([x[0] - 0.3, x[1] - 0.6, 1.0])
+
+    res = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=3_000,
+                   residuals=True, f_target=0.5)
+    assert res.nfev == 3_000 and "patience" not in res.stop
+    kept = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=3_000,
+                    residuals=True, f_target=0.5, patience=5)
+    assert kept.stop == {"patience": 5}
+
+
+def _rippled_valley(x: np.ndarray) -> np.ndarray:
+    # A valley along x1, which the residuals hardly determine, with ripples of local minima
+    # along its floor; the global minimum, 0, at x = (0.51, 0.55).
+    x = np.asarray(x)
+    return np.array([20.0 * (x[0] - 0.4 - 0.2 * x[1]), 0.05 * (x[1] - 0.55),
+                     0.02 * np.sin(80.0 * np.pi * (x[1] - 0.55))])
+
+
+def test_valley_hops_find_the_deepest_ripple_sooner(monkeypatch: pytest.MonkeyPatch) -> None:
+    from femupdate.optimize import multistart
+
+    def total(hops: int) -> tuple[int, int]:
+        monkeypatch.setattr(multistart, "HOPS", hops)
+        runs = [minimize(_rippled_valley, [(0.0, 1.0)] * 2, "multistart-lm", seed=seed,
+                         residuals=True, max_evals=10_000, f_target=1e-10)
+                for seed in range(5)]
+        return sum(r.nfev for r in runs), sum(r.success for r in runs)
+
+    with_hops, without = total(multistart.HOPS), total(0)
+    assert with_hops[1] == 5 and without[1] <= 5
+    assert with_hops[0] < 0.7 * without[0]  # measured: 11,048 against 19,667
+
+
 # --- options and contracts ---------------------------------------------------------------------
 
 

@@ -4,7 +4,12 @@ cube.
 The initial mean is uniform at random in the box, σ0 = 0.5 (half the box), λ = 5 by default,
 pycma's default strategy otherwise (without mirrored sampling). Bounds by resampling: each
 candidate outside [0, 1]^n is redrawn from the same distribution until it lies inside (a
-truncated Gaussian). pycma's ``BoundPenalty`` is not used (in cma 4.5 it computes
+truncated Gaussian), at most MAX_RESAMPLES times; after that the last draw is projected onto
+the box (clipped) and told to pycma as it is, which treats it as a solution it did not send
+and shortens its step to a plausible length before the update. Resampling is cheap while the
+distribution lies mostly inside the box; near a bound with an elongated covariance the chance
+of an inside draw falls to 2^−n or below, and without a cap one run drew 25.9 million
+candidates for 9,515 evaluations. pycma's ``BoundPenalty`` is not used (in cma 4.5 it computes
 the penalty on points already clipped into the box, so it is always zero),
 nor ``BoundTransform``.
 """
@@ -27,11 +32,14 @@ from femupdate.optimize.base import (
     restart_options,
 )
 
-#: Redraws of one candidate before it is clipped into the box instead. The mean stays inside
-#: the box, but at a corner (an improper minimum at several bounds) with an elongated
-#: covariance a draw may land inside with probability well below 2^−n: thousands of redraws
-#: were seen on the bridge benchmark, hence the batches below.
-MAX_RESAMPLES = 100_000
+#: Redraws of one candidate before it is clipped into the box instead (the fallback). The
+#: mean stays inside the box, but at a corner (an improper minimum at several bounds) with an
+#: elongated covariance a draw may land inside with probability well below 2^−n: with a cap of
+#: 100,000 a bridge run drew 25.9 million candidates for 9,515 evaluations (50–100× slower per
+#: evaluation). At 1,000 an inside draw is kept whenever the truncated Gaussian keeps at least
+#: 0.5 % of the distribution (probability 1 − 0.995^1000 > 99 %), and a step costs at most
+#: λ·1,000 draws.
+MAX_RESAMPLES = 1_000
 #: Largest batch of redraws asked of pycma at once (batches double from 1 up to this).
 MAX_BATCH = 1024
 
@@ -112,7 +120,8 @@ class CMAES(KeepsBest, Restarts):
         }
         self._new_search()
         self.best_x = self.es.mean.copy()
-        self.resamples = 0
+        self.resamples = 0  # redraws of candidates outside the box
+        self.projected = 0  # candidates clipped into the box after MAX_RESAMPLES redraws
         self.trace = StepTrace()
 
     def _restart(self) -> None:
@@ -134,14 +143,16 @@ class CMAES(KeepsBest, Restarts):
             while True:
                 if tries >= MAX_RESAMPLES:
                     np.clip(xs[i], 0.0, 1.0, out=xs[i])
+                    self.projected = getattr(self, "projected", 0) + 1
                     break
-                draws = np.array(self.es.ask(batch), dtype=float)
+                size = min(batch, MAX_RESAMPLES - tries)
+                draws = np.array(self.es.ask(size), dtype=float)
                 inside = np.flatnonzero(np.all((draws >= 0.0) & (draws <= 1.0), axis=1))
                 if inside.size:
                     xs[i] = draws[inside[0]]
                     tries += int(inside[0]) + 1
                     break
-                tries += batch
+                tries += size
                 batch = min(2 * batch, MAX_BATCH)
             self.resamples += tries
         return xs

@@ -409,6 +409,8 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
             f"method {method!r} needs residual vectors: pass residuals=True and a fun that "
             f"returns r (φ = r·r), as scipy.optimize.least_squares' fun"
         )
+    if f_target is not None and hasattr(optimizer, "target_given"):
+        optimizer.target_given()  # e.g. multistart-lm's patience: the target says when to stop
     return MinimizeState(optimizer, method, low, high, max_evals, f_target, record_times,
                          residuals)
 

@@ -286,6 +286,8 @@ def section_runs(ctx: Context) -> str:
                  f"{format_number(summary.evals_max)}")),
              ("best run", esc(f"{res.best_index}: NMSE "
                               f"{format_number(summary.best.nmse_percent)} %"))]
+    if summary.verdict is not None:  # docs/verdicts.md
+        items.insert(0, ("verdict", esc(summary.verdict.words)))
     if ctx.truth.noise_floor is not None:
         items.append(("noise floor (truth against the data)",
                       esc(f"NMSE {format_number(100.0 * ctx.truth.noise_floor)} %")))
@@ -409,17 +411,17 @@ def section_spread(ctx: Context, page: Page) -> str:
     success = np.array([run.success for run in summary.runs], dtype=bool)
     truth = ctx.truth.values
     out = []
-    if success.any():
-        truth_pos = (case_positions(res.case, np.array(ctx.truth.at(names)))
-                     if truth is not None else None)
-        fig = plot_spread(positions, names, success=success, truth=truth_pos)
-        out.append(page.figure(fig, "spread", "parameters of every run between their bounds "
-                                              "(box: quartiles of the successful runs; dots: "
-                                              "successful runs; crosses: unsuccessful runs; "
-                                              "log parameters on a log scale)"
-                                              + ("; diamonds: truth" if truth else "")))
-    else:
-        out.append(page.absent("box plots of the parameters", "no run was successful"))
+    # Drawn also when no run succeeded: where runs that disagree ended is the evidence.
+    truth_pos = (case_positions(res.case, np.array(ctx.truth.at(names)))
+                 if truth is not None else None)
+    fig = plot_spread(positions, names, success=success, truth=truth_pos)
+    out.append(page.figure(fig, "spread", "parameters of every run between their bounds "
+                                          "(box: quartiles of the successful runs; dots: "
+                                          "successful runs; crosses: unsuccessful runs; "
+                                          "log parameters on a log scale)"
+                                          + ("; diamonds: truth" if truth else "")
+                                          + ("" if success.any() else
+                                             "; no run was successful")))
     spread = summary.spread.params
     best = summary.best.params
     header = ["parameter", "unit", "best", "mean", "std", "CV %", "min", "max", "at a bound"]

@@ -1,0 +1,178 @@
+"""A set of runs' verdict: was the best found again by independent searches?
+
+On real records there is no f_target: a search cannot know it found the global minimum, only
+that independent searches keep ending at the same one. The verdict groups the runs' best
+points into minima (the same φ within ``SAME_PHI``, the same parameters within ``SAME_X``)
+and calls the best *converged* when at least ``MIN_AGREE`` independent runs ended in its
+group, or when the best run's own searches found it again (multistart-lm's ``patience``:
+that many searches of the run ended at its best φ). Otherwise the runs ended in m different
+minima, whose φ range it gives. docs/verdicts.md says what success then means.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Two runs ended at the same minimum when their φ differ by less than this fraction of the
+#: smaller (searches of one run stop 0.1–0.3 % apart along the bridge's flat kp1 valley) ...
+SAME_PHI = 0.01
+#: ... or by less than this in absolute terms: φ is an NMSE, and 1e-10 % is no difference on
+#: any record (at φ = 0, as on exact virtual data, a relative tolerance is zero).
+SAME_PHI_FLOOR = 1e-12
+#: ... and their parameters by less than this RMS distance in the unit search box (the
+#: distance multistart-lm treats as one basin, its ``min_distance``).
+SAME_X = 0.05
+#: Independent runs (or searches of one run) that must end at the best minimum.
+MIN_AGREE = 2
+#: φ is an NMSE (a fraction): at 1 (100 %) the model is no better than predicting zero.
+NO_FIT = 1.0
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the runs say about their best minimum.
+
+    Attributes
+    ----------
+    converged : bool
+        The best was found again: ≥ MIN_AGREE runs in its group, or the best run's
+        ``patience`` fired (that many of its searches ended at its best φ).
+    agreeing_runs : list of int
+        Indices of the runs that ended at the best minimum (the best run first).
+    confirmations : int
+        Independent searches that ended there: the agreeing runs, or the best run's patience
+        count when it is larger.
+    minima : int
+        Distinct minima the runs ended in (groups of same φ and parameters).
+    phi_range : tuple of float
+        The smallest and largest φ over the runs (finite ones).
+    fits : bool
+        The best φ is below NO_FIT (an NMSE under 100 %).
+    words : str
+        The verdict in one sentence.
+    """
+
+    converged: bool
+    agreeing_runs: list[int]
+    confirmations: int
+    minima: int
+    phi_range: tuple[float, float]
+    fits: bool
+    words: str
+
+
+def minimum_groups(phis: np.ndarray, positions: np.ndarray, same_phi: float = SAME_PHI,
+                   same_x: float = SAME_X) -> np.ndarray:
+    """Label each run with the minimum it ended in (0: the best's).
+
+    Runs are taken best first; each joins the first group whose best run has a φ within
+    ``same_phi`` (relative) and parameters within ``same_x`` (RMS, unit box) of its own,
+    else opens a new group. Runs with a non-finite φ are labelled −1.
+
+    Parameters
+    ----------
+    phis : ndarray (k,)
+        Each run's best φ.
+    positions : ndarray (k, n)
+        Each run's best point in the unit box of the search space.
+    """
+    phis = np.asarray(phis, dtype=float)
+    positions = np.atleast_2d(np.asarray(positions, dtype=float))
+    labels = np.full(phis.size, -1)
+    heads: list[int] = []
+    for i in np.argsort(phis, kind="stable"):
+        if not math.isfinite(phis[i]):
+            continue
+        for label, head in enumerate(heads):
+            close_phi = abs(phis[i] - phis[head]) <= max(same_phi * abs(phis[head]),
+                                                         SAME_PHI_FLOOR)
+            close_x = float(np.sqrt(np.mean((positions[i] - positions[head]) ** 2))) <= same_x
+            if close_phi and close_x:
+                labels[i] = label
+                break
+        else:
+            labels[i] = len(heads)
+            heads.append(int(i))
+    return labels
+
+
+def verdict_of(phis: Sequence[float], positions: np.ndarray,
+               stops: Sequence[Mapping[str, object]]) -> Verdict:
+    """The verdict of runs ending at ``phis`` and ``positions`` (unit box), with their
+    ``stop`` dicts (the best run's ``patience`` counts its searches that found the best)."""
+    phis_arr = np.asarray(phis, dtype=float)
+    labels = minimum_groups(phis_arr, positions)
+    finite = phis_arr[np.isfinite(phis_arr)]
+    if finite.size == 0:
+        return Verdict(False, [], 0, 0, (math.inf, math.inf), False,
+                       "no run evaluated the model successfully")
+    best = int(np.nanargmin(np.where(np.isfinite(phis_arr), phis_arr, np.nan)))
+    agreeing = [best] + [int(i) for i in np.flatnonzero(labels == 0) if i != best]
+    searches = stops[best].get("patience")
+    by_searches = int(searches) if isinstance(searches, (int, np.integer)) else 0
+    confirmations = max(len(agreeing), by_searches)
+    converged = confirmations >= MIN_AGREE
+    minima = int(labels.max()) + 1
+    lo, hi = float(finite.min()), float(finite.max())
+    fits = lo < NO_FIT
+    runs = len(phis_arr)
+    if converged and len(agreeing) >= MIN_AGREE:
+        words = (f"converged: {len(agreeing)} of {runs} runs ended at the best minimum "
+                 f"(φ within {SAME_PHI:.0%}, parameters within {SAME_X:g} of the box)")
+    elif converged:
+        words = (f"converged within run {best}: {by_searches} of its searches ended at its "
+                 f"best φ" + ("; the other runs ended elsewhere" if runs > 1 else ""))
+    elif runs == 1:
+        words = ("not converged: the only run's best was not found again by another search "
+                 "(run more runs, or a larger budget)")
+    else:
+        words = (f"not converged: the {runs} runs ended in {minima} different minima, "
+                 f"φ {lo:.4g} … {hi:.4g}; the best was found once")
+    if converged and minima > 1 and len(agreeing) >= MIN_AGREE:
+        words += f"; the {runs - len(agreeing)} others in {minima - 1} other minima"
+    if not fits:
+        words += (f"; the best fit is no fit: NMSE {100 * lo:.3g} % ≥ {100 * NO_FIT:.0f} % "
+                  f"(no better than predicting zero)")
+    return Verdict(converged, agreeing, confirmations, minima, (lo, hi), fits, words)
+
+
+def successes(verdict: Verdict, phis: Sequence[float], reached: Sequence[bool] | None
+              ) -> list[bool]:
+    """Which runs succeeded.
+
+    With an f_target (``reached``: each run reached it) a run succeeds when it reached it and
+    its φ is below NO_FIT. Without one, a run succeeds when it ended at the best minimum, the
+    best is converged (found again) and fits (NMSE < 100 %): being the best of the runs is
+    not enough.
+    """
+    phis_arr = np.asarray(phis, dtype=float)
+    if reached is not None:
+        return [bool(ok and p < NO_FIT) for ok, p in zip(reached, phis_arr, strict=True)]
+    if not (verdict.converged and verdict.fits):
+        return [False] * phis_arr.size
+    agree = set(verdict.agreeing_runs)
+    return [i in agree for i in range(phis_arr.size)]
+
+
+def success_rule(f_target: float | None) -> str:
+    """What success meant, in words (summary.json ``success_rule``)."""
+    if f_target is not None:
+        return f"reached f_target = {f_target:g} with NMSE < {100 * NO_FIT:.0f} %"
+    return (f"ended at the best minimum, found again by ≥ {MIN_AGREE} independent runs or "
+            f"searches (φ within {SAME_PHI:.0%}, parameters within {SAME_X:g} of the box), "
+            f"with NMSE < {100 * NO_FIT:.0f} % (no f_target given)")
+
+
+def run_verdict(problem: object, outcomes: Sequence[object]) -> Verdict:
+    """The verdict of a case's run outcomes: their best points placed in the unit box of the
+    problem's search bounds (``problem.bounds``: (low, high) per parameter)."""
+    bounds = np.asarray(problem.bounds, dtype=float)  # type: ignore[attr-defined]
+    low, high = bounds[:, 0], bounds[:, 1]
+    xs = np.array([np.asarray(o.x, dtype=float) for o in outcomes])  # type: ignore[attr-defined]
+    positions = (xs - low) / np.where(high > low, high - low, 1.0)
+    return verdict_of([float(o.fun) for o in outcomes],  # type: ignore[attr-defined]
+                      positions, [dict(o.stop) for o in outcomes])  # type: ignore[attr-defined]
