@@ -158,6 +158,11 @@ def _check_files(case: Case, data: Data) -> None:
                                                for i, c in enumerate(data.outputs)]
     for where, channel in channels:
         fields.setdefault(case.data_path(channel, data), []).append(f"{where}.file")
+    folders = {path: where for path, where in fields.items() if path.is_dir()}
+    if folders:
+        listing = "; ".join(f"{path} ({', '.join(where)})" for path, where in folders.items())
+        raise DataError(f"{case.label}: a folder, not a data file: {listing} (allowed: a "
+                        "file; name the file in the folder)")
     missing = {path: where for path, where in fields.items() if not path.is_file()}
     if not missing:
         return
