@@ -21,6 +21,7 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
+from femupdate.inputs import check_search_override
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.results import (
     Best,
@@ -339,6 +340,9 @@ def run_case(
         raise ConfigError("--resume and --restart exclude each other: continue the runs in the "
                           "output directory, or discard them and start over")
     check_search_options(case)
+    for field, value in (("runs", runs), ("seed", seed), ("max_evals", max_evals),
+                         ("workers", workers)):
+        check_search_override(field, value, f"run_case({field}=…)")
     problem = UpdateProblem(case, experiments or load_experiments(case))
     search = case.search
     workers = search.workers if workers is None else workers
