@@ -532,7 +532,8 @@ def run(
                          ] = None,
     quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
     log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
-                                                       "run event) to this file.")] = None,
+                                                       "run event) to this file.",
+                                                  callback=_output_file("--log-json"))] = None,
     workers: Annotated[int | None, typer.Option(
         "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
         "workers).", callback=_search_limit("workers", "--workers"))] = None,
@@ -623,6 +624,13 @@ def _outside_bounds(case: Case, values: dict[str, float]) -> list[str]:
     return out
 
 
+def _warn_outside_bounds(flag: str, case: Case, values: dict[str, float]) -> None:
+    """Say which given values lie outside the case's bounds (no update of it would give
+    them)."""
+    for problem in _outside_bounds(case, values):
+        say(f"warning: {flag}: {problem} in {case.label}", "yellow")
+
+
 #: Mode shapes printed by `femupdate modes` (all of them with --json).
 SHAPES_SHOWN = 6
 
@@ -656,6 +664,7 @@ def modes(
 
     case = _load(case_file)
     values = case.nominal() if params is None else _read_params("--params", params, case)
+    _warn_outside_bounds("--params", case, values)
     system = CaseModel(case).system(values)
     freqs, shapes = natural_frequencies(system)
     damped = damped_modes(system)
@@ -717,6 +726,7 @@ def validate(
     if data is not None:
         case = with_data_directory(case, data)
     values = _read_params("--params", params, case)
+    _warn_outside_bounds("--params", case, values)
     result = validate_case(case, values)
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
     if out is not None:

@@ -342,7 +342,7 @@ def read_npz(path: str | Path, columns: Sequence[str] | None = None, *,
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, EOFError) as exc:  # EOFError: an empty file
         raise DataError(f"{path}: not a readable NPZ file ({_npz_problem(path, exc)}) "
                         "(allowed: an NPZ archive of numeric arrays, as numpy.savez writes; "
                         "a text table wants [data] format = \"csv\")") from None
