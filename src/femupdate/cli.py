@@ -71,6 +71,17 @@ def _output_dir(flag: str) -> Any:
     return check
 
 
+def _input_dir(flag: str) -> Any:
+    """A typer callback checking that a folder to read from exists."""
+    def check(value: Path | None) -> Path | None:
+        if value is not None and not value.is_dir():
+            what = "is a file, not a folder" if value.exists() else "does not exist"
+            raise ConfigError(f"{flag}: {value} {what} (allowed: the folder that holds the "
+                              "data files)")
+        return value
+    return check
+
+
 def _search_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the case file's range of [search] field."""
     def check(value: int | None) -> int | None:
@@ -517,7 +528,8 @@ def run(
              "cmaes, de, ga or scipy-lsq; the case's options for its own method are then "
              "not used.")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
-                                                   "instead of [data] directory.")] = None,
+                                                   "instead of [data] directory.",
+                                              callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the runs stored in --out, unfinished or interrupted "
         "(multistart-lm, ib, ab, cmaes from their last checkpoint; de, ga, scipy-lsq "
@@ -712,7 +724,8 @@ def validate(
         "--out", help="Write validation.json and a fit plot per trial here.",
         callback=_output_dir("--out"))] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
-                                                   "instead of [data] directory.")] = None,
+                                                   "instead of [data] directory.",
+                                              callback=_input_dir("--data"))] = None,
     json_path: JsonOption = None,
 ) -> None:
     """Evaluate fixed parameters on every trial of a case: NMSE per trial and channel.

@@ -559,8 +559,8 @@ def _say_overhang(where: str, window: tuple[float, float], t: np.ndarray, when: 
     low, high = window
     tol = 0.5 * float(t[1] - t[0])
     first, last = float(t[0]), float(t[-1])
-    if low >= first - tol and high <= last + tol:
-        return
+    if (low >= first - tol and high <= last + tol) or low > last or high < first:
+        return  # inside, or outside altogether (an error follows, naming it)
     used = [max(low, first), min(high, last)]
     warnings.warn(f"{where}: got {format_value([low, high])} s, which reaches past the record "
                   f"(record time {first:.6g} to {last:.6g} s {when}): only "

@@ -232,6 +232,10 @@ def check_search_options(case: Case) -> None:
     from femupdate.optimize.minimize import start
 
     search = case.search
+    if not case.parameters:
+        raise ConfigError(f"{case.label}: no [[parameters]]: nothing to update (allowed: at "
+                          "least one [[parameters]] table with name, lower and upper; `femupdate "
+                          "modes` and `validate` take a model without parameters)")
     for name in ("sigma_min", "f_change_min"):
         if getattr(search, name) is not None and search.method not in ("ab", "ib"):
             raise ConfigError(f"{case.label}: search.{name}: a stopping criterion of the Beta "

@@ -127,6 +127,8 @@ class TimedFunction:
         try:
             kind, value = conn.recv()
         except (EOFError, OSError):
+            if self._proc is not None:
+                self._proc.join(EXIT_WAIT_S)  # its exit code, once it has exited
             code = self._proc.exitcode if self._proc is not None else None
             self._stop()
             self.last_failure = (f"fun(x)'s process died (exit code {code}) at x = "
