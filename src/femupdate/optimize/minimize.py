@@ -421,10 +421,6 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
     low, high = parse_bounds(bounds)
     max_evals = check_max_evals(max_evals)
     f_target = check_f_target(f_target)
-    if f_target is not None and f_target < 0:
-        raise ConfigError(f"f_target: got {f_target!r} (allowed: >= 0 or None: φ is an error, a "
-                          "sum of squares or a normalised one, never below 0, so a negative "
-                          "target can never be reached; as [search] f_target in a case file)")
     try:
         rng = np.random.default_rng(seed)
     except (TypeError, ValueError) as exc:
@@ -571,11 +567,7 @@ def minimize(
         warnings.warn("callback(x, f) after every evaluation is deprecated: use scipy's "
                       "callback(intermediate_result), called after every step",
                       DeprecationWarning, stacklevel=2)
-    timeout = check_timeout(timeout)
-    if timeout is not None and workers != 1:
-        raise ConfigError(f"timeout with workers={workers!r}: a timeout needs workers=1 (each "
-                          "evaluation then runs in a child process of its own, killed on a "
-                          "time-out)")
+    timeout = check_timeout(timeout, workers)
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
                   residuals=residuals, **options)
     if timeout is not None:

@@ -38,14 +38,19 @@ class _Failed:
 FAILED = _Failed()
 
 
-def check_timeout(timeout: Any) -> float | None:
-    """``timeout`` as seconds (a positive finite number) or None; ConfigError otherwise."""
+def check_timeout(timeout: Any, workers: Any = 1) -> float | None:
+    """``timeout`` as seconds (a positive finite number) or None; ConfigError otherwise, or
+    when ``workers`` (minimize's) is not 1."""
     if timeout is None:
         return None
     if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real) \
             or not (math.isfinite(float(timeout)) and float(timeout) > 0):
         raise ConfigError(f"timeout: got {timeout!r} (allowed: a positive number of seconds "
                           "per evaluation of fun, or None: no limit)")
+    if workers != 1:
+        raise ConfigError(f"timeout with workers={workers!r}: a timeout needs workers=1 (each "
+                          "evaluation then runs in a child process of its own, killed on a "
+                          "time-out)")
     return float(timeout)
 
 
