@@ -526,8 +526,8 @@ def delay_disagreements(experiments: Sequence[Experiment]) -> list[str]:
                 f"{1e3 * low[1]:+.3g} ms, {high[0]} {1e3 * high[1]:+.3g} ms"
                 + (", opposite signs" if opposite else "") + "), though one sensor pair has "
                 "one delay: at least one estimate is wrong (a periodic input such as a sine "
-                "leaves the estimate ambiguous by whole periods); give the delay in s "
-                "(outputs' delay = 0.023) from a broad-band trial")
+                "leaves the estimate ambiguous by whole periods); give the channel's delay in "
+                "seconds (delay = ...) as estimated on a broad-band trial")
     return notes
 
 
