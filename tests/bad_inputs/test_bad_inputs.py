@@ -12,7 +12,8 @@ message femupdate must give. For each, this runner asserts:
 - completion within the case's time limit (a hang fails the test instead of the suite).
 
 Commands run in this process through the console entry point (``femupdate.cli.main``), which
-keeps the corpus fast; none needs a subprocess.
+keeps the corpus fast; three are run again as ``python -m femupdate`` in a process of their
+own, to check that the terminal shows the same one line.
 """
 
 from __future__ import annotations
@@ -263,3 +264,26 @@ def test_bad_input(path: Path, records: Path, tmp_path: Path,
             value = str(eval(spec["result"], namespace))
             _show(path, value)
             assert expect in value, value
+
+
+@pytest.mark.parametrize("name", ["run-out-is-file", "modes-json-read-only",
+                                  "validate-params-not-json"])
+def test_the_console_script_prints_the_same_one_line(name: str, records: Path,
+                                                     tmp_path: Path) -> None:
+    """A few cases through ``python -m femupdate`` in a process of its own: the in-process
+    runner above sees what a user's terminal shows."""
+    import subprocess
+
+    import femupdate
+
+    spec = tomllib.loads((HERE / "cases" / f"{name}.toml").read_text(encoding="utf-8"))
+    places = _prepare(spec, tmp_path, records)
+    src = str(Path(femupdate.__file__).resolve().parents[1])
+    done = subprocess.run([sys.executable, "-m", "femupdate",
+                           *(_fill(a, places) for a in spec["args"])],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          env={**os.environ, "PYTHONPATH": src})
+    text = done.stdout + done.stderr
+    assert done.returncode == 2 and "Traceback" not in text, text
+    errors = [line for line in text.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and _fill(spec["expect"], places) in errors[0], text
