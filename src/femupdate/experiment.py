@@ -153,6 +153,11 @@ def header_recipe(case: Case) -> str | None:
 
 def _check_files(case: Case, data: Data) -> None:
     """Every data file must exist: the missing ones are named with the fields that read them."""
+    folder = case.data_directory(data)
+    if folder.is_file():
+        raise DataError(f"{case.label}: data.directory = {data.directory!r} is a file, not a "
+                        f"folder ({folder}) (allowed: the folder that holds the data files, "
+                        "relative to the case file's folder)")
     fields: dict[Path, list[str]] = {}
     channels = [("data.input", data.input)] + [(f"data.outputs[{i}]", c)
                                                for i, c in enumerate(data.outputs)]
