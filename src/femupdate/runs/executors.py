@@ -206,7 +206,9 @@ def _dask_executor(address: str, timeout: float) -> RunExecutor:
     from distributed.comm.addressing import parse_address, parse_host_port
 
     try:  # before a Client exists: a half-made one complains and waits when it is collected
-        parse_host_port(parse_address(address)[1])
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls", "ws", "wss", "ucx"):  # inproc:// has no port
+            parse_host_port(location)
         client = distributed.Client(address, timeout=f"{timeout}s", set_as_default=False)
     except ValueError as exc:
         raise ConfigError(f"scheduler address {address!r} is not valid ({exc}); expected e.g. "
