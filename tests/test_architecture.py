@@ -14,7 +14,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
     ("objective", "case", "evaluation"),
-    ("experiment", "virtual"),
+    ("experiment", "virtual", "inputs"),
     ("update",),
     ("identifiability", "results"),
     ("workflow", "problems"),

@@ -25,7 +25,15 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from femupdate.errors import ConfigError, FemupdateError
+from femupdate.errors import ConfigError, FemupdateError, FemupdateWarning
+from femupdate.inputs import (
+    check_output_dir,
+    check_output_file,
+    check_search_override,
+    json_source,
+    method_list,
+    os_error_line,
+)
 
 if TYPE_CHECKING:
     from femupdate.case import Case
@@ -45,11 +53,50 @@ bench_app = typer.Typer(help="Benchmarks of the paper and of speed.", no_args_is
 app.add_typer(bench_app, name="bench")
 console = Console(markup=False)
 
+def _output_file(flag: str) -> Any:
+    """A typer callback checking an output file before any work (see femupdate.inputs)."""
+    def check(value: Path | None) -> Path | None:
+        if value is not None:
+            check_output_file(flag, value)
+        return value
+    return check
+
+
+def _output_dir(flag: str) -> Any:
+    """A typer callback checking an output folder before any work."""
+    def check(value: Path | None) -> Path | None:
+        if value is not None:
+            check_output_dir(flag, value)
+        return value
+    return check
+
+
+def _input_dir(flag: str) -> Any:
+    """A typer callback checking that a folder to read from exists."""
+    def check(value: Path | None) -> Path | None:
+        if value is not None and not value.is_dir():
+            what = "is a file, not a folder" if value.exists() else "does not exist"
+            raise ConfigError(f"{flag}: {value} {what} (allowed: the folder that holds the "
+                              "data files)")
+        return value
+    return check
+
+
+def _search_limit(field: str, flag: str) -> Any:
+    """A typer callback holding an override to the case file's range of [search] field."""
+    def check(value: int | None) -> int | None:
+        check_search_override(field, value, flag)
+        return value
+    return check
+
+
 JsonOption = Annotated[
-    Path | None, typer.Option("--json", help="Write machine-readable results to this file.")
+    Path | None, typer.Option("--json", help="Write machine-readable results to this file.",
+                              callback=_output_file("--json"))
 ]
 WorkersOption = Annotated[
-    int, typer.Option("--workers", min=1, help="Parallel worker processes for the benchmark's "
+    int, typer.Option("--workers", min=1, callback=_search_limit("workers", "--workers"),
+                      help="Parallel worker processes for the benchmark's "
                       "runs (its cases have no [search] workers of their own).")
 ]
 
@@ -93,8 +140,10 @@ def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
 def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path | None
                    ) -> list[dict[str, Any]]:
     from femupdate.bench.dynamic import ALL_METHODS, run_benchmark
+    from femupdate.optimize.minimize import METHODS
 
-    methods = list(ALL_METHODS) if method == "all" else [m.strip() for m in method.split(",")]
+    methods = list(ALL_METHODS) if method == "all" else method_list("--method", method,
+                                                                     METHODS)
     rows = []
     for m in methods:
         with console.status(f"{runs} runs of {m} on {workers} worker(s)…"):
@@ -117,11 +166,13 @@ def bench_dynamic(
         str, typer.Option(help="A method, a comma-separated list (side by side, e.g. ab,cmaes) "
                                "or all.")
     ] = "ab",
-    runs: Annotated[int, typer.Option(min=1, help="Independent runs.")] = 100,
+    runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
+                                      callback=_search_limit("runs", "--runs"))] = 100,
     seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.")] = 0,
     json_path: JsonOption = None,
     plots: Annotated[
-        Path | None, typer.Option(help="Directory for the paper's Figs. 2–5 (PNG) of run 0.")
+        Path | None, typer.Option(help="Directory for the paper's Figs. 2–5 (PNG) of run 0.",
+                                  callback=_output_dir("--plots"))
     ] = None,
     workers: WorkersOption = 2,
 ) -> None:
@@ -222,16 +273,20 @@ def bench_bridge(
     method: Annotated[str, typer.Option(
         help="ab, cmaes, … or a comma-separated list run on the same data (e.g. ab,cmaes)."
     )] = "ab",
-    runs: Annotated[int, typer.Option(min=1, help="Independent runs.")] = 25,
+    runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
+                                      callback=_search_limit("runs", "--runs"))] = 25,
     seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.")
                     ] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="Noise: rms noise / rms signal.")] = 0.02,
     max_evals: Annotated[int | None, typer.Option(min=1, help="Budget per run (default: the "
-                                                  "case's: 20,000 viscous, 5,000 friction).")
+                                                  "case's: 20,000 viscous, 5,000 friction).",
+                                                  callback=_search_limit("max_evals",
+                                                                         "--max-evals"))
                          ] = None,
     work_dir: Annotated[Path | None, typer.Option(
         "--work-dir", "--out", help="Keep the records and results here (default: "
-        "$XDG_CACHE_HOME/femupdate/bench-bridge, else ~/.cache/femupdate/bench-bridge).")
+        "$XDG_CACHE_HOME/femupdate/bench-bridge, else ~/.cache/femupdate/bench-bridge).",
+        callback=_output_dir("--work-dir"))
     ] = None,
     options: Annotated[str | None, typer.Option(
         help='Options of the method(s) as JSON, e.g. \'{"tolfun": 0, "tolfunhist": 0}\', or '
@@ -245,11 +300,13 @@ def bench_bridge(
 ) -> None:
     """Benchmark 2 of the paper: update the 1:50 bridge from a virtual experiment."""
     from femupdate.bench.bridge import default_work_dir, run_bridge_benchmark
+    from femupdate.optimize.minimize import METHODS
 
+    methods = method_list("--method", method, METHODS)  # all checked before the first runs
     method_options = _json_object("--options", options)
     work = work_dir or default_work_dir()
     rows = []
-    for m in (m.strip() for m in method.split(",")):
+    for m in methods:
         try:
             with console.status(f"{runs} runs of {m} on the {model} bridge…"):
                 summary = run_bridge_benchmark(model, band, m, runs=runs, seed=seed,
@@ -306,8 +363,10 @@ def report(
 
 @app.command()
 def demo(
-    runs: Annotated[int, typer.Option(min=1, help="Independent AB runs.")] = 20,
-    out: Annotated[Path, typer.Option(help="Where the figures go.")] = Path("femupdate-demo"),
+    runs: Annotated[int, typer.Option(min=1, help="Independent AB runs.",
+                                      callback=_search_limit("runs", "--runs"))] = 20,
+    out: Annotated[Path, typer.Option(help="Where the figures go.",
+                                      callback=_output_dir("--out"))] = Path("femupdate-demo"),
     workers: WorkersOption = 2,
 ) -> None:
     """Run the paper's dynamic benchmark quickly with AB and draw its figures."""
@@ -467,17 +526,23 @@ def print_trials(trials: list[TrialRecord], title: str, *, out: Console | None =
 @app.command()
 def run(
     case_file: CaseArgument,
-    out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
-    runs: Annotated[int | None, typer.Option(min=1, help="Override [search] runs.")] = None,
-    seed: Annotated[int | None, typer.Option(help="Override [search] seed.")] = None,
-    max_evals: Annotated[int | None, typer.Option(min=1, help="Override [search] max_evals.")
+    out: Annotated[Path, typer.Option("--out", help="Results directory.",
+                                      callback=_output_dir("--out"))] = Path("results"),
+    runs: Annotated[int | None, typer.Option(min=1, help="Override [search] runs.",
+                                             callback=_search_limit("runs", "--runs"))] = None,
+    seed: Annotated[int | None, typer.Option(help="Override [search] seed.",
+                                             callback=_search_limit("seed", "--seed"))] = None,
+    max_evals: Annotated[int | None, typer.Option(min=1, help="Override [search] max_evals.",
+                                                  callback=_search_limit("max_evals",
+                                                                         "--max-evals"))
                          ] = None,
     method: Annotated[str | None, typer.Option(
         help="Override [search] method: multistart-lm (the default of case files), ab, ib, "
              "cmaes, de, ga or scipy-lsq; the case's options for its own method are then "
              "not used.")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
-                                                   "instead of [data] directory.")] = None,
+                                                   "instead of [data] directory.",
+                                              callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the runs stored in --out, unfinished or interrupted "
         "(multistart-lm, ib, ab, cmaes from their last checkpoint; de, ga, scipy-lsq "
@@ -492,10 +557,11 @@ def run(
                          ] = None,
     quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
     log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
-                                                       "run event) to this file.")] = None,
+                                                       "run event) to this file.",
+                                                  callback=_output_file("--log-json"))] = None,
     workers: Annotated[int | None, typer.Option(
         "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
-        "workers).")] = None,
+        "workers).", callback=_search_limit("workers", "--workers"))] = None,
     json_path: JsonOption = None,
 ) -> None:
     """Update the model of a case from its measured data: repeated runs, summary, plots.
@@ -544,8 +610,7 @@ def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
     """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:
         return None
-    source = Path(text)
-    raw = source.read_text() if source.is_file() else text
+    raw = json_source(text)
     try:
         data = json.loads(raw)
     except json.JSONDecodeError as exc:
@@ -584,6 +649,13 @@ def _outside_bounds(case: Case, values: dict[str, float]) -> list[str]:
     return out
 
 
+def _warn_outside_bounds(flag: str, case: Case, values: dict[str, float]) -> None:
+    """Say which given values lie outside the case's bounds (no update of it would give
+    them)."""
+    for problem in _outside_bounds(case, values):
+        say(f"warning: {flag}: {problem} in {case.label}", "yellow")
+
+
 #: Mode shapes printed by `femupdate modes` (all of them with --json).
 SHAPES_SHOWN = 6
 
@@ -617,6 +689,7 @@ def modes(
 
     case = _load(case_file)
     values = case.nominal() if params is None else _read_params("--params", params, case)
+    _warn_outside_bounds("--params", case, values)
     system = CaseModel(case).system(values)
     freqs, shapes = natural_frequencies(system)
     damped = damped_modes(system)
@@ -662,9 +735,11 @@ def validate(
         help="Parameter values: a summary.json of `femupdate run` (its best run), a JSON file "
              "or a JSON object.")],
     out: Annotated[Path | None, typer.Option(
-        "--out", help="Write validation.json and a fit plot per trial here.")] = None,
+        "--out", help="Write validation.json and a fit plot per trial here.",
+        callback=_output_dir("--out"))] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
-                                                   "instead of [data] directory.")] = None,
+                                                   "instead of [data] directory.",
+                                              callback=_input_dir("--data"))] = None,
     json_path: JsonOption = None,
 ) -> None:
     """Evaluate fixed parameters on every trial of a case: NMSE per trial and channel.
@@ -678,6 +753,7 @@ def validate(
     if data is not None:
         case = with_data_directory(case, data)
     values = _read_params("--params", params, case)
+    _warn_outside_bounds("--params", case, values)
     result = validate_case(case, values)
     if result.frequencies_hz:
         say("natural frequencies of the model [Hz]: "
@@ -702,7 +778,8 @@ def validate(
 def synth(
     case_file: CaseArgument,
     truth: Annotated[str, typer.Option(help="Truth parameter values: a JSON object or file.")],
-    out: Annotated[Path, typer.Option("--out", help="Directory for the records.")],
+    out: Annotated[Path, typer.Option("--out", help="Directory for the records.",
+                                      callback=_output_dir("--out"))],
     seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.")] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel; 0: "
                                        "noise-free records.")] = 0.02,
@@ -779,3 +856,6 @@ def main() -> None:
     except KeyboardInterrupt:
         say("interrupted", "yellow")
         raise SystemExit(130) from None
+    except OSError as exc:  # a file system's refusal (full, read-only, removed): one line too
+        console.print(Text("error: ", style="red") + Text(os_error_line(exc)), soft_wrap=True)
+        raise SystemExit(2) from None

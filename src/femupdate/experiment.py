@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -153,11 +153,21 @@ def header_recipe(case: Case) -> str | None:
 
 def _check_files(case: Case, data: Data) -> None:
     """Every data file must exist: the missing ones are named with the fields that read them."""
+    folder = case.data_directory(data)
+    if folder.is_file():
+        raise DataError(f"{case.label}: data.directory = {data.directory!r} is a file, not a "
+                        f"folder ({folder}) (allowed: the folder that holds the data files, "
+                        "relative to the case file's folder)")
     fields: dict[Path, list[str]] = {}
     channels = [("data.input", data.input)] + [(f"data.outputs[{i}]", c)
                                                for i, c in enumerate(data.outputs)]
     for where, channel in channels:
         fields.setdefault(case.data_path(channel, data), []).append(f"{where}.file")
+    folders = {path: where for path, where in fields.items() if path.is_dir()}
+    if folders:
+        listing = "; ".join(f"{path} ({', '.join(where)})" for path, where in folders.items())
+        raise DataError(f"{case.label}: a folder, not a data file: {listing} (allowed: a "
+                        "file; name the file in the folder)")
     missing = {path: where for path, where in fields.items() if not path.is_file()}
     if not missing:
         return
@@ -244,6 +254,8 @@ def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
         {k: "m/s2" for m in aligned for k in m.channels}, str(case.data_directory(data)),
     )
     if data.window is not None:
+        _say_overhang(f"{case.label}: data.window", tuple(data.window), merged.t,
+                      "as read")
         merged = merged.window(*data.window)
     _check_motion(case, data, merged)
     return replace(merged, notes=tuple(notes))
@@ -479,8 +491,49 @@ def _doubtful_delays(measurement: io.Measurement, wanted: Mapping[str, float | s
 
 
 def load_experiments(case: Case) -> list[Experiment]:
-    """Every trial of ``case``, read and processed on its own (its own delays)."""
-    return [load_experiment(case, spec) for spec in case.trial_specs()]
+    """Every trial of ``case``, read and processed on its own (its own delays); a warning
+    when a channel's estimated delays disagree between trials (see `delay_disagreements`)."""
+    experiments = [load_experiment(case, spec) for spec in case.trial_specs()]
+    for text in delay_disagreements(experiments):
+        warnings.warn(f"{case.label}: {text}", FemupdateWarning, stacklevel=2)
+    return experiments
+
+
+#: Estimated delays of one channel in two trials disagree beyond this many samples …
+DELAY_SPREAD_SAMPLES = 2.0
+#: … and by more than this fraction of the larger one (a sensor's delay is the same in every
+#: trial of one set-up).
+DELAY_SPREAD_RELATIVE = 0.5
+
+
+def delay_disagreements(experiments: Sequence[Experiment]) -> list[str]:
+    """Channels whose delays removed in different trials have opposite signs or differ
+    widely: one sensor pair has one delay, so at least one estimate is wrong (a periodic
+    input, a sine, makes the phase-slope estimate ambiguous by whole periods)."""
+    by_channel: dict[str, list[tuple[str, float, float]]] = {}
+    for e in experiments:
+        for name, tau in e.delays.items():
+            by_channel.setdefault(name, []).append((e.name, float(tau), float(e.dt)))
+    notes = []
+    for name, seen in by_channel.items():
+        if len(seen) < 2:
+            continue
+        low = min(seen, key=lambda item: item[1])
+        high = max(seen, key=lambda item: item[1])
+        dt = max(item[2] for item in seen)
+        spread = high[1] - low[1]
+        opposite = low[1] < -dt and high[1] > dt
+        wide = (spread > DELAY_SPREAD_SAMPLES * dt
+                and spread > DELAY_SPREAD_RELATIVE * max(abs(low[1]), abs(high[1])))
+        if opposite or wide:
+            notes.append(
+                f"channel {name!r}: the delays removed disagree between trials ({low[0]} "
+                f"{1e3 * low[1]:+.3g} ms, {high[0]} {1e3 * high[1]:+.3g} ms"
+                + (", opposite signs" if opposite else "") + "), though one sensor pair has "
+                "one delay: at least one estimate is wrong (a periodic input such as a sine "
+                "leaves the estimate ambiguous by whole periods); give the channel's delay in "
+                "seconds (delay = ...) as estimated on a broad-band trial")
+    return notes
 
 
 def _trimmed_samples(delays: Mapping[str, float], rate: float) -> int:
@@ -500,4 +553,21 @@ def _score_slice(case: Case, spec: TrialSpec, t_record: np.ndarray) -> slice:
                         f" s, which holds {inside.size} samples of the trial's record (record "
                         f"time {t_record[0]:.6g} to {t_record[-1]:.6g} s after the delays) "
                         "(allowed: a part of the record with at least 3 samples)")
+    _say_overhang(f"{case.label}: {spec.path}.score_window", (low, high), t_record,
+                  "after the delays")
     return slice(int(inside[0]), int(inside[-1]) + 1)
+
+
+def _say_overhang(where: str, window: tuple[float, float], t: np.ndarray, when: str) -> None:
+    """Warn when a window reaches past either end of the record: only the part inside is
+    used, which the user did not write."""
+    low, high = window
+    tol = 0.5 * float(t[1] - t[0])
+    first, last = float(t[0]), float(t[-1])
+    if (low >= first - tol and high <= last + tol) or low > last or high < first:
+        return  # inside, or outside altogether (an error follows, naming it)
+    used = [max(low, first), min(high, last)]
+    warnings.warn(f"{where}: got {format_value([low, high])} s, which reaches past the record "
+                  f"(record time {first:.6g} to {last:.6g} s {when}): only "
+                  f"{format_value([round(used[0], 6), round(used[1], 6)])} s is used; give a "
+                  "window inside the record to silence this", FemupdateWarning, stacklevel=3)

@@ -10,6 +10,7 @@ that the case runs on them unchanged (point its ``[data] directory`` at the outp
 from __future__ import annotations
 
 import json
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +30,35 @@ class Motion:
     ag: np.ndarray
     dt: float
     description: str
+
+
+#: Fewest samples of a generated motion (as ``synth.artificial_accelerogram``).
+MIN_SAMPLES = 50
+
+
+def check_motion_settings(*, duration: float, rate: float, pga_g: float,
+                          length_scale: float) -> None:
+    """ConfigError naming the setting (and the ``femupdate synth`` flag) that cannot make an
+    EC8 motion: durations and rates in model-scale seconds and hertz."""
+    def bad(name: str, flag: str, value: float, allowed: str) -> ConfigError:
+        return ConfigError(f"{name} (femupdate synth {flag}): got {value:g} (allowed: "
+                           f"{allowed})")
+
+    for name, flag, value in (("rate", "--rate", rate), ("duration", "--duration", duration),
+                              ("pga_g", "--pga", pga_g),
+                              ("length_scale", "--length-scale", length_scale)):
+        if not (math.isfinite(value) and value > 0):
+            raise bad(name, flag, value, "a positive finite number")
+    if length_scale > 1:
+        raise bad("length_scale", "--length-scale", length_scale,
+                  "a model scale λ in (0, 1], e.g. 0.02 for 1:50")
+    if pga_g > 10:
+        raise bad("pga_g", "--pga", pga_g, "a peak ground acceleration in (0, 10] g")
+    samples = math.floor(duration * rate)
+    if samples < MIN_SAMPLES:
+        raise bad("duration", "--duration", duration,
+                  f"at least {MIN_SAMPLES} samples: {MIN_SAMPLES / rate:g} s or more at "
+                  f"{rate:g} Hz; {duration:g} s is {samples} samples")
 
 
 def ec8_motion(rng: np.random.Generator, *, rate: float, duration: float, pga_g: float = 0.25,
@@ -151,6 +181,8 @@ def virtual_experiment(
     rate = rate or (case.data.rate if case.data is not None and case.data.rate else 1035.0)
     motion_ss, noise_ss = np.random.SeedSequence(seed).spawn(2)
     if motion is None:
+        check_motion_settings(duration=duration, rate=rate, pga_g=pga_g,
+                              length_scale=length_scale)
         motion = ec8_motion(np.random.default_rng(motion_ss), rate=rate, duration=duration,
                             pga_g=pga_g, length_scale=length_scale)
     outputs = simulate_truth(case, truth, motion)

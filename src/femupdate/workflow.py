@@ -21,6 +21,7 @@ import numpy as np
 from femupdate.case import Case, parse_case
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
+from femupdate.inputs import check_search_override
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.results import (
     Best,
@@ -233,6 +234,10 @@ def check_search_options(case: Case) -> None:
     from femupdate.optimize.minimize import start
 
     search = case.search
+    if not case.parameters:
+        raise ConfigError(f"{case.label}: no [[parameters]]: nothing to update (allowed: at "
+                          "least one [[parameters]] table with name, lower and upper; `femupdate "
+                          "modes` and `validate` take a model without parameters)")
     for name in ("sigma_min", "f_change_min"):
         if getattr(search, name) is not None and search.method not in ("ab", "ib"):
             raise ConfigError(f"{case.label}: search.{name}: a stopping criterion of the Beta "
@@ -341,6 +346,9 @@ def run_case(
         raise ConfigError("--resume and --restart exclude each other: continue the runs in the "
                           "output directory, or discard them and start over")
     check_search_options(case)
+    for field, value in (("runs", runs), ("seed", seed), ("max_evals", max_evals),
+                         ("workers", workers)):
+        check_search_override(field, value, f"run_case({field}=…)")
     problem = UpdateProblem(case, experiments or load_experiments(case))
     search = case.search
     workers = search.workers if workers is None else workers

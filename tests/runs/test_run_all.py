@@ -182,7 +182,8 @@ def test_resume_is_refused_for_other_settings_or_another_case(tmp_path: Path) ->
         run_all(PROBLEM, BOUNDS, "ab", resume=True, **{**kw, "case_dict": {"case": "b"}})
     with pytest.raises(StoreError, match=r"written with method = 'ab'.*'ib'"):
         run_all(PROBLEM, BOUNDS, "ib", resume=True, **kw)
-    with pytest.raises(StoreError, match=r"written with entropy = 0.*entropy = 1"):
+    with pytest.raises(StoreError, match=r"written with the root seed = 0, this run asks for "
+                                          r"the root seed = 1"):
         run_all(PROBLEM, BOUNDS, "ab", resume=True, **{**kw, "seed": 1})
     with pytest.raises(StoreError, match="already holds a results store"):
         run_all(PROBLEM, BOUNDS, "ab", **kw)  # no resume: never overwritten

@@ -47,7 +47,9 @@ def load_case(path: str | os.PathLike[str]) -> Case:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        # utf-8-sig: a byte-order mark (as some Windows editors write) is dropped, not a
+        # syntax error at line 1, column 1
+        text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise ConfigError(f"case file not found: {path}") from None
     except UnicodeDecodeError as exc:

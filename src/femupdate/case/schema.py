@@ -184,6 +184,10 @@ class Data(Section):
             what = "both given" if self.rate is not None else "neither given"
             issues.append(("rate", f"time_column and rate: {what}",
                            "either time_column (a column of times) or rate (Hz)"))
+        elif self.rate is not None and "time_unit" in self.model_fields_set:
+            issues.append(("time_unit", "given with rate and no time_column: the times come "
+                           "from the rate, this unit would change nothing",
+                           "time_unit with time_column only"))
         issues += _window_issues(self.window, "window")
         if self.directory is not None:
             issues += [("directory", problem, "${NAME} with NAME a variable name")

@@ -64,9 +64,16 @@ class Table:
     lines: np.ndarray  # 1-based file line of each row
 
 
+def not_a_file(path: Path) -> str:
+    """Why ``path`` cannot be read as a data file: a folder, or nothing there."""
+    if path.is_dir():
+        return f"{path}: a folder, not a data file (allowed: a file; name the file in it)"
+    return f"{path}: file not found"
+
+
 def read_lines(path: Path) -> list[str]:
     if not path.is_file():
-        raise DataError(f"{path}: file not found")
+        raise DataError(not_a_file(path))
     try:
         return path.read_text(encoding="utf-8-sig").splitlines()
     except UnicodeDecodeError as exc:
@@ -307,6 +314,21 @@ def write_npz(path: str | Path, m: Measurement) -> None:
                         units=np.array([m.units[n] for n in m.names], dtype=str))
 
 
+def _npz_problem(path: Path, exc: Exception) -> str:
+    """What is wrong with a file numpy cannot load as NPZ, in words: numpy's own message
+    suggests ``allow_pickle`` for anything that is not an archive, which femupdate never sets
+    (a pickle runs code)."""
+    with path.open("rb") as f:
+        head = f.read(4)
+    if head.startswith(b"PK"):
+        return "a zip archive numpy cannot read as NPZ, or arrays of Python objects"
+    if not head:
+        return "the file is empty"
+    if head.startswith(b"\x93NUM"):
+        return "a single .npy array, not an .npz archive"
+    return "not an NPZ (zip) archive: it does not start as one; a text file?"
+
+
 def read_npz(path: str | Path, columns: Sequence[str] | None = None, *,
              time_rtol: float = TIME_RTOL) -> Measurement:
     """Read an NPZ file.
@@ -316,12 +338,14 @@ def read_npz(path: str | Path, columns: Sequence[str] | None = None, *,
     """
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"{path}: file not found")
+        raise DataError(not_a_file(path))
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise DataError(f"{path}: not a readable NPZ file ({exc})") from None
+    except (OSError, ValueError, EOFError) as exc:  # EOFError: an empty file
+        raise DataError(f"{path}: not a readable NPZ file ({_npz_problem(path, exc)}) "
+                        "(allowed: an NPZ archive of numeric arrays, as numpy.savez writes; "
+                        "a text table wants [data] format = \"csv\")") from None
     if "t" not in arrays:
         raise DataError(f"{path}: no time array 't'; arrays in the file: {sorted(arrays)}")
     t = arrays.pop("t")
@@ -387,7 +411,7 @@ def read_uff58(path: str | Path, columns: Sequence[str] | None = None, *,
     pyuff = require("pyuff", "uff")
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"{path}: file not found")
+        raise DataError(not_a_file(path))
     try:
         uff = pyuff.UFF(str(path))
         types = [int(k) for k in uff.get_set_types()]

@@ -456,7 +456,7 @@ def artificial_accelerogram(target: Callable[[np.ndarray], np.ndarray], duration
         raise ConfigError(f"dt must be a positive time step in s, got {dt!r}")
     if not (np.isfinite(duration) and duration >= 50 * dt):
         raise ConfigError(f"duration must be at least 50 samples ({50 * dt:g} s), "
-                          f"got {duration!r}")
+                          f"got {float(duration):g} s")
     t_lo, t_hi = period_range
     if not (2 * dt < t_lo < t_hi <= EC8_MAX_PERIOD):
         raise ConfigError(f"period_range must satisfy 2·dt ({2 * dt:g} s, Nyquist) < low < "

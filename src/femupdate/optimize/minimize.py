@@ -35,6 +35,7 @@ from femupdate.optimize.termination import (
     loop_criteria,
     status_and_message,
 )
+from femupdate.optimize.timed import FAILED, TimedFunction, check_timeout
 
 #: The optimizers by name: factories ``(n, rng, **options) -> Optimizer``.
 METHODS: dict[str, Factory] = {
@@ -166,6 +167,7 @@ class MinimizeState:
         state = self.__dict__.copy()
         for name in ("_hist_x", "_hist_f", "_hist_t", "_failures"):
             del state[name]
+        state.pop("_last_value", None)  # the last value fun returned: not part of the run
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -228,7 +230,7 @@ class MinimizeState:
             for i in range(k):
                 fs[i] = f = self._evaluate_next(results, x[i], rs)
                 if f == math.inf:
-                    self._record_failure(fun)
+                    self._record_failure(fun, x[i])
                 evaluated += 1
                 if on_evaluation is not None:
                     on_evaluation(x[i], f)
@@ -258,10 +260,13 @@ class MinimizeState:
             exc.add_note(f"femupdate.minimize: raised while evaluating fun(x) at x = {x.tolist()}")
             raise
         r = None
+        self._last_value = value
         if self.residuals:
             size = rs[0].size if rs else (None if self.best_r is None else self.best_r.size)
             r, f = _residual_vector(value, x, size)
             rs.append(r)
+        elif value is FAILED:
+            f = math.inf
         else:
             f = _as_value(value, x)
         n = self.nfev - self._hist_first
@@ -279,12 +284,17 @@ class MinimizeState:
                 self.best_r = r.copy()
         return f
 
-    def _record_failure(self, fun: ScalarFunction) -> None:
+    def _record_failure(self, fun: ScalarFunction, x: np.ndarray) -> None:
         """Count a failed evaluation and keep why, when ``fun`` (evaluated here) says, or the
-        object it is a method of (an update problem's ``residuals``)."""
+        object it is a method of (an update problem's ``residuals``); else what it returned."""
         self.nfail += 1
         why = getattr(fun, "last_failure", getattr(getattr(fun, "__self__", None),
                                                    "last_failure", None))
+        if not isinstance(why, str):
+            value = getattr(self, "_last_value", None)
+            shown = ("a residual vector with non-finite entries" if self.residuals and
+                     value is not FAILED else repr(value))
+            why = f"fun(x) returned {shown} at x = {x.tolist()}"
         if isinstance(why, str):
             self._failures.append((self.nfev - 1, why))
             if self.first_failure is None:
@@ -366,13 +376,30 @@ def batch_of(fun: Callable[[np.ndarray], Any], residuals: bool
 
 
 def _residual_vector(value: Any, x: np.ndarray, size: int | None) -> tuple[np.ndarray, float]:
-    """A residual vector as a flat float array and φ = r·r; a non-finite r is a failed
-    evaluation: all inf, φ = inf."""
+    """A residual vector as a float array (m,) and φ = r·r; a non-finite r, or an evaluation
+    that timed out (FAILED), is a failed evaluation: all inf, φ = inf."""
+    if value is FAILED:
+        if size is None:
+            raise ConfigError(f"fun(x) timed out at x = {x.tolist()} before any residual "
+                              "vector came back, so their length is unknown (allowed: a "
+                              "timeout that the first evaluation keeps)")
+        return np.full(size, math.inf), math.inf
+    if isinstance(value, bool | np.bool_ | str | bytes):
+        raise ConfigError(f"fun(x) must return a vector of real residuals with "
+                          f"residuals=True, got {value!r} at x = {x.tolist()}")
     try:
-        r = np.asarray(value, dtype=float).reshape(-1)
+        r = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ConfigError(f"fun(x) must return a vector of real residuals with "
                           f"residuals=True, got {value!r} at x = {x.tolist()}") from None
+    if r.ndim > 1:
+        raise ConfigError(f"fun(x) returned residuals of shape {r.shape} at x = {x.tolist()} "
+                          "(allowed: a 1-D vector (m,), as scipy.optimize.least_squares' fun; "
+                          "flatten it with .ravel() if every entry is a residual)")
+    r = r.reshape(-1)
+    if r.size == 0:
+        raise ConfigError(f"fun(x) returned an empty residual vector at x = {x.tolist()} "
+                          "(allowed: at least one residual)")
     if size is not None and r.size != size:
         raise ConfigError(f"fun(x) returned {r.size} residuals at x = {x.tolist()}, earlier "
                           f"{size}: the residual vector must keep its length")
@@ -458,6 +485,7 @@ def minimize(
     workers: int | MapLike = 1,
     map: MapLike | None = None,
     residuals: bool = False,
+    timeout: float | None = None,
     **options: Any,
 ) -> OptimizeResult:
     """Minimize ``fun`` within ``bounds`` with the bounded optimizer ``method``.
@@ -504,6 +532,11 @@ def minimize(
         ``fun`` returns residuals r and φ = r·r is minimised: ``f_target``, the history,
         ``callback`` and ``res.fun`` refer to φ. Methods that need them (``needs_residuals``)
         refuse to run without; the others ignore them or, like ``"multistart-lm"``, use them.
+    timeout : float or None
+        Seconds one evaluation of ``fun`` may take (None: no limit). With a timeout each
+        evaluation runs in a forked child process (``fun`` need not be picklable), killed when
+        it takes longer: that evaluation failed (φ = inf, ``res.failure`` says so) and the
+        search goes on. ``workers=1`` only; POSIX only.
     **options
         Options of the method (unknown names or values out of range: ConfigError).
 
@@ -536,8 +569,11 @@ def minimize(
         warnings.warn("callback(x, f) after every evaluation is deprecated: use scipy's "
                       "callback(intermediate_result), called after every step",
                       DeprecationWarning, stacklevel=2)
+    timeout = check_timeout(timeout, workers)
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
                   residuals=residuals, **options)
+    if timeout is not None:
+        fun = TimedFunction(fun, timeout)
     map_fn, close_map = _workers_map(workers)
     per_evaluation = callback if kind == "legacy" else None
     try:
@@ -552,6 +588,8 @@ def minimize(
     finally:
         close_map()
         state.optimizer.close()
+        if isinstance(fun, TimedFunction):
+            fun.close()
     result = state.result()
     if not math.isfinite(result.fun):
         warnings.warn(f"minimize({method!r}): {NO_SUCCESS} ({result.nfev} evaluations; "

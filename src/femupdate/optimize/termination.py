@@ -43,7 +43,7 @@ def check_max_evals(max_evals: Any) -> int:
 
 
 def check_f_target(f_target: Any) -> float | None:
-    """``f_target`` as a finite float or None; ConfigError otherwise."""
+    """``f_target`` as a finite float ≥ 0 or None; ConfigError otherwise."""
     if f_target is None:
         return None
     if isinstance(f_target, bool) or not isinstance(f_target, numbers.Real):
@@ -51,6 +51,10 @@ def check_f_target(f_target: Any) -> float | None:
     value = float(f_target)
     if not math.isfinite(value):
         raise ConfigError(f"f_target must be a finite real number or None, got {f_target!r}")
+    if value < 0:
+        raise ConfigError(f"f_target: got {value!r} (allowed: >= 0 or None: φ is an error, a "
+                          "sum of squares or a normalised one, never below 0, so a negative "
+                          "target can never be reached; as [search] f_target in a case file)")
     return value
 
 

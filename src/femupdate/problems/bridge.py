@@ -130,7 +130,7 @@ def friction_model() -> dict[str, Any]:
 def parameters_table(model: str) -> tuple[ParameterRow, ...]:
     """The parameter table of ``model`` ("viscous" or "friction")."""
     if model not in ("viscous", "friction"):
-        raise ConfigError(f"model = {model!r}; allowed: 'viscous', 'friction'")
+        raise ConfigError(f"model (--model) = {model!r}; allowed: 'viscous', 'friction'")
     return VISCOUS_PARAMETERS if model == "viscous" else FRICTION_PARAMETERS
 
 
@@ -153,7 +153,7 @@ def bridge_case(model: str = "viscous", band: str = "narrow", *,
         Where the records are (relative to the case file, or absolute).
     """
     if band not in ("narrow", "broad"):
-        raise ConfigError(f"band = {band!r}; allowed: 'narrow', 'broad'")
+        raise ConfigError(f"band (--band) = {band!r}; allowed: 'narrow', 'broad'")
     table = parameters_table(model)
     params = [
         {"name": name, "lower": (nb if band == "narrow" else bb)[0],

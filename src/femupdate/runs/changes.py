@@ -14,7 +14,7 @@ import os
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["SETTING_WORDS", "case_changes", "data_changes", "file_hashes", "short"]
+__all__ = ["SETTING_NAMES", "SETTING_WORDS", "case_changes", "data_changes", "file_hashes", "short"]
 
 
 #: Where each setting a resume must match comes from (the command line's words first).
@@ -28,6 +28,10 @@ SETTING_WORDS = {
     "names": "[[parameters]] name",
     "entropy": "--seed or [search] seed",
 }
+
+#: Settings stored under another name than the user gives them (the root SeedSequence's
+#: entropy is the seed given).
+SETTING_NAMES = {"entropy": "the root seed"}
 
 
 def short(value: Any, limit: int = 80) -> str:

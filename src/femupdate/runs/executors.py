@@ -203,7 +203,12 @@ def _dask_executor(address: str, timeout: float) -> RunExecutor:
         raise ConfigError(f"scheduler must be an address such as 'tcp://host:8786', "
                           f"got {address!r}")
     distributed = require("dask.distributed", "dask")
-    try:
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:  # before a Client exists: a half-made one complains and waits when it is collected
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls", "ws", "wss", "ucx"):  # inproc:// has no port
+            parse_host_port(location)
         client = distributed.Client(address, timeout=f"{timeout}s", set_as_default=False)
     except ValueError as exc:
         raise ConfigError(f"scheduler address {address!r} is not valid ({exc}); expected e.g. "

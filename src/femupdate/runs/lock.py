@@ -69,7 +69,12 @@ class StoreLock:
     @staticmethod
     def _lock_file(store_path: Path, path: Path) -> int:
         """A descriptor of ``path`` holding its exclusive flock, the pid written in it."""
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:  # a read-only or removed folder: said, not a traceback
+            raise StoreError(f"{store_path.parent}: cannot make the results store's lock "
+                             f"{path.name}: {exc.strerror} (allowed: a writable folder; "
+                             "choose another --out)") from None
         try:
             if fcntl is not None:
                 try:

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import StoreError
-from femupdate.runs.changes import SETTING_WORDS, case_changes, data_changes, short
+from femupdate.runs.changes import SETTING_NAMES, SETTING_WORDS, case_changes, data_changes, short
 from femupdate.runs.lock import StoreLock as _Lock
 
 #: Bumped whenever the tables change incompatibly.
@@ -344,7 +344,7 @@ class ResultsStore:
         where = self.path.parent if self.path is not None else "the store"
         over = ("start over in it with --restart (its runs are discarded), or choose another "
                 "output directory (--out)")
-        keep = f"nothing was changed: {over}"
+        keep = f"the store was left as it was: {over}"
         if meta["schema_version"] != SCHEMA_VERSION:
             raise StoreError(
                 f"{where} was written with results-store schema {meta['schema_version']}, this "
@@ -380,12 +380,13 @@ class ResultsStore:
                 if key in ignore:
                     continue
                 if stored.get(key) != new.get(key):
+                    shown = SETTING_NAMES.get(key, key)
                     raise StoreError(
-                        f"{where}: cannot resume: it was written with {key} = "
-                        f"{short(stored.get(key))}, this run asks for {key} = "
+                        f"{where}: cannot resume: it was written with {shown} = "
+                        f"{short(stored.get(key))}, this run asks for {shown} = "
                         f"{short(new.get(key))}"
                         + (f" ({SETTING_WORDS[key]})" if key in SETTING_WORDS else "")
-                        + f"; resume with the same settings, or {keep}"
+                        + f"; resume with the same settings, or {over}"
                     )
 
     def wall_s(self) -> float:
