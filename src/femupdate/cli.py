@@ -25,7 +25,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from femupdate.errors import ConfigError, FemupdateError, FemupdateWarning
+from femupdate.errors import ConfigError, FemupdateError
 from femupdate.inputs import (
     check_output_dir,
     check_output_file,
