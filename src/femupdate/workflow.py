@@ -19,11 +19,13 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
+from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.results import (
     Best,
+    DefectRecord,
     Fit,
     RunRecord,
     Spread,
@@ -36,6 +38,7 @@ from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.runs.store import FILENAME, ResultsStore, discard
+from femupdate.trial_checks import open_defects
 from femupdate.update import TrialProblem, UpdateProblem
 
 #: Without a target φ_s, a run counts as successful when its φ is within this factor of the
@@ -108,6 +111,12 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     else:
         success = [bool(o.fun <= NEAR_BEST * best.fun) for o in outcomes]
         rule = f"φ within {NEAR_BEST:g} × the best run's φ (no f_target given)"
+    found = [f for t in problem.trials for f in t.experiment.defects]
+    blocking = open_defects(found)
+    if blocking:  # a fit of a defective record is no success, however small its φ
+        success = [False] * len(outcomes)
+        rule = (f"none: {len(blocking)} defect(s) in the records neither repaired nor "
+                f"accepted ({'; '.join(f.describe() for f in blocking)})")
     runs = [RunRecord(**{**o.to_dict(), "params": problem.values(o.x), "success": ok,
                          "at_bounds": at_bounds(o.x, problem.bounds, names)})
             for o, ok in zip(outcomes, success, strict=True)]
@@ -150,6 +159,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         ),
         trials=trials,
         identifiability=ident,
+        defects=[DefectRecord(**f.to_dict()) for f in found],
     )
 
 
@@ -387,11 +397,13 @@ class Validation:
     params: dict[str, float]
     trials: list[TrialRecord]
     fits: list[Fit]
+    defects: list[Finding] = dataclasses.field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: the case, the parameters and every trial's figures."""
         return {"case": self.case, "params": self.params,
-                "trials": [t.model_dump() for t in self.trials]}
+                "trials": [t.model_dump() for t in self.trials],
+                "defects": [f.to_dict() for f in self.defects]}
 
 
 def validate_case(case: Case, params: dict[str, float], *,
@@ -411,4 +423,5 @@ def validate_case(case: Case, params: dict[str, float], *,
     values = check_parameter_values(params, case.parameter_names, "parameter values")
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]
     records = [trial_record(t, values) for t in trials]
-    return Validation(case.label, values, records, _fits(trials, values))
+    return Validation(case.label, values, records, _fits(trials, values),
+                      [f for t in trials for f in t.experiment.defects])
