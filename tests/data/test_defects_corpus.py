@@ -374,7 +374,7 @@ def clean_synth(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _source_folder(record: Record, clean_synth: Path, into: Path) -> tuple[Path, str | None]:
     """A copy of the record's clean files in ``into`` (the trial name for real ones)."""
-    into.mkdir()
+    into.mkdir(parents=True)
     if record.needs_shared:
         if not MINISHAKE.is_dir():
             pytest.skip(f"the shared minishake data are absent ({MINISHAKE})")
@@ -437,3 +437,163 @@ def test_the_corpus_is_large_and_covers_every_kind() -> None:
     assert len(defective) >= 40
     assert {r.kind for r in defective} == set(KINDS)
     assert sum(r.kind is None and r.needs_shared for r in CORPUS) == len(REAL_TRIALS)
+
+
+# --------------------------------------------------------------------------- end to end
+
+
+def _case_on(record: Record, clean_synth: Path, tmp: Path, **data: Any) -> Any:
+    folder, _ = _source_folder(record, clean_synth, tmp / "records")
+    changes = record.edit(folder) if record.edit else {}
+    spec = _merge(synth_spec(folder, channels=changes.get("channels", {})), changes)
+    spec["data"].update(data)
+    return parse_case(spec, source=folder / "case.toml")
+
+
+def _record(name: str) -> Record:
+    return next(r for r in CORPUS if r.name == name)
+
+
+def test_a_run_on_a_defective_record_is_no_success_and_says_why(clean_synth: Path,
+                                                                tmp_path: Path) -> None:
+    from femupdate.results import read_summary
+    from femupdate.workflow import run_case
+
+    case = _case_on(_record("synth-spike-1e5"), clean_synth, tmp_path)
+    with pytest.warns(FemupdateWarning, match=r"floors\.csv: channel 'F1\.ux': spike: "):
+        result = run_case(case, tmp_path / "out", runs=2, max_evals=40)
+    summary = read_summary(tmp_path / "out" / "summary.json")
+    assert summary.successes == 0 and not any(r.success for r in summary.runs)
+    assert summary.success_rule.startswith("none: 1 defect(s)")
+    assert [(d.kind, d.channel, d.status) for d in summary.defects] == [
+        ("spike", "F1.ux", "open")]
+    assert result.summary.defects == summary.defects
+
+
+def test_accept_silences_a_check_by_name_and_the_run_may_succeed(clean_synth: Path,
+                                                                 tmp_path: Path) -> None:
+    from femupdate.workflow import run_case
+
+    case = _case_on(_record("synth-spike-1e5"), clean_synth, tmp_path, accept=["spike"])
+    result = run_case(case, None, runs=2, max_evals=40)
+    assert [(d.kind, d.status) for d in result.summary.defects] == [("spike", "accepted")]
+    assert result.summary.successes >= 1
+    assert not result.summary.success_rule.startswith("none")
+
+
+def test_the_spike_repair_restores_the_clean_record(clean_synth: Path, tmp_path: Path) -> None:
+    clean = load_experiments(_case_on(_record("synth-clean-seed-1"), clean_synth,
+                                      tmp_path / "a"))[0]
+    spiked = _case_on(_record("synth-spike-1e308"), clean_synth, tmp_path / "b",
+                      repair_defects=["spike"])
+    with pytest.warns(FemupdateWarning, match="spike: .*repaired"):
+        (repaired,) = load_experiments(spiked)
+    assert [(d.kind, d.status) for d in repaired.defects] == [("spike", "repaired")]
+    # one sample replaced by the mean of its neighbours: the processed record moves by a
+    # small fraction of its scale, where the spike itself was 1e308
+    error = np.max(np.abs(repaired.accelerations - clean.accelerations))
+    assert error < 0.05 * np.max(np.abs(clean.accelerations))
+
+
+def test_the_clock_offset_repair_aligns_by_row(clean_synth: Path, tmp_path: Path) -> None:
+    clean = load_experiments(_case_on(_record("synth-clean-seed-1"), clean_synth,
+                                      tmp_path / "a"))[0]
+    offset = _case_on(_record("synth-clock-offset-1.0s"), clean_synth, tmp_path / "b")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        (shifted,) = load_experiments(offset)
+    texts = [str(w.message) for w in said]
+    assert any("clock-offset: 1601 and 1601 rows (in step)" in t for t in texts), texts
+    assert not any("differ in length" in t for t in texts), texts  # they do not
+    assert shifted.t.size < clean.t.size  # aligned on the stamps: only the overlap
+    repaired_case = _case_on(_record("synth-clock-offset-1.0s"), clean_synth, tmp_path / "c",
+                             repair_defects=["clock-offset"])
+    (repaired,) = load_experiments(repaired_case)
+    assert [(d.kind, d.status) for d in repaired.defects] == [("clock-offset", "repaired")]
+    np.testing.assert_array_equal(repaired.target, clean.target)
+
+
+def test_unknown_check_names_are_refused_with_the_allowed_ones(clean_synth: Path,
+                                                               tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"data\.accept.*spik.*clock-offset"):
+        _case_on(_record("synth-clean-seed-1"), clean_synth, tmp_path / "a", accept=["spik"])
+    with pytest.raises(ConfigError, match=r"data\.repair_defects.*unit.*spike"):
+        _case_on(_record("synth-clean-seed-1"), clean_synth, tmp_path / "b",
+                 repair_defects=["unit"])
+
+
+CASE_TOML = """
+[case]
+name = "two-storey"
+[model.shear_building]
+masses = [1.0, 0.8]
+stiffnesses = ["k1", "k2"]
+dampers = ["c1", "c2"]
+[[parameters]]
+name = "k1"
+lower = 1000.0
+upper = 10000.0
+scale = "log"
+[[parameters]]
+name = "k2"
+lower = 1000.0
+upper = 10000.0
+scale = "log"
+[[parameters]]
+name = "c1"
+lower = 0.0
+upper = 5.0
+[[parameters]]
+name = "c2"
+lower = 0.0
+upper = 5.0
+[data]
+format = "csv"
+directory = "records"
+time_column = "t"
+input = { file = "table.csv", column = "table" }
+outputs = [{ file = "floors.csv", column = "a1", node = "F1", dof = "ux" },
+           { file = "floors.csv", column = "a2", node = "F2", dof = "ux" }]
+[preprocess]
+highpass_hz = 0.5
+[search]
+method = "ab"
+runs = 1
+seed = 1
+max_evals = 30
+"""
+
+
+def _cli_run(record: Record, clean_synth: Path, tmp: Path) -> tuple[str, Path]:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    tmp.mkdir()
+    folder, _ = _source_folder(record, clean_synth, tmp / "records")
+    record.edit(folder) if record.edit else None
+    (tmp / "case.toml").write_text(CASE_TOML)
+    out = tmp / "out"
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        result = CliRunner().invoke(app, ["run", str(tmp / "case.toml"), "--out", str(out),
+                                          "--quiet"], terminal_width=400)
+    assert result.exit_code == 0, result.output
+    lines = [str(w.message) for w in said if issubclass(w.category, FemupdateWarning)]
+    assert all("\n" not in line for line in lines)  # one line each
+    return " ".join([*lines, *result.output.split()]), out
+
+
+def test_the_cli_says_each_defect_in_one_line_and_the_report_shows_them(
+        clean_synth: Path, tmp_path: Path) -> None:
+    from femupdate.report.html import render_report
+
+    output, out = _cli_run(_record("synth-duplicate-floors"), clean_synth, tmp_path / "dup")
+    assert ("floors.csv: channel 'F2.ux': duplicate: identical to channel 'F1.ux' sample for "
+            "sample") in output
+    assert "not a success: 1 defect(s)" in output
+    page = render_report(out)
+    assert 'id="defects"' in page and "identical to channel" in page
+    output, out = _cli_run(_record("synth-clean-seed-1"), clean_synth, tmp_path / "clean")
+    assert "defect:" not in output and "not a success" not in output
+    assert 'id="defects"' not in render_report(out)

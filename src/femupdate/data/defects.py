@@ -57,12 +57,12 @@ DRIFT_MAX_REL = 0.01
 DRIFT_SAMPLES = 0.5
 #: Correlations at or above this (|ρ|) between two channels: the same record twice.
 DUPLICATE_CORRELATION = 0.999
-#: The best lag of an output behind the input beyond this many seconds, and beyond
-#: `LAG_PERIODS` periods of the first mode, is a misalignment.
+#: A structure's response follows its base within `LAG_PERIODS` periods of its first mode
+#: (its impulse response has its largest values there) or `LAG_SECONDS`, whichever is longer.
 LAG_SECONDS = 0.5
-LAG_PERIODS = 3.0
-#: ...provided the correlation there is this many times the correlation at lag 0 (a clear
-#: peak, not the next period of a periodic record).
+LAG_PERIODS = 5.0
+#: A best lag beyond that, with a correlation this many times the largest within it, is a
+#: misalignment (a clear peak, not noise in the estimate or the next period of a sine).
 LAG_GAIN = 2.0
 #: The longest lag searched, s, and the share of the record it may reach.
 LAG_SEARCH_S = 30.0
@@ -215,8 +215,8 @@ def check_alignment(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: floa
     The correlation (biased: the overlap's share weighs each lag) of the detrended signals is
     searched over ±`LAG_SEARCH_S` s (at most `LAG_SEARCH_SHARE` of the record). A structure's
     response follows its base within a few periods of its first mode; a best lag beyond both
-    `LAG_SECONDS` and `LAG_PERIODS` periods, with a correlation `LAG_GAIN` times that at lag 0,
-    is a misalignment (clocks set apart, or a record of another test).
+    `LAG_SECONDS` and `LAG_PERIODS` periods, with a correlation `LAG_GAIN` times the largest
+    within them, is a misalignment (clocks set apart, or a record of another test).
     """
     n = x.size
     if n < MIN_SAMPLES:
@@ -236,15 +236,16 @@ def check_alignment(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: floa
         lags = scipy.signal.correlation_lags(n, n, mode="full")
         inside = np.abs(lags) <= reach
         corr, lags = corr[inside], lags[inside]
+        near = np.abs(lags) <= limit * rate
         best = int(np.argmax(np.abs(corr)))
-        at_zero = abs(float(corr[lags == 0][0]))
+        within = float(np.max(np.abs(corr[near])))
         lag_s = lags[best] / rate
-        if abs(lag_s) > limit and abs(corr[best]) >= LAG_GAIN * at_zero:
+        if abs(lag_s) > limit and abs(corr[best]) >= LAG_GAIN * within:
             findings.append(Finding(
                 "misaligned", files.get(name, ""), name, "error",
                 f"its correlation with the input peaks at a lag of {lag_s:+.4g} s "
-                f"(ρ = {corr[best]:.2f}, against {at_zero:.2f} at lag 0; allowed within "
-                f"{limit:.3g} s)",
+                f"(ρ = {corr[best]:.2f}, against at most {within:.2f} within ±{limit:.3g} s, "
+                "where a structure's response follows its base)",
                 "check the files' clocks and that they are records of the same test; align "
                 "them (a time column with the right start, or [data] window)"))
     return findings
