@@ -195,7 +195,10 @@ def _check_overlap(case: Case, records: list[io.Measurement], used: io.Measureme
     spans = {rec.source: (rec.n_samples, float(rec.t[0]), float(rec.t[-1])) for rec in records}
     listing = ", ".join(f"{source}: {k} samples, t = {a:.6g} … {b:.6g} s"
                         for source, (k, a, b) in spans.items())
-    warnings.warn(f"{case.label}: the data files differ in length ({listing}); only their "
+    counts = [k for k, _, _ in spans.values()]
+    differ = ("hold as many samples but their time stamps start apart"
+              if max(counts) - min(counts) <= 1 else "differ in length")
+    warnings.warn(f"{case.label}: the data files {differ} ({listing}); only their "
                   f"overlap is used: {n} samples, {(n - 1) / used.rate:.6g} s (allowed: "
                   "records of the same test; set [data] window to choose the part used)",
                   FemupdateWarning, stacklevel=3)

@@ -597,3 +597,13 @@ def test_the_cli_says_each_defect_in_one_line_and_the_report_shows_them(
     output, out = _cli_run(_record("synth-clean-seed-1"), clean_synth, tmp_path / "clean")
     assert "defect:" not in output and "not a success" not in output
     assert 'id="defects"' not in render_report(out)
+
+
+def test_files_of_equal_length_are_not_said_to_differ_in_length(clean_synth: Path,
+                                                                 tmp_path: Path) -> None:
+    """Stamps 6 samples apart (no clock offset yet): the overlap warning says what differs."""
+    late = Record("late", "synth", None, _floors(lambda t, v: (t + 0.03, v)))
+    with pytest.warns(FemupdateWarning, match="hold as many samples but their time stamps "
+                                              "start apart") as said:
+        load_experiments(_case_on(late, clean_synth, tmp_path))
+    assert not any("differ in length" in str(w.message) for w in said)
