@@ -259,25 +259,23 @@ def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str
     twice, or a column read twice.
     """
     names = list(channels)
-    if not names or next(iter(channels.values())).size < MIN_SAMPLES:
+    if len(names) < 2 or next(iter(channels.values())).size < MIN_SAMPLES:
         return []
-    values = {n: _detrended(channels[n]) for n in names}
+    values = np.column_stack([_detrended(channels[n]) for n in names])
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.linalg.norm(values, axis=0)
+        rho = (values.T @ values) / np.outer(norms, norms)  # every pair at once
     findings = []
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            ya, yb = values[a], values[b]
-            norm = float(np.linalg.norm(ya) * np.linalg.norm(yb))
-            if norm == 0.0 or not np.isfinite(norm):
-                continue
-            rho = float(ya @ yb) / norm
-            if abs(rho) >= DUPLICATE_CORRELATION:
-                same = np.array_equal(channels[a], channels[b])
-                findings.append(Finding(
-                    "duplicate", " / ".join(dict.fromkeys((files.get(a, ""), files.get(b, "")))),
-                    b, "error",
-                    f"identical to channel {a!r}" + (" sample for sample" if same else
-                                                    f" (correlation {rho:.5f})"),
-                    "read each channel from its own record (the same file exported twice?)"))
+    for i, j in zip(*np.nonzero(np.triu(np.abs(np.nan_to_num(rho)) >= DUPLICATE_CORRELATION,
+                                        k=1)), strict=True):
+        a, b = names[i], names[j]
+        same = np.array_equal(channels[a], channels[b])
+        findings.append(Finding(
+            "duplicate", " / ".join(dict.fromkeys((files.get(a, ""), files.get(b, "")))),
+            b, "error",
+            f"identical to channel {a!r}" + (" sample for sample" if same else
+                                            f" (correlation {rho[i, j]:.5f})"),
+            "read each channel from its own record (the same file exported twice?)"))
     return findings
 
 
