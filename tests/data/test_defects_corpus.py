@@ -612,3 +612,14 @@ def test_files_of_equal_length_are_not_said_to_differ_in_length(clean_synth: Pat
                                               "start apart") as said:
         load_experiments(_case_on(late, clean_synth, tmp_path))
     assert not any("differ in length" in str(w.message) for w in said)
+
+
+def test_validate_keeps_the_defects(clean_synth: Path, tmp_path: Path) -> None:
+    from femupdate.workflow import validate_case
+
+    case = _case_on(_record("synth-saturation-70pct"), clean_synth, tmp_path)
+    with pytest.warns(FemupdateWarning, match="channel 'F2.ux': saturation: "):
+        validation = validate_case(case, TRUTH)
+    found = validation.to_dict()["defects"]
+    assert [d["kind"] for d in found] == ["saturation", "saturation"]  # clipped both ways
+    assert ["top" in found[0]["evidence"], "bottom" in found[1]["evidence"]] == [True, True]
