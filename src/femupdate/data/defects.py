@@ -67,9 +67,10 @@ LAG_GAIN = 2.0
 #: The longest lag searched, s, and the share of the record it may reach.
 LAG_SEARCH_S = 30.0
 LAG_SEARCH_SHARE = 0.5
-#: A spike: a sample further from the running median of 5 than this many times the local
-#: 90th percentile of that distance (16 σ for Gaussian noise), in an event of at most
-#: `SPIKE_RUN` samples.
+#: A spike: a sample further from the mean of its neighbours (the high-passed signal) than
+#: this many times the 90th percentile of that distance just before or after it, over
+#: `SPIKE_WINDOW` // 2 samples (16 σ for Gaussian noise), in an event of at most `SPIKE_RUN`
+#: samples.
 SPIKE_FACTOR = 10.0
 SPIKE_WINDOW = 121
 SPIKE_RUN = 4
@@ -335,11 +336,18 @@ def spike_samples(y: np.ndarray) -> np.ndarray:
 
 
 def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str) -> list[Finding]:
-    """Isolated spikes: samples far from the running median of 5 (which follows the signal,
-    steps included, but not a spike of up to 2 samples), measured against the local 90th
-    percentile of that distance over `SPIKE_WINDOW` samples (robust to the spike itself and to
-    the signal growing and dying away), beyond `SPIKE_FACTOR` times it, over at most
-    `SPIKE_RUN` consecutive samples. Non-finite and absurd values (1e308) are spikes too.
+    """Isolated spikes, said with their values, times and the rest of the record's peak.
+
+    The high-passed signal is each sample's distance from the mean of its two neighbours (a
+    second difference: a spike A shows as A/2, A, A/2; a smooth signal as its curvature). Its
+    scale at a sample is the larger of its 90th percentiles over the `SPIKE_WINDOW` // 2
+    samples just before and just after (windows that leave the sample's neighbourhood out: a
+    percentile is not moved by the spike, and the larger side keeps the onset of motion from
+    looking like a spike). A spike exceeds `SPIKE_FACTOR` times that scale, in an event of at
+    most `SPIKE_RUN` samples above `SPIKE_NEAR` times it; its own samples (those the running
+    median of 5 would replace) are at most `SPIKE_WIDTH` in a row and off to one side, where a
+    burst of motion (the table starting, a knock) swings both ways. Non-finite and absurd
+    values (1e308) are spikes of any size.
     """
     idx = spike_samples(y)
     if idx.size == 0:
