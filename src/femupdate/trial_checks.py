@@ -74,14 +74,22 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
     n, rate = merged.n_samples, merged.rate
     found = defects.check_length_and_rate(n, rate, f1, files["input"], time_unit=time_unit)
     if n >= defects.MIN_SAMPLES:
-        x = merged["input"]
-        outputs = {name: merged[name] for name in merged.names if name != "input"}
-        found += defects.check_duplicates(merged.channels, files)
+        # the other checks see the channels without their spikes: one 1e308 sample would
+        # otherwise make every statistic of its channel say something
+        clean = {}
         for name in merged.names:
             found += defects.check_spikes(name, merged[name], merged.t, files[name])
-            found += defects.check_saturation(name, merged[name], files[name])
-        found += defects.check_alignment(x, outputs, rate, files, first_mode_hz=f1)
-        found += defects.check_units(x, outputs, rate, units, files, first_mode_hz=f1)
+            clean[name] = defects.interpolate_samples(merged[name],
+                                                      defects.spike_samples(merged[name]))
+        x = clean["input"]
+        outputs = {name: y for name, y in clean.items() if name != "input"}
+        found += defects.check_duplicates(clean, files)
+        for name, y in clean.items():
+            found += defects.check_saturation(name, y, files[name])
+        if not found or all(f.kind in ("spike", "duplicate", "saturation") for f in found):
+            # lags and spectra in seconds and hertz mean nothing on a wrong time base
+            found += defects.check_alignment(x, outputs, rate, files, first_mode_hz=f1)
+            found += defects.check_units(x, outputs, rate, units, files, first_mode_hz=f1)
     found = settle(found, data, trial)
     if any(f.kind == "spike" and f.status == "repaired" for f in found):
         channels = {name: defects.interpolate_samples(y, defects.spike_samples(y))

@@ -222,15 +222,17 @@ def check_alignment(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: floa
     n = x.size
     if n < MIN_SAMPLES:
         return []
-    xd = _detrended(x)
+    with np.errstate(all="ignore"):
+        xd = _detrended(x)
     reach = int(min(LAG_SEARCH_S * rate, LAG_SEARCH_SHARE * n))
     limit = LAG_SECONDS
     if first_mode_hz:
         limit = max(limit, LAG_PERIODS / first_mode_hz)
     findings = []
     for name, y in outputs.items():
-        yd = _detrended(y)
-        scale = float(np.linalg.norm(xd) * np.linalg.norm(yd))
+        with np.errstate(all="ignore"):
+            yd = _detrended(y)
+            scale = float(np.linalg.norm(xd) * np.linalg.norm(yd))
         if scale == 0.0 or not np.isfinite(scale):
             continue
         corr = scipy.signal.correlate(yd, xd, mode="full", method="fft") / scale
@@ -429,10 +431,12 @@ def check_units(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: float,
     if nperseg < 8:
         return findings
     for name, y in outputs.items():
-        f, pxy = scipy.signal.csd(x, y, fs=rate, nperseg=nperseg, detrend="linear")
-        _, pxx = scipy.signal.welch(x, fs=rate, nperseg=nperseg, detrend="linear")
-        _, coh = scipy.signal.coherence(x, y, fs=rate, nperseg=nperseg, detrend="linear")
-        band = (f > 0) & (f <= first_mode_hz / 3) & (coh >= GAIN_COHERENCE) & (pxx > 0)
+        with np.errstate(all="ignore"):  # absurd values give inf and NaN: no gain, no finding
+            f, pxy = scipy.signal.csd(x, y, fs=rate, nperseg=nperseg, detrend="linear")
+            _, pxx = scipy.signal.welch(x, fs=rate, nperseg=nperseg, detrend="linear")
+            _, coh = scipy.signal.coherence(x, y, fs=rate, nperseg=nperseg, detrend="linear")
+        band = ((f > 0) & (f <= first_mode_hz / 3) & (coh >= GAIN_COHERENCE) & (pxx > 0)
+                & np.isfinite(pxx) & np.isfinite(pxy))
         if band.sum() < 2:
             continue
         gain = float(np.median(np.abs(pxy[band]) / pxx[band]))
