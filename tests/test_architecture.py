@@ -14,6 +14,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
     ("objective", "case", "evaluation"),
+    ("trial_checks",),
     ("experiment", "virtual", "inputs"),
     ("update",),
     ("identifiability", "results"),

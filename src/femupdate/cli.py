@@ -487,6 +487,11 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
         counts = [r.restarts for r in summary.runs]
         say(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
             f"{sum(c > 0 for c in counts)} of {len(counts)} runs", out=out)
+    blocking = [d for d in summary.defects if d.status == "open" and d.severity == "error"]
+    if blocking:
+        say(f"not a success: {len(blocking)} defect(s) in the records neither repaired nor "
+            "accepted (listed above and in summary.json 'defects'; see [data] repair_defects "
+            "and accept)", "red", out=out)
     failed = [r for r in summary.runs if not r.success]
     improper = [r for r in failed if r.at_bounds]
     if improper:

@@ -18,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from femupdate import trial_checks
 from femupdate.case import Case, Data, TrialSpec, format_value
 from femupdate.data import io, signal
+from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, DataError, FemupdateError, FemupdateWarning
 from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
 
@@ -69,6 +71,9 @@ class Experiment:
         The samples the error function scores (all, unless the trial has a ``score_window``).
     notes : tuple of str
         What was noticed while reading and processing (repairs, doubtful delays), to report.
+    defects : tuple of Finding
+        The defects the checks found in the trial's records (:mod:`femupdate.data.defects`),
+        each open, repaired or accepted.
     """
 
     t: np.ndarray
@@ -86,6 +91,7 @@ class Experiment:
     start_s: float = 0.0
     score: slice = field(default_factory=lambda: slice(None))
     notes: tuple[str, ...] = ()
+    defects: tuple[Finding, ...] = ()
 
     @property
     def dt(self) -> float:
@@ -199,7 +205,10 @@ def _check_overlap(case: Case, records: list[io.Measurement], used: io.Measureme
     spans = {rec.source: (rec.n_samples, float(rec.t[0]), float(rec.t[-1])) for rec in records}
     listing = ", ".join(f"{source}: {k} samples, t = {a:.6g} … {b:.6g} s"
                         for source, (k, a, b) in spans.items())
-    warnings.warn(f"{case.label}: the data files differ in length ({listing}); only their "
+    counts = [k for k, _, _ in spans.values()]
+    differ = ("hold as many samples but their time stamps start apart"
+              if max(counts) - min(counts) <= 1 else "differ in length")
+    warnings.warn(f"{case.label}: the data files {differ} ({listing}); only their "
                   f"overlap is used: {n} samples, {(n - 1) / used.rate:.6g} s (allowed: "
                   "records of the same test; set [data] window to choose the part used)",
                   FemupdateWarning, stacklevel=3)
@@ -231,6 +240,13 @@ def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
     different times are cut to their overlap with a warning
     (:class:`~femupdate.errors.FemupdateWarning`); a channel that is 0 throughout is refused.
     """
+    return _read_checked(case, data)[0]
+
+
+def _read_checked(case: Case, data: Data | None = None, trial: str = ""
+                  ) -> tuple[io.Measurement, list[Finding]]:
+    """`read_measurement`, and the findings of the clock checks (the files aligned by row
+    when ``[data] repair_defects`` says so)."""
     data = data or case.data
     if data is None:
         raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
@@ -244,11 +260,24 @@ def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
         scale = ACCELERATION_UNITS[channel.unit or data.unit]
         records.append(io.Measurement(rec.t, {name: rec[name] * scale}, {name: "m/s2"},
                                       rec.source))
+    records, clocks = trial_checks.clock_findings(
+        [(rec.source, name, rec) for (name, _), rec in zip(specs, records, strict=True)],
+        data, trial)
     rate = case.preprocess.resample_hz
+    drift = [f for f in trial_checks.open_defects(clocks) if f.kind == "clock-drift"]
+    if rate is None and drift:
+        raise DataError(f"{case.label}: {drift[0].describe()}")
     if rate is None:
         _check_rates(case, records)
-    aligned = io.align(*records, rate=rate)
-    _check_overlap(case, records, aligned[0], rate)
+    try:
+        aligned = io.align(*records, rate=rate)
+    except DataError as exc:
+        offsets = [f.describe() for f in clocks if f.kind == "clock-offset"]
+        if not offsets:
+            raise
+        raise DataError(f"{exc}; {offsets[0]}") from None
+    if not any(f.kind == "clock-offset" for f in clocks):  # the finding says it better
+        _check_overlap(case, records, aligned[0], rate)
     merged = io.Measurement(
         aligned[0].t, {k: v for m in aligned for k, v in m.channels.items()},
         {k: "m/s2" for m in aligned for k in m.channels}, str(case.data_directory(data)),
@@ -258,7 +287,7 @@ def read_measurement(case: Case, data: Data | None = None) -> io.Measurement:
                       "as read")
         merged = merged.window(*data.window)
     _check_motion(case, data, merged)
-    return replace(merged, notes=tuple(notes))
+    return replace(merged, notes=tuple(notes)), clocks
 
 
 def apply_delays(
@@ -392,7 +421,24 @@ def load_experiment(case: Case, trial: TrialSpec | None = None) -> Experiment:
         raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
     spec = trial or specs[0]
     data = spec.data
-    measurement = read_measurement(case, data)
+    measurement, found = _read_checked(case, data, spec.name)
+    measurement, more = _channel_checks(case, data, spec.name, measurement)
+    found += more
+    trial_checks.say(found)
+    try:
+        experiment = _processed(case, spec, measurement)
+    except (DataError, ConfigError) as exc:  # a defect found may be why: name it
+        blocking = trial_checks.open_defects(found)
+        if not blocking:
+            raise
+        raise type(exc)(f"{exc}; the checks found: "
+                        + "; ".join(f.describe() for f in blocking)) from None
+    return replace(experiment, defects=tuple(found))
+
+
+def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Experiment:
+    """The delays, the high-pass and the quantity of a trial's checked record."""
+    data = spec.data
     start_record = float(measurement.t[0])
     notes: list[str] = list(measurement.notes)
     pre = case.preprocess
@@ -428,6 +474,19 @@ def load_experiment(case: Case, trial: TrialSpec | None = None) -> Experiment:
     score = _score_slice(case, spec, experiment.t + start_s)
     return replace(experiment, name=spec.name, role=spec.role, weight=spec.weight,
                    start_s=start_s, score=score, notes=tuple(notes))
+
+
+def _channel_checks(case: Case, data: Data, trial: str, merged: io.Measurement
+                    ) -> tuple[io.Measurement, list[Finding]]:
+    """The defect checks of a trial's channels on one time base (`trial_checks`)."""
+    specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
+    files = {name: str(case.data_path(channel, data)) for name, channel in specs}
+    units = {name: channel.unit or data.unit for name, channel in specs}
+    time_unit = data.time_unit if data.format == "csv" and data.time_column is not None else None
+    checked, found = trial_checks.channel_findings(
+        merged, files, units, data, trial, f1=trial_checks.first_mode_hz(case),
+        time_unit=time_unit)
+    return replace(checked, notes=merged.notes), found
 
 
 def _check_band_below_modes(case: Case, band: tuple[float, float]) -> list[str]:

@@ -156,11 +156,27 @@ class VerdictRecord(_Record):
     words: str
 
 
+class DefectRecord(_Record):
+    """A defect found in a trial's records (summary.json ``defects[i]``): what, where, the
+    evidence, the repair, and whether it is ``open`` (the runs are then no success),
+    ``repaired`` or ``accepted`` (:mod:`femupdate.data.defects`)."""
+
+    kind: str
+    file: str
+    channel: str
+    severity: Literal["error", "warning"]
+    evidence: str
+    repair: str
+    status: Literal["open", "repaired", "accepted"]
+    trial: str = ""
+
+
 class Summary(_Record):
     """``summary.json``: the case, the settings, every run, the best and the spread.
 
     The evaluation statistics (``successes`` … ``evals_per_success``) are those of
     :func:`femupdate.runs.stats.evaluation_stats`; ``success_rule`` says what success meant.
+    ``defects``: what the checks found in the records; an open one makes every run no success.
     """
 
     case: dict[str, Any]
@@ -185,6 +201,7 @@ class Summary(_Record):
     identifiability: dict[str, Any] | None = None
     benchmark: BridgeBenchmark | None = None
     verdict: VerdictRecord | None = None
+    defects: list[DefectRecord] = Field(default_factory=list)
 
     @property
     def name(self) -> str:

@@ -19,12 +19,14 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
+from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.inputs import check_search_override
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.results import (
     Best,
+    DefectRecord,
     Fit,
     RunRecord,
     Spread,
@@ -39,6 +41,7 @@ from femupdate.runs.changes import file_hashes
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.runs.store import FILENAME, ResultsStore, discard
 from femupdate.runs.verdict import run_verdict, success_rule, successes
+from femupdate.trial_checks import open_defects
 from femupdate.update import TrialProblem, UpdateProblem
 
 #: Without a target φ_s, a run counts as successful when its φ is within this factor of the
@@ -109,6 +112,12 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     success = successes(verdict, phis, [o.success for o in outcomes]
                         if f_target is not None else None)
     rule = success_rule(f_target)
+    found = [f for t in problem.trials for f in t.experiment.defects]
+    blocking = open_defects(found)
+    if blocking:  # a fit of a defective record is no success, however small its φ
+        success = [False] * len(outcomes)
+        rule = (f"none: {len(blocking)} defect(s) in the records neither repaired nor "
+                f"accepted ({'; '.join(f.describe() for f in blocking)})")
     runs = [RunRecord(**{**o.to_dict(), "params": problem.values(o.x), "success": ok,
                          "at_bounds": at_bounds(o.x, problem.bounds, names)})
             for o, ok in zip(outcomes, success, strict=True)]
@@ -153,6 +162,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         identifiability=ident,
         verdict=VerdictRecord(**{**dataclasses.asdict(verdict),
                                  "phi_range": list(verdict.phi_range)}),
+        defects=[DefectRecord(**f.to_dict()) for f in found],
     )
 
 
@@ -399,13 +409,15 @@ class Validation:
     fits: list[Fit]
     #: The lowest natural frequencies (Hz) of the model at ``params`` (friction stuck).
     frequencies_hz: list[float] = dataclasses.field(default_factory=list)
+    defects: list[Finding] = dataclasses.field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: the case, the parameters, the model's natural frequencies and every
         trial's figures."""
         return {"case": self.case, "params": self.params,
                 "frequencies_hz": self.frequencies_hz,
-                "trials": [t.model_dump() for t in self.trials]}
+                "trials": [t.model_dump() for t in self.trials],
+                "defects": [f.to_dict() for f in self.defects]}
 
 
 def validate_case(case: Case, params: dict[str, float], *,
@@ -426,4 +438,5 @@ def validate_case(case: Case, params: dict[str, float], *,
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]
     records = [trial_record(t, values) for t in trials]
     freqs = trials[0].frequencies(values)[:N_FREQUENCIES].tolist() if trials else []
-    return Validation(case.label, values, records, _fits(trials, values), freqs)
+    return Validation(case.label, values, records, _fits(trials, values), freqs,
+                      [f for t in trials for f in t.experiment.defects])

@@ -45,6 +45,7 @@ from femupdate.case.issues import Issue, duplicates, raise_issues
 from femupdate.case.model_sections import (
     Model,
 )
+from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.errors import ConfigError
 
 # ----------------------------------------------------------------------------- [case]
@@ -148,6 +149,11 @@ def _window_issues(window: list[float] | None, key: str) -> list[Issue]:
     return []
 
 
+DefectKind = Literal["clock-offset", "clock-drift", "misaligned", "duplicate", "spike",
+                     "saturation", "unit", "time-unit", "rate", "short"]
+RepairableKind = Literal["clock-offset", "spike"]
+
+
 class Data(Section):
     """``[data]``: where the measured accelerations are and how to read them."""
 
@@ -163,6 +169,11 @@ class Data(Section):
     skip_rows: integer_field(ge=0, le=1_000_000) = 0
     window: Window | None = None
     repair: bool = False
+    # the defect checks (femupdate.data.defects): kinds a case accepts, kinds it repairs
+    accept: Annotated[list[DefectKind], Field(max_length=len(KINDS))] = Field(
+        default_factory=list)
+    repair_defects: Annotated[list[RepairableKind], Field(max_length=len(REPAIRABLE))] = Field(
+        default_factory=list)
     unit: AccelerationUnit = "m/s2"
     input: Channel
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)]

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from femupdate.report.facts import bound_positions, context, spectrum_limit
 from femupdate.report.markup import Page, esc, format_number
+from femupdate.report.sections_defects import section_defects
 from femupdate.report.sections_model import (
     section_fit,
     section_identifiability,
@@ -108,6 +109,9 @@ def _render(res: Results) -> str:
         ("validation", "8. Validation",
          section_validation(validation_trials(res.summary), page)),
     ]
+    defects = section_defects(res.summary.defects)
+    if defects:  # shown only when the checks found something, first
+        sections.insert(0, ("defects", "Defects in the records", defects))
     sections = [(key, title, content) for key, title, content in sections if content]
     toc = " · ".join(f'<a href="#{key}">{esc(title)}</a>' for key, title, _ in sections)
     missing = ""

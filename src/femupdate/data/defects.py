@@ -1,0 +1,518 @@
+"""Defects of a trial's records that a fit would hide: found, said, and repaired on request.
+
+A record can be read without an error and still be wrong: sensor clocks started seconds apart,
+the same file exported twice, one absurd sample, a saturated sensor, a unit or time unit
+mistaken, a sample rate or length that cannot show the model's first mode. Each check here is
+a small pure function over the channels of one trial (in m/s², on the time base they were
+read with) that returns :class:`Finding` records: the kind, the file, the channel, the
+evidence in numbers and the repair that would mend it. Thresholds rest on robust statistics
+or physics, not on one record (docs/data-checks.md says why each is where it is).
+
+Kinds (`KINDS`): ``clock-offset``, ``clock-drift``, ``misaligned``, ``duplicate``, ``spike``,
+``saturation``, ``unit``, ``time-unit``, ``rate``, ``short``. The ones a repair can mend
+safely (`REPAIRABLE`): ``clock-offset`` (align the files by row) and ``spike`` (interpolate the
+spike from its neighbours).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+import numpy as np
+import scipy.ndimage
+import scipy.signal
+
+from femupdate.units import STANDARD_GRAVITY, TIME_UNITS
+
+__all__ = [
+    "KINDS",
+    "REPAIRABLE",
+    "ClockRecord",
+    "Finding",
+    "check_alignment",
+    "check_clocks",
+    "check_duplicates",
+    "check_length_and_rate",
+    "check_saturation",
+    "check_spikes",
+    "check_units",
+    "interpolate_samples",
+]
+
+KINDS = ("clock-offset", "clock-drift", "misaligned", "duplicate", "spike", "saturation",
+         "unit", "time-unit", "rate", "short")
+REPAIRABLE = ("clock-offset", "spike")
+
+#: Files with this many rows or fewer apart run "in step" (an export may drop its last row).
+ROWS_IN_STEP = 1
+#: Start stamps of files that run in step further apart than this many sample intervals are a
+#: clock offset: well beyond a sensor latency (a few samples, removed by ``delay``).
+OFFSET_SAMPLES = 10
+#: Rates differing by less than this (relative) are one nominal rate on two clocks (crystal
+#: clocks: ~1e-4); more is a different nominal rate, resampled on purpose.
+DRIFT_MAX_REL = 0.01
+#: A drift that moves the files by more than this many samples over the record is a defect.
+DRIFT_SAMPLES = 0.5
+#: Correlations at or above this (|ρ|) between two channels: the same record twice.
+DUPLICATE_CORRELATION = 0.999
+#: A structure's response follows its base within `LAG_PERIODS` periods of its first mode
+#: (its impulse response has its largest values there) or `LAG_SECONDS`, whichever is longer.
+LAG_SECONDS = 0.5
+LAG_PERIODS = 5.0
+#: A best lag beyond that, with a correlation this many times the largest within it, is a
+#: misalignment (a clear peak, not noise in the estimate or the next period of a sine).
+LAG_GAIN = 2.0
+#: The longest lag searched, s, and the share of the record it may reach.
+LAG_SEARCH_S = 30.0
+LAG_SEARCH_SHARE = 0.5
+#: A spike: a sample further from the mean of its neighbours (the high-passed signal) than
+#: this many times the 90th percentile of that distance just before or after it, over
+#: `SPIKE_WINDOW` // 2 samples (16 σ for Gaussian noise), in an event of at most `SPIKE_RUN`
+#: samples.
+SPIKE_FACTOR = 10.0
+SPIKE_WINDOW = 121
+SPIKE_RUN = 4
+#: The samples of a spike: at most this many in a row, off the signal to one side.
+SPIKE_WIDTH = 2
+#: Samples beyond this many times the scale, less than `SPIKE_GAP` samples apart, are one event.
+SPIKE_NEAR = 3.0
+SPIKE_GAP = 3
+#: Saturation: the record's extreme value reached by 2 samples or more (a float record never
+#: repeats its peak value; a clipped sensor does); in a quantized record (equal neighbours
+#: elsewhere) held over at least this many samples, in a run longer than any elsewhere.
+SATURATION_SAMPLES = 4
+#: The peak of the input beyond this many g: stronger than any earthquake record (about 4 g)
+#: or shake-table test: data in m/s² declared as g, or cm/s² as m/s².
+INPUT_PEAK_G = 4.0
+#: Below the first mode the structure moves with its base: output/input gain ≈ 1. A gain
+#: beyond this factor (either way) says the two channels are in different units.
+GAIN_FACTOR = 3.0
+#: Coherence needed at a frequency for its gain to count.
+GAIN_COHERENCE = 0.8
+#: A record shorter than this many periods of the first mode cannot show it.
+MIN_PERIODS = 5.0
+#: Fewer samples than this: no statistics are meaningful, only the length is checked.
+MIN_SAMPLES = 16
+#: Factors of a time unit mistaken (ms or µs for s, and back).
+TIME_FACTORS = (1e3, 1e6, 1e-3, 1e-6)
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One defect of a record.
+
+    Attributes
+    ----------
+    kind : str
+        One of `KINDS`.
+    file : str
+        The file (or files, joined by " / ") it was found in.
+    channel : str
+        The channel (``"input"`` or an output's label; "" for a whole file).
+    severity : {"error", "warning"}
+        ``"error"``: the record would be fitted wrong; a run on it is no success unless the
+        defect is repaired or accepted. ``"warning"``: said, does not fail a run.
+    evidence : str
+        What was measured, in numbers.
+    repair : str
+        What would mend it (the option, or what to fix in the file).
+    status : {"open", "repaired", "accepted"}
+        What became of it.
+    trial : str
+        The trial it belongs to ("" for the case's ``[data]``).
+    """
+
+    kind: str
+    file: str
+    channel: str
+    severity: str
+    evidence: str
+    repair: str
+    status: str = "open"
+    trial: str = ""
+
+    def describe(self) -> str:
+        """One line: file, channel, kind, evidence, and the repair or what became of it."""
+        where = f"{self.file}: channel {self.channel!r}" if self.channel else self.file
+        tail = {"open": f"fix: {self.repair}", "repaired": "repaired",
+                "accepted": "accepted by [data] accept"}[self.status]
+        trial = f"trial {self.trial!r}: " if self.trial else ""
+        return f"{trial}{where}: {self.kind}: {self.evidence} ({tail})"
+
+    def with_status(self, status: str) -> Finding:
+        return replace(self, status=status)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class ClockRecord:
+    """A file's time stamps as read (s, on its own clock), for the clock checks."""
+
+    file: str
+    channel: str
+    t: np.ndarray
+
+
+# --------------------------------------------------------------------------- clocks
+
+
+def _rate(t: np.ndarray) -> float:
+    return float((t.size - 1) / (t[-1] - t[0]))
+
+
+def check_clocks(records: Sequence[ClockRecord]) -> list[Finding]:
+    """Clock offset and drift of each file against the first (the input's).
+
+    Offset: files whose row counts agree (within `ROWS_IN_STEP`: the rows run in step) but
+    whose first time stamps differ by more than `OFFSET_SAMPLES` sample intervals; aligned on
+    their stamps they would be shifted against each other by that much. Drift: rates that
+    differ by less than `DRIFT_MAX_REL` (one nominal rate) but enough to move the files apart
+    by more than `DRIFT_SAMPLES` samples over the record.
+    """
+    if len(records) < 2:
+        return []
+    ref = records[0]
+    findings, seen = [], {ref.file}
+    for rec in records[1:]:
+        if rec.file in seen or rec.t.size < 2 or ref.t.size < 2:
+            continue
+        seen.add(rec.file)
+        rate_ref, rate = _rate(ref.t), _rate(rec.t)
+        dt = 1.0 / rate_ref
+        offset = float(rec.t[0] - ref.t[0])
+        in_step = abs(rec.t.size - ref.t.size) <= ROWS_IN_STEP
+        if in_step and abs(offset) > OFFSET_SAMPLES * dt:
+            findings.append(Finding(
+                "clock-offset", f"{ref.file} / {rec.file}", rec.channel, "error",
+                f"{ref.t.size} and {rec.t.size} rows (in step) but the time stamps start "
+                f"{offset:+.4g} s apart ({abs(offset) / dt:.0f} samples; t0 = "
+                f"{ref.t[0]:.6g} s and {rec.t[0]:.6g} s): aligned on the stamps the channels "
+                "would be shifted by that much",
+                "align the files by row: [data] repair_defects = [\"clock-offset\"]"))
+        rel = abs(rate - rate_ref) / rate_ref
+        moved = rel * max(rec.t.size, ref.t.size)
+        if 0.0 < rel < DRIFT_MAX_REL and moved > DRIFT_SAMPLES:
+            findings.append(Finding(
+                "clock-drift", f"{ref.file} / {rec.file}", rec.channel, "error",
+                f"sample rates {rate_ref:.8g} Hz and {rate:.8g} Hz ({1e6 * rel:.0f} ppm apart): "
+                f"the clocks drift by {moved:.1f} samples over the record",
+                "resample the file on one clock before reading it (no safe repair here)"))
+    return findings
+
+
+def _detrended(y: np.ndarray) -> np.ndarray:
+    return scipy.signal.detrend(np.asarray(y, dtype=float), type="linear")
+
+
+def check_alignment(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: float,
+                    files: Mapping[str, str], *, first_mode_hz: float | None = None
+                    ) -> list[Finding]:
+    """Outputs whose cross-correlation with the input peaks far from lag 0.
+
+    The correlation (biased: the overlap's share weighs each lag) of the detrended signals is
+    searched over ±`LAG_SEARCH_S` s (at most `LAG_SEARCH_SHARE` of the record). A structure's
+    response follows its base within a few periods of its first mode; a best lag beyond both
+    `LAG_SECONDS` and `LAG_PERIODS` periods, with a correlation `LAG_GAIN` times the largest
+    within them, is a misalignment (clocks set apart, or a record of another test).
+    """
+    n = x.size
+    if n < MIN_SAMPLES:
+        return []
+    with np.errstate(all="ignore"):
+        xd = _detrended(x)
+    reach = int(min(LAG_SEARCH_S * rate, LAG_SEARCH_SHARE * n))
+    limit = LAG_SECONDS
+    if first_mode_hz:
+        limit = max(limit, LAG_PERIODS / first_mode_hz)
+    findings = []
+    for name, y in outputs.items():
+        with np.errstate(all="ignore"):
+            yd = _detrended(y)
+            scale = float(np.linalg.norm(xd) * np.linalg.norm(yd))
+        if scale == 0.0 or not np.isfinite(scale):
+            continue
+        corr = scipy.signal.correlate(yd, xd, mode="full", method="fft") / scale
+        lags = scipy.signal.correlation_lags(n, n, mode="full")
+        inside = np.abs(lags) <= reach
+        corr, lags = corr[inside], lags[inside]
+        near = np.abs(lags) <= limit * rate
+        best = int(np.argmax(np.abs(corr)))
+        within = float(np.max(np.abs(corr[near])))
+        lag_s = lags[best] / rate
+        if abs(lag_s) > limit and abs(corr[best]) >= LAG_GAIN * within:
+            findings.append(Finding(
+                "misaligned", files.get(name, ""), name, "error",
+                f"its correlation with the input peaks at a lag of {lag_s:+.4g} s "
+                f"(ρ = {corr[best]:.2f}, against at most {within:.2f} within ±{limit:.3g} s, "
+                "where a structure's response follows its base)",
+                "check the files' clocks and that they are records of the same test; align "
+                "them (a time column with the right start, or [data] window)"))
+    return findings
+
+
+def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str]
+                     ) -> list[Finding]:
+    """Pairs of channels identical or nearly so (|ρ| ≥ `DUPLICATE_CORRELATION`).
+
+    Two sensors at different places of a structure never agree to 0.1 %: one file exported
+    twice, or a column read twice.
+    """
+    names = list(channels)
+    if len(names) < 2 or next(iter(channels.values())).size < MIN_SAMPLES:
+        return []
+    values = np.column_stack([_detrended(channels[n]) for n in names])
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.linalg.norm(values, axis=0)
+        rho = (values.T @ values) / np.outer(norms, norms)  # every pair at once
+    findings = []
+    for i, j in zip(*np.nonzero(np.triu(np.abs(np.nan_to_num(rho)) >= DUPLICATE_CORRELATION,
+                                        k=1)), strict=True):
+        a, b = names[i], names[j]
+        same = np.array_equal(channels[a], channels[b])
+        findings.append(Finding(
+            "duplicate", " / ".join(dict.fromkeys((files.get(a, ""), files.get(b, "")))),
+            b, "error",
+            f"identical to channel {a!r}" + (" sample for sample" if same else
+                                            f" (correlation {rho[i, j]:.5f})"),
+            "read each channel from its own record (the same file exported twice?)"))
+    return findings
+
+
+# --------------------------------------------------------------------------- single channels
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, stop) of each run of True."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(),
+                    strict=True))
+
+
+def spike_samples(y: np.ndarray) -> np.ndarray:
+    """Indices of isolated spikes of ``y`` (see `check_spikes`)."""
+    y = np.asarray(y, dtype=float)
+    if y.size < MIN_SAMPLES:
+        return np.zeros(0, dtype=int)
+    big = np.finfo(float).max
+    with np.errstate(over="ignore", invalid="ignore"):
+        # the high-passed signal: each sample's distance from the mean of its neighbours (a
+        # second difference: a spike A shows as A/2, A, A/2; a smooth signal as its curvature)
+        curvature = np.abs(y[1:-1] - 0.5 * (y[:-2] + y[2:]))
+        deviation = y - scipy.ndimage.median_filter(y, size=5, mode="nearest")
+    residual = np.concatenate(([0.0], np.where(np.isfinite(curvature), curvature, big), [0.0]))
+    off_median = np.where(np.isfinite(deviation), np.abs(deviation), big)
+    # the larger of the 90th percentiles just before and just after each sample: a spike is
+    # quiet on both sides, the onset of motion is not
+    half = min(SPIKE_WINDOW // 2, y.size // 2)
+    centred = scipy.ndimage.percentile_filter(residual, 90, size=half, mode="nearest")
+    positions = np.arange(y.size)
+    shift = half // 2 + SPIKE_RUN + 2  # windows that leave out the event's samples
+    before = centred[np.clip(positions - shift, 0, y.size - 1)]
+    after = centred[np.clip(positions + shift, 0, y.size - 1)]
+    floor = 0.05 * float(np.percentile(residual, 90))
+    scale = np.maximum(np.maximum(before, after), floor)
+    with np.errstate(over="ignore", invalid="ignore"):
+        far = residual > SPIKE_FACTOR * scale
+        near = residual > SPIKE_NEAR * scale
+    # a burst (the table starting, a knock) is many samples off, a spike of one or two samples
+    # at most four (its neighbours by half): samples above SPIKE_NEAR × the scale less than
+    # SPIKE_GAP apart make one event
+    bridged = scipy.ndimage.binary_closing(near, structure=np.ones(SPIKE_GAP + 1, dtype=bool))
+    bridged |= near
+    keep = np.zeros(y.size, dtype=bool)
+    for a, b in _runs(bridged):
+        if b - a > SPIKE_RUN or not far[a:b].any():
+            continue
+        # the spike itself: the samples the median of 5 would replace, one or two in a row
+        # and off to one side (a bipolar transient of a few samples is motion: a knock)
+        lo, hi = max(a - 1, 0), min(b + 1, y.size)
+        part = np.flatnonzero(off_median[lo:hi] >= 0.5 * off_median[lo:hi].max()) + lo
+        signs = np.sign(np.nan_to_num(deviation[part], posinf=1.0, neginf=-1.0))
+        if part.size <= SPIKE_WIDTH and np.ptp(part) < part.size and abs(signs.sum()) == part.size:
+            keep[part] = True
+    return np.flatnonzero(keep)
+
+
+def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str) -> list[Finding]:
+    """Isolated spikes, said with their values, times and the rest of the record's peak.
+
+    The high-passed signal is each sample's distance from the mean of its two neighbours (a
+    second difference: a spike A shows as A/2, A, A/2; a smooth signal as its curvature). Its
+    scale at a sample is the larger of its 90th percentiles over the `SPIKE_WINDOW` // 2
+    samples just before and just after (windows that leave the sample's neighbourhood out: a
+    percentile is not moved by the spike, and the larger side keeps the onset of motion from
+    looking like a spike). A spike exceeds `SPIKE_FACTOR` times that scale, in an event of at
+    most `SPIKE_RUN` samples above `SPIKE_NEAR` times it; its own samples (those the running
+    median of 5 would replace) are at most `SPIKE_WIDTH` in a row and off to one side, where a
+    burst of motion (the table starting, a knock) swings both ways. Non-finite and absurd
+    values (1e308) are spikes of any size.
+    """
+    idx = spike_samples(y)
+    if idx.size == 0:
+        return []
+    others = np.delete(np.abs(y), idx)
+    peak = float(others.max()) if others.size else 0.0
+    shown = ", ".join(f"{y[i]:.4g} m/s² at t = {t[i]:.6g} s (sample {i})" for i in idx[:3])
+    more = f" and {idx.size - 3} more" if idx.size > 3 else ""
+    return [Finding("spike", file, name, "error",
+                    f"{idx.size} isolated sample(s) far off the signal: {shown}{more}; the "
+                    f"rest of the record peaks at {peak:.4g} m/s²",
+                    "interpolate them from their neighbours: [data] repair_defects = "
+                    "[\"spike\"]")]
+
+
+def check_saturation(name: str, y: np.ndarray, file: str) -> list[Finding]:
+    """A flat top: the record's extreme value reached by 2 samples or more, at the top or the
+    bottom (a sensor at the end of its range; a float record never repeats its peak value).
+    A quantized record holds values too: there, at least `SATURATION_SAMPLES` samples,
+    in a run longer than any run of equal values elsewhere."""
+    y = np.asarray(y, dtype=float)
+    if y.size < MIN_SAMPLES or not np.all(np.isfinite(y)):
+        return []
+    findings = []
+    extremes = (y == y.max()) | (y == y.min())
+    # equal neighbours away from the extremes: a quantized record, where holding a value is
+    # no evidence by itself
+    held_elsewhere = [b - a for a, b in
+                      _runs(np.concatenate(([False], np.diff(y) == 0.0)) & ~extremes)]
+    quantized = bool(held_elsewhere)
+    for side, extreme in (("top", float(y.max())), ("bottom", float(y.min()))):
+        at = y == extreme
+        runs = [(a, b) for a, b in _runs(at) if b - a >= 2]
+        held = int(at.sum())
+        if quantized:
+            if (sum(b - a for a, b in runs) < SATURATION_SAMPLES
+                    or max(b - a for a, b in runs) <= max(held_elsewhere) + 1):
+                continue
+        elif held < 2:
+            continue
+        findings.append(Finding(
+            "saturation", file, name, "error",
+            f"{held} samples at exactly its {side} value {extreme:.6g} m/s² (longest run "
+            f"{max((b - a for a, b in _runs(at)), default=1)}): a sensor at the end of its range",
+            "record again with a larger range, or fit a window without the clipped part"))
+    return findings
+
+
+# --------------------------------------------------------------------------- units and rates
+
+
+def check_units(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: float,
+                declared: Mapping[str, str], files: Mapping[str, str], *,
+                first_mode_hz: float | None = None) -> list[Finding]:
+    """Accelerations in a unit other than the one declared.
+
+    The input's peak beyond `INPUT_PEAK_G` g is stronger than any earthquake record or
+    shake-table test: m/s² declared as g (×9.81) or cm/s² as m/s². Below the first mode a
+    base-excited structure moves with its base, so the output/input gain there is about 1; a
+    median gain (where the coherence is at least `GAIN_COHERENCE`) off by more than
+    `GAIN_FACTOR` either way says the two channels are in different units (g against m/s² is
+    a factor 9.81).
+    """
+    findings = []
+    if x.size >= MIN_SAMPLES:
+        peak_g = float(np.max(np.abs(x))) / STANDARD_GRAVITY
+        if peak_g > INPUT_PEAK_G:
+            findings.append(Finding(
+                "unit", files.get("input", ""), "input", "error",
+                f"the input peaks at {peak_g:.3g} g in the declared unit "
+                f"{declared.get('input', '?')!r} (allowed: up to {INPUT_PEAK_G:g} g, stronger "
+                "than any earthquake record)",
+                "declare the unit the file holds: [data] unit (m/s² declared as g is 9.81× "
+                "too large)"))
+    if first_mode_hz is None or x.size < 4 * MIN_SAMPLES:
+        return findings
+    # segments long enough for several frequencies below a third of the first mode
+    nperseg = int(min(x.size // 2, 2 ** np.ceil(np.log2(16 * rate / first_mode_hz))))
+    if nperseg < 8:
+        return findings
+    for name, y in outputs.items():
+        with np.errstate(all="ignore"):  # absurd values give inf and NaN: no gain, no finding
+            f, pxy = scipy.signal.csd(x, y, fs=rate, nperseg=nperseg, detrend="linear")
+            _, pxx = scipy.signal.welch(x, fs=rate, nperseg=nperseg, detrend="linear")
+            _, coh = scipy.signal.coherence(x, y, fs=rate, nperseg=nperseg, detrend="linear")
+        band = ((f > 0) & (f <= first_mode_hz / 3) & (coh >= GAIN_COHERENCE) & (pxx > 0)
+                & np.isfinite(pxx) & np.isfinite(pxy))
+        if band.sum() < 2:
+            continue
+        gain = float(np.median(np.abs(pxy[band]) / pxx[band]))
+        if gain > GAIN_FACTOR or gain < 1.0 / GAIN_FACTOR:
+            findings.append(Finding(
+                "unit", files.get(name, ""), name, "error",
+                f"below the first mode ({first_mode_hz:.3g} Hz, where the structure moves with "
+                f"its base) its gain over the input is {gain:.3g} (allowed: within "
+                f"{GAIN_FACTOR:g}× of 1; g against m/s² is 9.81×); declared "
+                f"{declared.get(name, '?')!r} against the input's "
+                f"{declared.get('input', '?')!r}",
+                "declare each channel's unit ([data] unit, or the channel's unit)"))
+    return findings
+
+
+def _plausible(rate: float, duration: float, first_mode_hz: float) -> tuple[bool, bool]:
+    return rate >= 2.0 * first_mode_hz, duration >= MIN_PERIODS / first_mode_hz
+
+
+def check_length_and_rate(n: int, rate: float, first_mode_hz: float | None, file: str, *,
+                          time_unit: str | None = None) -> list[Finding]:
+    """A sample rate below twice the model's first natural frequency (it cannot be seen), a
+    record shorter than `MIN_PERIODS` periods of it; when a factor of 1000 or 10⁶ on the
+    times would make both plausible (and the times came from a time column, ``time_unit``
+    given), a time unit mistaken."""
+    duration = n / rate
+    if first_mode_hz is None or not first_mode_hz > 0:
+        if n < MIN_SAMPLES:
+            return [Finding("short", file, "", "error",
+                            f"{n} samples: too few to fit anything",
+                            "a record of the whole test")]
+        return []
+    rate_ok, long_ok = _plausible(rate, duration, first_mode_hz)
+    if rate_ok and long_ok:
+        return []
+    period = 1.0 / first_mode_hz
+    if time_unit is not None and n >= MIN_SAMPLES:
+        for factor in TIME_FACTORS:
+            if all(_plausible(rate * factor, duration / factor, first_mode_hz)):
+                scale = TIME_UNITS.get(time_unit, 1.0) / factor
+                likely = [u for u, v in TIME_UNITS.items() if np.isclose(v, scale)]
+                return [Finding(
+                    "time-unit", file, "", "error",
+                    f"{n} samples at {rate:.4g} Hz ({duration:.4g} s) with time_unit = "
+                    f"{time_unit!r}, for a model whose first mode is at {first_mode_hz:.4g} Hz: "
+                    f"with times {factor:g}× {'larger' if factor < 1 else 'smaller'} "
+                    f"({rate * factor:.4g} Hz, {duration / factor:.4g} s) the record would "
+                    "be plausible" + (f": times in {likely[0]}?" if likely else ""),
+                    "declare the unit of the time column: [data] time_unit"
+                    + (f" = \"{likely[0]}\"" if likely else ""))]
+    findings = []
+    if not rate_ok:
+        findings.append(Finding(
+            "rate", file, "", "error",
+            f"sampled at {rate:.4g} Hz, below twice the model's first natural frequency "
+            f"{first_mode_hz:.4g} Hz (nominal parameters): the mode cannot be seen",
+            "a record sampled faster, or check [data] rate / time_unit"))
+    if not long_ok:
+        findings.append(Finding(
+            "short", file, "", "error",
+            f"{n} samples, {duration:.4g} s: shorter than {MIN_PERIODS:g} periods of the "
+            f"model's first mode ({MIN_PERIODS * period:.4g} s at {first_mode_hz:.4g} Hz)",
+            "a record of the whole test, or a wider [data] window"))
+    return findings
+
+
+# --------------------------------------------------------------------------- repairs
+
+
+def interpolate_samples(y: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``y`` with the samples ``idx`` replaced by linear interpolation from the others."""
+    y = np.array(y, dtype=float)
+    if idx.size == 0:
+        return y
+    bad = np.zeros(y.size, dtype=bool)
+    bad[idx] = True
+    positions = np.arange(y.size)
+    y[bad] = np.interp(positions[bad], positions[~bad], y[~bad])
+    return y
