@@ -168,15 +168,14 @@ class ReducedSimulator:
         self._phi_out = np.ascontiguousarray(phi[self.outputs])  # (n_out, m)
         self._r_out = np.asarray(system.r, dtype=float)[self.outputs]
         self._M = system.M
-        sim = self._sim
-        if sim.modal:  # fold the output rows into the mode-to-output matrix: one product
-            W = sim._W
-            blocks = [W[:, i * m:(i + 1) * m] @ self._phi_out.T for i in range(3)]
-            self._W = np.ascontiguousarray(np.hstack(blocks))
         self.static_correction = static_correction
         n_out = self.outputs.size
         self._flex_out = np.zeros((n_out, self.n_dof))
         self._static_ag = np.zeros(n_out)
+        # -(K⁻¹ - Φ Ω⁻² Φᵀ) C Φ at the outputs: the truncated modes' quasi-static response to
+        # the damping forces of the kept ones (zero for Rayleigh damping, which does not couple
+        # modes; a local damper does)
+        self._damp_out = np.zeros((n_out, m))
         if static_correction:
             lu = _factor(system.K)
             unit = np.zeros((self.n_dof, n_out))
@@ -185,6 +184,20 @@ class ReducedSimulator:
             # rows of the residual flexibility K⁻¹ - Φ Ω⁻² Φᵀ at the outputs
             self._flex_out = kinv_out - (self._phi_out / w2) @ phi.T
             self._static_ag = -(self._flex_out @ p)
+            damp = -(self._flex_out @ np.asarray(system.C @ phi))
+            scale = np.abs(self._phi_out).max() * max(np.abs(np.diag(c_red)).max(), 1e-300)
+            if np.abs(damp).max() > 1e-12 * scale / w2.min():
+                self._damp_out = damp
+        self._coupled = bool(np.any(self._damp_out))
+        sim = self._sim
+        if sim.modal:  # fold the output rows into the mode-to-output matrix: one product
+            W = sim._W
+            wd, wv, wa = (W[:, i * m:(i + 1) * m] for i in range(3))
+            blocks = [wd @ self._phi_out.T + wv @ self._damp_out.T, wv @ self._phi_out.T,
+                      wa @ self._phi_out.T]
+            if self._coupled:
+                blocks.append(wa @ self._damp_out.T)
+            self._W = np.ascontiguousarray(np.hstack(blocks))
         # the sum of the kept modes: a start vector for the next, nearby parameter point
         self.next_start = phi.sum(axis=1)
 
@@ -218,14 +231,24 @@ class ReducedSimulator:
                 a = np.zeros(ns) if ag is None else ag
                 Z, diverged = _modal_recursion(a, fz, sim._e, sim._c0, sim._c1, sim._g0,
                                                sim._g1, z0)
-                disp, vel, acc = np.hsplit(Z @ self._W, 3)
+                Y = Z @ self._W
+                n_out = self.outputs.size
+                disp, vel, acc = (Y[:, i * n_out:(i + 1) * n_out] for i in range(3))
+                damped = Y[:, 3 * n_out:] if self._coupled else None
                 if fmod is not None:
                     acc += fmod @ self._phi_out.T  # the kept modes' direct feed-through
+                    if damped is not None:
+                        damped = damped + fmod @ self._damp_out.T
             else:
                 res = sim.run(ag, fmod, x0=q0, v0=qd0)
                 diverged = res.diverged
                 disp, vel, acc = (y @ self._phi_out.T for y in
                                   (res.displacement, res.velocity, res.acceleration))
+                disp += res.velocity @ self._damp_out.T
+                damped = res.acceleration @ self._damp_out.T if self._coupled else None
+            if damped is not None:  # the damping correction's rate (its displacement is in W)
+                vel += damped
+                acc += np.gradient(damped, self.dt, axis=0)
             if ag is not None:
                 acc += np.outer(ag, self._r_out)
                 if self.static_correction:
