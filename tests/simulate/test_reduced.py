@@ -100,7 +100,7 @@ def test_given_modes_are_reused_bit_for_bit(case300):
     ag, _ = band_limited()
     first = ReducedSimulator(sparse, DT, outputs, band_hz=BAND)
     again = ReducedSimulator(sparse, DT, outputs, modes=first.modes)
-    warm = ReducedSimulator(sparse, DT, outputs, band_hz=BAND, start=first.next_start)
+    warm = ReducedSimulator(sparse, DT, outputs, band_hz=BAND, previous=first.modes)
     a, b, c = first.run(ag), again.run(ag), warm.run(ag)
     np.testing.assert_array_equal(a.acceleration, b.acceleration)
     np.testing.assert_allclose(c.acceleration, a.acceleration, rtol=0,

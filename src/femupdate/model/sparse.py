@@ -26,6 +26,9 @@ __all__ = ["DENSE_EIGEN_MAX_DOF", "check_sparse_mass", "lowest_modes", "scatter_
 DENSE_EIGEN_MAX_DOF = 120
 # The first Lanczos request; it doubles until a mode above the cut-off is found.
 _FIRST_REQUEST = 12
+# With the previous point's modes, ask for this many more than it had (one must lie above the
+# cut-off, and a mode may have crossed it).
+_MARGIN = 3
 
 
 def scatter_sparse(target: np.ndarray, weights: np.ndarray, n: int) -> sp.csr_matrix:
@@ -108,7 +111,7 @@ def lowest_modes(
     *,
     n_modes: int | None = None,
     cutoff_hz: float | None = None,
-    start: np.ndarray | None = None,
+    previous: NaturalModes | None = None,
 ) -> NaturalModes:
     """Lowest natural frequencies and mass-normalised mode shapes of a (sparse) model.
 
@@ -121,10 +124,11 @@ def lowest_modes(
     cutoff_hz : float, optional
         Every mode up to this frequency (Hz), at least one. Exactly one of ``n_modes`` and
         ``cutoff_hz``.
-    start : ndarray (n,), optional
-        Lanczos starting vector, e.g. the sum of the previous evaluation's modes (neighbouring
-        parameter points have nearly the same modes). A fixed default makes the result
-        repeatable; the eigenpairs do not depend on it beyond the solver tolerance.
+    previous : NaturalModes, optional
+        The modes of a neighbouring parameter point (the previous evaluation): their sum starts
+        the Lanczos iteration and their count (plus a few) is the first request, so that one
+        call usually suffices. The eigenpairs do not depend on it beyond rounding; without it a
+        fixed start vector makes the result repeatable.
 
     Returns
     -------
@@ -141,8 +145,9 @@ def lowest_modes(
     n = int(K.shape[0])
     _check_modes_request(n, n_modes, cutoff_hz)
     w_cut = None if cutoff_hz is None else (2.0 * np.pi * float(cutoff_hz)) ** 2
-    v0 = np.ones(n) if start is None else np.asarray(start, dtype=float)
-    k = n_modes if n_modes is not None else min(_FIRST_REQUEST, n)
+    v0 = np.ones(n) if previous is None else previous.shapes.sum(axis=1)
+    first = _FIRST_REQUEST if previous is None else previous.shapes.shape[1] + _MARGIN
+    k = n_modes if n_modes is not None else min(first, n)
     while True:
         if n <= DENSE_EIGEN_MAX_DOF or 3 * k >= n:
             w2, V = _dense_modes(K, M)

@@ -111,8 +111,9 @@ class ReducedSimulator:
         Keep exactly this many modes instead (1 to n_dof).
     modes : NaturalModes, optional
         Modes already computed for this system (skips the eigensolver).
-    start : ndarray (n_dof,), optional
-        Lanczos start vector (e.g. ``sim.next_start`` of the previous parameter point).
+    previous : NaturalModes, optional
+        Modes of a neighbouring parameter point (``sim.modes`` of the previous evaluation):
+        the eigensolver starts from them (see :func:`~femupdate.model.sparse.lowest_modes`).
     static_correction : bool
         Add the truncated modes' quasi-static response (default True; False shows its effect).
 
@@ -136,7 +137,7 @@ class ReducedSimulator:
         cutoff_factor: float = DEFAULT_CUTOFF_FACTOR,
         n_modes: int | None = None,
         modes: NaturalModes | None = None,
-        start: np.ndarray | None = None,
+        previous: NaturalModes | None = None,
         static_correction: bool = True,
     ) -> None:
         if not system.is_linear:
@@ -153,7 +154,7 @@ class ReducedSimulator:
                 band = 0.5 / self.dt if band_hz is None else band_hz
                 self.cutoff_hz = cutoff_from_band(band, cutoff_factor)
             modes = lowest_modes(system.K, system.M, n_modes=n_modes, cutoff_hz=self.cutoff_hz,
-                                 start=start)
+                                 previous=previous)
         self.modes = modes
         phi = modes.shapes
         w2 = (2.0 * np.pi * modes.freqs_hz) ** 2
@@ -198,8 +199,6 @@ class ReducedSimulator:
             if self._coupled:
                 blocks.append(wa @ self._damp_out.T)
             self._W = np.ascontiguousarray(np.hstack(blocks))
-        # the sum of the kept modes: a start vector for the next, nearby parameter point
-        self.next_start = phi.sum(axis=1)
 
     @property
     def n_modes(self) -> int:
