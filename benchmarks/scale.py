@@ -25,22 +25,22 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads (pitfall: BLAS threads)
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import resource  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from collections.abc import Callable
 
-import numpy as np  # noqa: E402
-import scipy.signal as ss  # noqa: E402
+import numpy as np
+import scipy.signal as ss
 
-from femupdate import minimize  # noqa: E402
-from femupdate.model import shear_building  # noqa: E402
-from femupdate.objective import nmse  # noqa: E402
-from femupdate.simulate.exact import ExactSimulator  # noqa: E402
-from femupdate.simulate.reduced import (  # noqa: E402
+from femupdate import minimize
+from femupdate.model import shear_building
+from femupdate.objective import nmse
+from femupdate.simulate.exact import ExactSimulator
+from femupdate.simulate.reduced import (
     FULL_PATH_MAX_DOF,
     ReducedSimulator,
     prepare_linear,
@@ -77,8 +77,8 @@ class BuildingPhi:
                  target: np.ndarray | None = None) -> None:
         self.n = n
         self.names = [f"k{g + 1}" for g in range(groups)]
-        per = int(np.ceil(n / groups))
-        self.structure = shear_building([1.0] * n, [self.names[i // per] for i in range(n)])
+        self.structure = shear_building([1.0] * n,
+                                        [self.names[i * groups // n] for i in range(n)])
         self.structure.set_rayleigh(0.2, 1e-3)
         self.k0 = 16.0 * n * n
         self.outputs = [max(n // 3 - 1, 0), max(2 * n // 3 - 1, 0), n - 1]
@@ -177,14 +177,14 @@ def phi_rows(sizes: list[int], opensees_max: int, full_max: int, repeat: int) ->
         row: dict = {"dofs": n, "full_reference": n <= full_max}
         for label, reduced in (("auto", None), ("reduced", True)):
             problem = BuildingPhi(n, groups, ag, reduced=reduced, target=reference)
-            row[f"phi_{label}_s"] = median_time(lambda p=problem: p(x_eval[:groups]), repeat)
+            row[f"phi_{label}_s"] = median_time(lambda p=problem, g=groups: p(x_eval[:g]), repeat)
         problem = BuildingPhi(n, groups, ag, reduced=True, target=reference)
         sim = problem.simulator(x[:groups])
         row["modes"] = sim.n_modes
         row["truncation_phi"] = problem(x[:groups]) if n <= full_max else None
         if n <= full_max:
             full = BuildingPhi(n, groups, ag, reduced=False, target=reference)
-            row["phi_full_s"] = median_time(lambda p=full: p(x_eval[:groups]),
+            row["phi_full_s"] = median_time(lambda p=full, g=groups: p(x_eval[:g]),
                                             max(1, repeat // 3) if n > 300 else repeat)
         row["opensees_s"] = opensees_time(n, ag, problem.outputs) if n <= opensees_max else None
         row["load"] = os.getloadavg()[0]
@@ -232,30 +232,39 @@ def peak_memory_child(n: int, n_params: int, max_evals: int) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="small sizes, for CI (~1 min)")
-    parser.add_argument("--skip-optimize", action="store_true", help="φ timings only")
-    args = parser.parse_args()
-    print(f"femupdate benchmarks/scale.py, {N_SAMPLES} samples, 3 sensors, band {BAND_HZ} Hz, "
-          f"full path up to {FULL_PATH_MAX_DOF} DOFs; {load()}; maxrss now "
-          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB", flush=True)
+def phi_table(args: argparse.Namespace) -> None:
     if args.quick:
         rows = phi_rows([10, 100, 1000], opensees_max=1000, full_max=300, repeat=3)
     else:
-        rows = phi_rows([10, 100, 1000, 10_000], opensees_max=10_000, full_max=1000, repeat=7)
+        sizes = [n for n in (10, 100, 1000, 10_000) if n <= args.max_dofs]
+        rows = phi_rows(sizes, opensees_max=10_000, full_max=1000, repeat=7)
     print(f"growth exponent of the reduced φ above 100 DOFs: {growth_exponent(rows):.2f}")
     for r in rows:
         if r["opensees_s"]:
             print(f"{r['dofs']:>6} DOFs: φ {r['phi_auto_s'] * 1e3:.2f} ms (reduced "
                   f"{r['phi_reduced_s'] * 1e3:.2f} ms), OpenSeesPy {r['opensees_s'] * 1e3:.0f} ms"
                   f", ratio {r['opensees_s'] / r['phi_auto_s']:.0f}x")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small sizes, for CI (~1 min)")
+    parser.add_argument("--skip-optimize", action="store_true", help="φ timings only")
+    parser.add_argument("--skip-phi", action="store_true", help="multistart and memory only")
+    parser.add_argument("--runs", type=int, default=None, help="multistart-lm runs (10)")
+    parser.add_argument("--max-dofs", type=int, default=10_000, help="largest φ model")
+    args = parser.parse_args()
+    print(f"femupdate benchmarks/scale.py, {N_SAMPLES} samples, 3 sensors, band {BAND_HZ} Hz, "
+          f"full path up to {FULL_PATH_MAX_DOF} DOFs; {load()}; maxrss now "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB", flush=True)
+    if not args.skip_phi:
+        phi_table(args)
     if args.skip_optimize:
         return
     if args.quick:
-        ms = multistart(300, 10, 2, 3000)
+        ms = multistart(300, 10, args.runs or 2, 3000)
     else:
-        ms = multistart(1000, 10, 10, 5000)
+        ms = multistart(1000, 10, args.runs or 10, 5000)
     print(json.dumps(ms), f"({load()})", flush=True)
     mem = peak_memory_child(300 if args.quick else 1000, 48, 400 if args.quick else 2000)
     print(f"peak memory of a 48-parameter multistart-lm run ({mem['dofs']} DOFs, "
