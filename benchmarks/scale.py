@@ -94,8 +94,11 @@ class BuildingPhi:
 
     def simulator(self, x: np.ndarray):
         system = self.system(x)
-        if self.reduced is None:
-            return prepare_linear(system, DT, self.outputs, band_hz=BAND_HZ)
+        if self.reduced is None:  # the path chosen by size; the previous modes start it
+            sim = prepare_linear(system, DT, self.outputs, band_hz=BAND_HZ,
+                                 previous=self.previous)
+            self.previous = getattr(sim, "modes", None)
+            return sim
         if self.reduced:  # modes of the previous evaluation start the eigensolver
             sim = ReducedSimulator(system, DT, self.outputs, band_hz=BAND_HZ,
                                    previous=self.previous)

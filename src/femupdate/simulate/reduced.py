@@ -272,10 +272,12 @@ def prepare_reduced(system: System, dt: float, outputs: Sequence[int] | np.ndarr
 def prepare_linear(system: System, dt: float, outputs: Sequence[int] | np.ndarray, *,
                    band_hz: float | None = None,
                    cutoff_factor: float = DEFAULT_CUTOFF_FACTOR,
+                   previous: NaturalModes | None = None,
                    ) -> ExactSimulator | ReducedSimulator:
     """The exact full-model simulator up to :data:`FULL_PATH_MAX_DOF` DOFs, the reduced above.
 
-    A sparse system larger than that is never made dense; a sparse small one is.
+    A sparse system larger than that is never made dense; a sparse small one is. ``previous``
+    (the modes of the previous, neighbouring evaluation) warm-starts the reduced path.
     """
     if system.n_dof <= FULL_PATH_MAX_DOF:
         if sp.issparse(system.K):
@@ -283,7 +285,8 @@ def prepare_linear(system: System, dt: float, outputs: Sequence[int] | np.ndarra
                             r=system.r, friction=system.friction, dof_labels=system.dof_labels,
                             seismic=system.seismic)
         return ExactSimulator(system, dt, outputs)
-    return ReducedSimulator(system, dt, outputs, band_hz=band_hz, cutoff_factor=cutoff_factor)
+    return ReducedSimulator(system, dt, outputs, band_hz=band_hz, cutoff_factor=cutoff_factor,
+                            previous=previous)
 
 
 class TruncationError(NamedTuple):
