@@ -394,7 +394,7 @@ class UpdateProblem:
     def _residual_rows(self, X: np.ndarray) -> np.ndarray:
         """The residual vectors of the rows of X in this thread (a pool thread's task)."""
         parts = [t.residuals_rows(X) for t in self.fitted]
-        return np.vstack([self._joined([p[i] for p in parts]) for i in range(X.shape[0])])
+        return _rows_into(parts, self._shares if len(parts) > 1 else None)
 
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x``, step by step (the compiled evaluator's reference)."""
@@ -458,6 +458,26 @@ class UpdateProblem:
             return parts[0]
         return np.concatenate([math.sqrt(share) * r
                                for share, r in zip(self._shares, parts, strict=True)])
+
+
+def _rows_into(parts: Sequence[Sequence[np.ndarray]], shares: Sequence[float] | None
+               ) -> np.ndarray:
+    """The residual rows of the trials (``parts[t][i]``: trial t's vector at point i) joined as
+    :meth:`UpdateProblem._joined` joins them, written straight into one preallocated (k, m)
+    array (no per-row concatenation, no stacking copy)."""
+    widths = [p[0].size for p in parts]
+    out = np.empty((len(parts[0]), sum(widths)))
+    start = 0
+    for t, (rows, width) in enumerate(zip(parts, widths, strict=True)):
+        block = out[:, start:start + width]
+        scale = None if shares is None else math.sqrt(shares[t])
+        for i, r in enumerate(rows):
+            if scale is None:
+                block[i] = r
+            else:
+                np.multiply(scale, r, out=block[i])
+        start += width
+    return out
 
 
 def _over_threads(rows_of: Callable[[np.ndarray], np.ndarray], X: np.ndarray,

@@ -35,6 +35,7 @@ from femupdate.model.elements import (
 )
 from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
 from femupdate.model.modes import check_mass_matrix
+from femupdate.model.sparse import check_sparse_mass, scatter_sparse
 from femupdate.model.system import BoucWenElements, FrictionElements, System
 
 __all__ = ["DOF_NAMES", "Structure", "shear_building"]
@@ -500,7 +501,8 @@ class Structure:
     # ------------------------------------------------------------------ assembly
 
     def assemble(
-        self, values: Mapping[str, float] | ArrayLike | None = None, direction: str | None = None
+        self, values: Mapping[str, float] | ArrayLike | None = None, direction: str | None = None,
+        *, sparse: bool = False,
     ) -> System:
         """Assemble the free-DOF matrices for the given parameter values.
 
@@ -513,6 +515,10 @@ class Structure:
             Base-excitation direction for the influence vector ``r``; default the only
             translation for ``dofs_per_node`` 1 (``x``) and 2 (``y``), ``x`` for frames.
 
+        sparse : bool
+            Assemble ``M``, ``C``, ``K`` as ``scipy.sparse`` CSR matrices (large models, for
+            :mod:`femupdate.simulate.reduced`); the dense integrators need the default.
+
         Returns
         -------
         System
@@ -522,7 +528,7 @@ class Structure:
         rigid = self._rigid(direction)
         r = rigid[topo.free >= 0]
         p = self._parameter_vector(values)
-        m, c, k, friction, beam_m = self._matrices(p)
+        m, c, k, friction, beam_m = self._matrices(p, sparse)
         bouc_wen = self._bouc_wen(p)
         seismic = None
         rows, keep, gcols = topo.beam_coupling
@@ -557,12 +563,18 @@ class Structure:
         return self.assemble(values, direction).seismic_load
 
     def _matrices(
-        self, p: np.ndarray
+        self, p: np.ndarray, sparse: bool = False
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, FrictionElements | None, np.ndarray]:
-        """M, C, K, friction and the stack of global beam mass matrices."""
+        """M, C, K (dense, or CSR if ``sparse``), friction and the stack of beam mass matrices."""
         topo = self._topo()
         n = topo.n
         nn = n * n
+
+        def accumulate(target: np.ndarray, weights: np.ndarray) -> np.ndarray:
+            if sparse:  # flat targets row·n + col summed into CSR (duplicates add up)
+                return scatter_sparse(target, weights, n)
+            return np.bincount(target, weights=weights, minlength=nn).reshape(n, n)
+
         bp = {key: prop.evaluate(p) for key, prop in topo.beam_props.items()}
         L = topo.beam_L
         E, A, I = bp["E"], bp["A"], bp["I"]  # noqa: E741
@@ -577,7 +589,8 @@ class Structure:
         kb = frame_stiffness(E * A, E * I, L, phi) if frame else beam_stiffness(E * I, L, phi)
         if topo.beam_T is not None:
             kb = np.swapaxes(topo.beam_T, 1, 2) @ kb @ topo.beam_T
-        cached = topo.cache.get("mass")
+        mass_key = "mass_sparse" if sparse else "mass"
+        cached = topo.cache.get(mass_key)
         if cached is not None:
             m, mb = cached[0].copy(), cached[1]
         else:
@@ -587,29 +600,23 @@ class Structure:
             if topo.beam_T is not None:
                 mb = np.swapaxes(topo.beam_T, 1, 2) @ mb @ topo.beam_T
             mm, mj = topo.mass_m.evaluate(p), topo.mass_J.evaluate(p)
-            m = np.bincount(
+            m = accumulate(
                 np.concatenate([topo.beam_target, topo.mass_m_target, topo.mass_J_target]),
-                weights=np.concatenate(
+                np.concatenate(
                     [mb.reshape(-1)[topo.beam_keep], mm[topo.mass_m_owner], mj[topo.mass_J_owner]]
                 ),
-                minlength=nn,
-            ).reshape(n, n)
-            check_mass_matrix(m, topo.labels)
+            )
+            (check_sparse_mass if sparse else check_mass_matrix)(m, topo.labels)
             if topo.mass_const:
-                topo.cache["mass"] = (m.copy(), mb)
+                topo.cache[mass_key] = (m.copy(), mb)
 
         ks = spring_matrix(topo.spring_k.evaluate(p))
-        k = np.bincount(
+        k = accumulate(
             np.concatenate([topo.beam_target, topo.spring_target]),
-            weights=np.concatenate(
-                [kb.reshape(-1)[topo.beam_keep], ks.reshape(-1)[topo.spring_keep]]
-            ),
-            minlength=nn,
-        ).reshape(n, n)
+            np.concatenate([kb.reshape(-1)[topo.beam_keep], ks.reshape(-1)[topo.spring_keep]]),
+        )
         cs = spring_matrix(topo.damper_c.evaluate(p))
-        c = np.bincount(
-            topo.damper_target, weights=cs.reshape(-1)[topo.damper_keep], minlength=nn
-        ).reshape(n, n)
+        c = accumulate(topo.damper_target, cs.reshape(-1)[topo.damper_keep])
         if topo.rayleigh is not None:
             alpha, beta = (float(prop.evaluate(p)[0]) for prop in topo.rayleigh)
             c = c + alpha * m + beta * k

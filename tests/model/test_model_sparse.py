@@ -1,0 +1,107 @@
+"""Sparse assembly and the lowest modes of large models (femupdate.model.sparse)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from femupdate.errors import ConfigError, ModelError
+from femupdate.model import Structure, natural_frequencies, shear_building
+from femupdate.model.sparse import lowest_modes
+
+E, A, I, RHO = 2.1e11, 1e-3, 1e-6, 7850.0  # noqa: E741
+
+
+def portal_frame() -> Structure:
+    """A planar frame with consistent beam mass, an inclined member, springs and dampers."""
+    s = Structure(dofs_per_node=3)
+    for name, x, y in (("a", 0, 0), ("b", 0, 3), ("c", 4, 3), ("d", 4, 0), ("e", 2, 5)):
+        s.add_node(name, x=x, y=y)
+    for i, (p, q) in enumerate((("a", "b"), ("b", "c"), ("d", "c"), ("b", "e"), ("e", "c"))):
+        s.add_beam(p, q, E="E", A=A, I=I, rho=RHO, nu=0.3, name=f"b{i}")
+    s.fix("a", "ux", "uy", "rz")
+    s.add_spring("d", "ux", "kd")
+    s.fix("d", "uy")
+    s.add_damper("c", "ux", 30.0, node2="b")
+    s.add_mass("e", m=50.0)
+    s.set_rayleigh(0.1, 1e-4)
+    return s
+
+
+def test_sparse_assembly_equals_dense_for_a_frame_with_beam_mass():
+    s = portal_frame()
+    values = {"E": 2.0e11, "kd": 1e6}
+    dense, sparse = s.assemble(values), s.assemble(values, sparse=True)
+    for name in ("M", "C", "K"):
+        mat = getattr(sparse, name)
+        assert sp.issparse(mat)
+        ref = getattr(dense, name)  # the same sums in another order: equal to rounding
+        np.testing.assert_allclose(mat.toarray(), ref, rtol=0, atol=1e-15 * np.abs(ref).max())
+    np.testing.assert_allclose(sparse.seismic_load, dense.seismic_load, rtol=1e-15)
+    np.testing.assert_array_equal(sparse.r, dense.r)
+
+
+def test_sparse_assembly_of_a_shear_building_with_parameters_twice():
+    s = shear_building([1.0] * 50, ["k1"] * 25 + ["k2"] * 25, ["c"] * 50)
+    for values in ({"k1": 3.0, "k2": 5.0, "c": 0.1}, {"k1": 4.0, "k2": 1.0, "c": 0.2}):
+        dense, sparse = s.assemble(values), s.assemble(values, sparse=True)  # mass cached
+        for name in ("M", "C", "K"):
+            np.testing.assert_array_equal(getattr(sparse, name).toarray(), getattr(dense, name))
+
+
+def shear_closed_form(n: int, k: float, m: float) -> np.ndarray:
+    """Frequencies (Hz) of a uniform shear building fixed at its base, free at its top."""
+    j = np.arange(1, n + 1)
+    return 2.0 * np.sqrt(k / m) * np.sin((2 * j - 1) * np.pi / (2 * (2 * n + 1))) / (2 * np.pi)
+
+
+@pytest.mark.parametrize("n", [40, 2000])  # dense path and shift-invert Lanczos
+def test_lowest_modes_of_a_shear_building_match_the_closed_form(n):
+    k, m = 16.0 * n * n, 1.0
+    system = shear_building([m] * n, [k] * n).assemble(sparse=True)
+    modes = lowest_modes(system.K, system.M, cutoff_hz=20.0)
+    exact = shear_closed_form(n, k, m)
+    expected = exact[exact <= 20.0]
+    np.testing.assert_allclose(modes.freqs_hz, expected, rtol=1e-10)
+    phi = modes.shapes
+    np.testing.assert_allclose(phi.T @ (system.M @ phi), np.eye(phi.shape[1]), atol=1e-10)
+    w2 = (2 * np.pi * modes.freqs_hz) ** 2
+    np.testing.assert_allclose(system.K @ phi, (system.M @ phi) * w2, rtol=0,
+                               atol=1e-8 * w2.max())
+
+
+def test_lowest_modes_agree_with_the_dense_modes_and_do_not_depend_on_the_start():
+    n = 400
+    s = shear_building(list(np.linspace(1.0, 2.0, n)), list(np.linspace(3e4, 1e4, n)))
+    sparse = s.assemble(sparse=True)
+    full = natural_frequencies(s.assemble())
+    a = lowest_modes(sparse.K, sparse.M, n_modes=8)
+    b = lowest_modes(sparse.K, sparse.M, cutoff_hz=float(a.freqs_hz[-1]) * 1.001, previous=a)
+    np.testing.assert_allclose(a.freqs_hz, full.freqs_hz[:8], rtol=1e-10)
+    np.testing.assert_allclose(b.freqs_hz, a.freqs_hz, rtol=1e-12)
+    np.testing.assert_allclose(np.abs(b.shapes), np.abs(full.shapes[:, :8]), atol=1e-8)
+    c = lowest_modes(sparse.K, sparse.M, n_modes=8)
+    np.testing.assert_array_equal(c.shapes, a.shapes)  # same input, same result
+
+
+def test_mode_count_larger_than_the_model_is_refused():
+    system = shear_building([1.0] * 5, [10.0] * 5).assemble(sparse=True)
+    with pytest.raises(ConfigError, match=r"n_modes = 6 .* allowed 1 to 5"):
+        lowest_modes(system.K, system.M, n_modes=6)
+    with pytest.raises(ConfigError, match="cutoff_hz"):
+        lowest_modes(system.K, system.M, cutoff_hz=-1.0)
+
+
+def test_a_mechanism_is_refused_by_the_sparse_eigensolver():
+    n = 300
+    s = shear_building([1.0] * n, [0.0] + [10.0] * (n - 1))  # the first storey has no spring
+    system = s.assemble(sparse=True)
+    with pytest.raises(ModelError, match="mechanism"):
+        lowest_modes(system.K, system.M, n_modes=3)
+
+
+def test_a_sparse_mass_matrix_without_inertia_names_the_dof():
+    s = shear_building([1.0, 0.0, 1.0], [10.0] * 3)
+    with pytest.raises(ModelError, match=r"F2\.ux"):
+        s.assemble(sparse=True)
