@@ -9,6 +9,9 @@ goal is below 1 %), the verdict (docs/verdicts.md) and the wall time beside the 
 
     python benchmarks/jenkins_reliability.py [--data DIR] [--runs 10] [--max-evals 3000]
         [--seed 20250402] [--workers 2] [--options '{"patience": 5}'] [--json out.json]
+
+``--quick`` (for CI): two runs of 600 evaluations on one worker; its spread says nothing of the
+goal.
 """
 
 from __future__ import annotations
@@ -38,7 +41,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--options", default=None, help="method options as JSON")
     parser.add_argument("--fit-set", default="b", choices=sorted(study.FIT_SETS))
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--quick", action="store_true",
+                        help="2 runs of 600 evaluations on one worker (a smoke run for CI)")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.runs, args.max_evals, args.workers = 2, 600, 1
     data = study.find_data(args.data if args.data is not None
                            else os.environ.get(study.DATA_ENV) or ROOT.parent / "shared" / "data")
     search = {"runs": args.runs, "max_evals": args.max_evals, "seed": args.seed,

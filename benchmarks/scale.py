@@ -32,6 +32,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import scipy.signal as ss
@@ -225,7 +226,8 @@ def multistart(n: int, n_params: int, runs: int, max_evals: int) -> dict:
 def peak_memory_child(n: int, n_params: int, max_evals: int) -> dict:
     """Peak resident memory of a fresh process running a 48-parameter multistart-lm."""
     code = (
-        "import sys, resource, json; sys.path.insert(0, 'benchmarks'); import scale; "
+        f"import sys, resource, json; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+        "import scale; "
         f"r = scale.multistart({n}, {n_params}, 1, {max_evals}); "
         "r['maxrss_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024; "
         "print(json.dumps(r))"

@@ -37,6 +37,11 @@ def _opensees_missing() -> str | None:
     return None
 
 
+def _shared_data_missing() -> str | None:
+    data = REPO.parent / "shared" / "data" / "minishake_1story"
+    return None if data.is_dir() else f"needs the shared mini shake-table records ({data})"
+
+
 def _module_missing(*modules: str) -> str | None:
     for module in modules:
         try:
@@ -56,9 +61,12 @@ QUICK = {
     "evaluation_cost.py": ("3-DOF shear building", lambda: None),
     "external_parallel.py": ("results identical across the three: True",
                              lambda: _module_missing("dask.distributed") or _opensees_missing()),
+    "hysteresis.py": ("4. Three storeys, a slider per storey", lambda: None),
     "jacobian_cost.py": ("fd err", lambda: None),
+    "jenkins_reliability.py": ("verdict: ", _shared_data_missing),
     "optimizer_overhead.py": ("scipy-lsq", lambda: None),
     "report_speed.py": ("10 parameters: report in", lambda: None),
+    "scale.py": ("peak memory of a 48-parameter multistart-lm run", _opensees_missing),
     "simulate_kernels.py": ("friction", lambda: None),
 }
 
