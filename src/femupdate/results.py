@@ -26,6 +26,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from femupdate.case import Case, parse_case
 from femupdate.errors import FemupdateError
+from femupdate.posterior.records import LaplaceRecord, PosteriorRecord
 from femupdate.runs.store import FILENAME as STORE_FILENAME
 
 __all__ = [
@@ -148,6 +149,9 @@ class Summary(_Record):
 
     The evaluation statistics (``successes`` … ``evals_per_success``) are those of
     :func:`femupdate.runs.stats.evaluation_stats`; ``success_rule`` says what success meant.
+    ``laplace``: the Laplace approximation of the posterior at the best fit (a least-squares
+    run); ``posterior``: the sampled posterior (``femupdate posterior``); None in summaries
+    written without them.
     """
 
     case: dict[str, Any]
@@ -171,6 +175,8 @@ class Summary(_Record):
     trials: list[TrialRecord] = Field(default_factory=list)
     identifiability: dict[str, Any] | None = None
     benchmark: BridgeBenchmark | None = None
+    laplace: LaplaceRecord | None = None
+    posterior: PosteriorRecord | None = None
 
     @property
     def name(self) -> str:
