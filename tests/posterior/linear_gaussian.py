@@ -1,0 +1,46 @@
+"""A model linear in its parameters with Gaussian noise of known variance: its posterior is
+Gaussian in closed form (with a Gaussian prior whose bounds are too far to matter)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from femupdate.posterior.likelihood import ErrorModel, error_model
+from femupdate.posterior.priors import Prior
+
+SIGMA = 0.2
+
+
+@dataclass
+class LinearGaussian:
+    design: np.ndarray  # (m, n): r(θ) = A θ − y
+    data: np.ndarray
+    prior: Prior
+    model: ErrorModel
+    mean: np.ndarray  # closed-form posterior, physical units
+    cov: np.ndarray
+
+    def residuals_batch(self, thetas: np.ndarray) -> np.ndarray:
+        return np.atleast_2d(thetas) @ self.design.T - self.data
+
+
+def linear_gaussian(seed: int = 0, m: int = 60) -> LinearGaussian:
+    """Three correlated parameters, a Gaussian prior on the first, uniform on the others."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, m)
+    design = np.column_stack([np.ones(m), t, np.sin(3 * t) + 0.5 * t])
+    truth = np.array([1.0, -2.0, 0.5])
+    data = design @ truth + SIGMA * rng.standard_normal(m)
+    prior_mean, prior_sd = 0.8, 0.3
+    # bounds ±10 posterior sds or more away: truncation changes nothing measurable
+    prior = Prior(["a", "b", "c"], [-3.0, -12.0, -10.0], [5.0, 8.0, 11.0],
+                  specs={"a": {"kind": "normal", "mean": prior_mean, "sd": prior_sd}})
+    precision = design.T @ design / SIGMA ** 2
+    precision[0, 0] += 1 / prior_sd ** 2
+    cov = np.linalg.inv(precision)
+    rhs = design.T @ data / SIGMA ** 2
+    rhs[0] += prior_mean / prior_sd ** 2
+    model = error_model([slice(0, m)], "known", sigma=SIGMA)
+    return LinearGaussian(design, data, prior, model, cov @ rhs, cov)
