@@ -406,6 +406,9 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
     ))
     freqs = ", ".join(f"{f:.3f}" for f in summary.best.frequencies_hz)
     say(f"natural frequencies of the best model [Hz]: {freqs}", out=out)
+    from femupdate.sampling.console import print_laplace
+
+    print_laplace(summary.laplace, summary.best.params, out)
     print_trials(summary.trials, "the best model on each trial", out=out)
     say(f"successful runs ({rule}): {summary.successes}/{len(summary.runs)}; "
         f"evaluations (successful): mean {_fmt(summary.evals_mean)}, "

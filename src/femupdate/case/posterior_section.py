@@ -9,7 +9,6 @@ from the case's validator.
 
 from __future__ import annotations
 
-import math
 import typing
 from typing import Literal
 
@@ -27,16 +26,31 @@ SAMPLES_PER_PARAMETER = 10
 
 
 class PriorSpec(Section):
-    """``[posterior.priors] NAME = {kind = ..., mean = ..., sd = ...}``: a parameter's prior.
+    """``[posterior.priors] NAME = {kind = ..., ...}``: a parameter's prior.
 
-    ``uniform`` (between the bounds) and ``log-uniform`` need nothing else; ``normal`` takes
-    ``mean`` and ``sd`` in the parameter's units, ``lognormal`` the ``mean`` and ``sd`` of its
-    natural logarithm. Every prior is truncated to the parameter's bounds.
+    ``uniform`` (the default of every parameter) is uniform on the search interval: in
+    physical units log-uniform where ``scale = "log"``; ``log-uniform`` says so explicitly (it
+    needs ``scale = "log"``). ``normal`` takes ``mean`` and ``sd`` in the parameter's units;
+    ``lognormal`` its ``median`` and ``sigma`` (the standard deviation of its natural log).
+    Every prior is truncated to the parameter's bounds.
     """
 
     kind: Literal["uniform", "log-uniform", "normal", "lognormal"]
     mean: number_field() | None = None
     sd: number_field(gt=0.0) | None = None
+    median: number_field(gt=0.0) | None = None
+    sigma: number_field(gt=0.0) | None = None
+
+    def spec(self) -> dict[str, float | str]:
+        """The prior as :class:`femupdate.posterior.priors.Prior` takes it."""
+        kind = "uniform" if self.kind == "log-uniform" else self.kind
+        return {"kind": kind, **{k: v for k in PRIOR_FIELDS[self.kind]
+                                 if (v := getattr(self, k)) is not None}}
+
+
+#: The fields each kind of prior takes.
+PRIOR_FIELDS = {"uniform": (), "log-uniform": (), "normal": ("mean", "sd"),
+                "lognormal": ("median", "sigma")}
 
 
 class PosteriorSection(Section):
@@ -75,29 +89,32 @@ def posterior_issues(case: Case) -> list[Issue]:
                            f"one of {', '.join(params) or '(no parameters)'}"))
             continue
         low, high = format_value(par.lower), format_value(par.upper)
-        needs = prior.kind in ("normal", "lognormal")
-        if needs and (prior.mean is None or prior.sd is None):
-            issues.append((where, f"a {prior.kind} prior without "
-                           + " and ".join(k for k in ("mean", "sd")
-                                          if getattr(prior, k) is None),
-                           "mean and sd (sd > 0)"))
+        fields = PRIOR_FIELDS[prior.kind]
+        missing = [k for k in fields if getattr(prior, k) is None]
+        extra = [k for k in ("mean", "sd", "median", "sigma")
+                 if k not in fields and getattr(prior, k) is not None]
+        if missing or extra:
+            takes = " and ".join(fields) if fields else "nothing else (it spans the bounds)"
+            what = ([f"without {' and '.join(missing)}"] if missing else []) + (
+                [f"with {' and '.join(extra)}"] if extra else [])
+            issues.append((where, f"a {prior.kind} prior {', '.join(what)}",
+                           f"a {prior.kind} prior takes {takes}"))
             continue
-        if not needs and (prior.mean is not None or prior.sd is not None):
-            issues.append((where, f"mean and sd given to a {prior.kind} prior",
-                           "no mean or sd: it spans the bounds"))
         if prior.kind in ("log-uniform", "lognormal") and par.lower <= 0.0:
             issues.append((f"{where}.kind", f"{prior.kind!r} on parameter {name!r} whose "
                            f"lower bound is {low}", "a lower bound > 0, or kind = 'uniform' "
                            "or 'normal'"))
             continue
-        if prior.kind == "normal" and prior.mean is not None and not (
-                par.lower <= prior.mean <= par.upper):
+        if prior.kind == "log-uniform" and par.scale != "log":
+            issues.append((f"{where}.kind", f"'log-uniform' on parameter {name!r} searched "
+                           "on a linear scale", f"scale = 'log' on parameter {name!r} (its "
+                           "uniform prior is then log-uniform), or kind = 'uniform'"))
+        if prior.kind == "normal" and not par.lower <= typing.cast(float, prior.mean) \
+                <= par.upper:
             issues.append((f"{where}.mean", f"got {format_value(prior.mean)}, outside the "
                            f"bounds of {name!r}", f"a value in [{low}, {high}]"))
-        if prior.kind == "lognormal" and prior.mean is not None and not (
-                math.log(par.lower) <= prior.mean <= math.log(par.upper)):
-            issues.append((f"{where}.mean", f"got {format_value(prior.mean)} (the mean of "
-                           f"ln {name}), outside the bounds", f"a value in "
-                           f"[{format_value(math.log(par.lower))}, "
-                           f"{format_value(math.log(par.upper))}] (ln of the bounds)"))
+        if prior.kind == "lognormal" and not par.lower <= typing.cast(float, prior.median) \
+                <= par.upper:
+            issues.append((f"{where}.median", f"got {format_value(prior.median)}, outside the "
+                           f"bounds of {name!r}", f"a value in [{low}, {high}]"))
     return issues

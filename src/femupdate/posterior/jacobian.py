@@ -1,7 +1,8 @@
 """The residuals' Jacobian at a point of the search space, by one batch of the problem.
 
-The Laplace approximation at a best fit needs J = ∂r/∂θ with θ the search-space coordinates
-(log10 of a log-scale parameter). It is taken by second-order differences in the unit cube,
+The Laplace approximation at a best fit needs J = ∂r/∂ξ with ξ the unit-cube coordinates of
+the search (x = low + (high − low)·ξ in the search space, log10 of a log-scale parameter).
+It is taken by second-order differences in the unit cube,
 central where both neighbours are inside and one-sided (three points) at a bound, as the coarse
 stage of multistart-lm takes its own (:func:`femupdate.optimize.trust.second_order_stencils`):
 all 2n points go to the problem's ``residuals_batch`` in one call (compiled, threads), so the
@@ -17,11 +18,14 @@ import numpy as np
 from femupdate.errors import FemupdateError
 from femupdate.optimize.trust import second_order_columns, second_order_stencils
 
-#: Difference step in the unit cube. The compiled residuals are smooth to rounding (≈1e-13 of
-#: their size), so a central difference's error h²·r'''/6 + ε/h is smallest near ε^(1/3) ≈ 1e-5;
-#: 1e-4 keeps a friction model's stick–slip kinks (a step smaller than a kink's effect sees
-#: the kink, not the slope) from dominating while staying far inside the bounds.
-UNIT_STEP = 1e-4
+#: Difference step in the unit cube: 1 % of each range, the step of multistart-lm's coarse
+#: stage, for the same reason. φ has ripples finer than that along weakly seen directions (on
+#: the viscous bridge, minima about 1e-3 apart along the kp1 valley, where a stiff abutment
+#: mode's phase turns over the record): a local step (1e-4) measures the curvature of one
+#: ripple and gave kp1 a ±9 % interval that missed the truth by 70 %; this step sees the
+#: valley (kp1 not determined) and left the well-determined parameters' intervals within a
+#: factor 2 of the local ones.
+UNIT_STEP = 1e-2
 
 
 def residual_jacobian(residuals_batch: Callable[[np.ndarray], np.ndarray],
@@ -45,7 +49,8 @@ def residual_jacobian(residuals_batch: Callable[[np.ndarray], np.ndarray],
     -------
     r : ndarray (m,)
     jacobian : ndarray (m, n)
-        ∂r/∂θ per unit of the search-space coordinate.
+        ∂r/∂ξ in unit-cube coordinates (divide column i by ``high_i − low_i`` for the
+        search space).
 
     Raises
     ------
@@ -70,5 +75,4 @@ def residual_jacobian(residuals_batch: Callable[[np.ndarray], np.ndarray],
         bad = sorted({int(i) % n for i in np.flatnonzero(failed)})
         raise FemupdateError(f"the model failed beside the best fit (a step of {step:g} of the "
                              f"range of parameter(s) {bad}): no Jacobian there")
-    unit_jac = second_order_columns(base, rows, weights, step)
-    return base, unit_jac / span
+    return base, second_order_columns(base, rows, weights, step)
