@@ -31,6 +31,7 @@ from femupdate.runs.store import FILENAME as STORE_FILENAME
 
 __all__ = [
     "FIT_FILE",
+    "POSTERIOR_FILE",
     "REPORT_FILE",
     "STORE_FILE",
     "SUMMARY_FILE",
@@ -53,6 +54,8 @@ SUMMARY_FILE = "summary.json"
 STORE_FILE = STORE_FILENAME
 FIT_FILE = "fit.npz"
 REPORT_FILE = "report.html"
+#: The sampled posterior's arrays (``femupdate posterior``): samples, modes, predictive bands.
+POSTERIOR_FILE = "posterior.npz"
 
 
 class _Record(BaseModel):

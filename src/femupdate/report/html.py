@@ -28,6 +28,7 @@ from femupdate.report.sections_model import (
     section_validation,
     validation_trials,
 )
+from femupdate.report.sections_posterior import section_uncertainty
 from femupdate.report.sections_runs import (
     section_case,
     section_convergence,
@@ -103,6 +104,7 @@ def _render(res: Results) -> str:
         ("identifiability", "7. Identifiability", section_identifiability(ctx, page)),
         ("validation", "8. Validation",
          section_validation(validation_trials(res.summary), page)),
+        ("uncertainty", "9. Uncertainty", section_uncertainty(ctx, page)),
     ]
     toc = " · ".join(f'<a href="#{key}">{esc(title)}</a>' for key, title, _ in sections)
     missing = ""
