@@ -44,3 +44,24 @@ def linear_gaussian(seed: int = 0, m: int = 60) -> LinearGaussian:
     rhs[0] += prior_mean / prior_sd ** 2
     model = error_model([slice(0, m)], "known", sigma=SIGMA)
     return LinearGaussian(design, data, prior, model, cov @ rhs, cov)
+
+
+class Residuals:
+    """r(θ) of a linear Gaussian case as an UpdateProblem gives it: ``residuals`` and
+    ``residuals_batch`` (a population in one call), counting calls and failing on demand."""
+
+    def __init__(self, case: LinearGaussian, fail_at: int | None = None) -> None:
+        self.case = case
+        self.calls = 0
+        self.fail_at = fail_at  # the evaluation (0-based) that returns NaN
+
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        return self.residuals_batch(np.asarray(theta)[None, :])[0]
+
+    def residuals_batch(self, thetas: np.ndarray) -> np.ndarray:
+        out = self.case.residuals_batch(thetas)
+        first = self.calls
+        self.calls += out.shape[0]
+        if self.fail_at is not None and first <= self.fail_at < self.calls:
+            out[self.fail_at - first] = np.nan
+        return out
