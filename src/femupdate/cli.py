@@ -530,6 +530,80 @@ def run(
     _write_json(json_path, result.summary.model_dump())
 
 
+@app.command()
+def posterior(
+    case_file: CaseArgument,
+    out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
+    seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.")] = None,
+    samples: Annotated[int | None, typer.Option(
+        min=20, help="Override [posterior] samples (TMCMC's population).")] = None,
+    data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
+                                                   "instead of [data] directory.")] = None,
+    resume: Annotated[bool, typer.Option(
+        "--resume", help="Continue the sampler (and the search) stored in --out from its "
+        "last checkpoint: the samples are those of an uninterrupted run.")] = False,
+    restart: Annotated[bool, typer.Option(
+        "--restart", help="Discard the search and the sampler stored in --out and start "
+        "over.")] = False,
+    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address, e.g. "
+                                                       "tcp://host:8786 (extra 'dask').")
+                         ] = None,
+    quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
+    log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
+                                                       "run event) to this file.")] = None,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
+        "workers).")] = None,
+    json_path: JsonOption = None,
+) -> None:
+    """The posterior of the parameters by TMCMC, beside the best fit: intervals,
+    correlations, frequency posteriors, predictive bands, log-evidence.
+
+    The case's search runs first (a finished one in OUT is reused); then the sampler, with
+    its settings from [posterior], checkpointed in OUT/posterior (--resume continues it to
+    the same samples). The results go into OUT/summary.json (posterior) and
+    OUT/posterior.npz; `femupdate report OUT` draws them.
+    """
+    from femupdate.runs import Execution
+    from femupdate.sampling.console import print_posterior
+    from femupdate.sampling.run import run_posterior
+    from femupdate.workflow import with_data_directory
+
+    if resume and restart:
+        raise ConfigError("--resume and --restart exclude each other: --resume continues the "
+                          "sampler stored in --out, --restart discards it and starts over")
+    case = _load(case_file)
+    if data is not None:
+        case = with_data_directory(case, data)
+    execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
+    try:
+        result = run_posterior(case, out, seed=seed, samples=samples, workers=workers,
+                               resume=resume, restart=restart, execution=execution)
+    except KeyboardInterrupt:
+        words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
+        for flag, value in (("--seed", seed), ("--samples", samples), ("--data", data)):
+            if value is not None:
+                words += [flag, str(value)]
+        _resume_hint([*words, "--resume"])
+        raise SystemExit(130) from None
+    print_posterior(result.record, console)
+    if result.bands:
+        print_coverage(result.bands)
+    say(f"results in {out.resolve()} (femupdate report {out})")
+    _write_json(json_path, result.summary.model_dump())
+
+
+def print_coverage(bands: list[Any], title: str = "5–95 % predictive bands") -> None:
+    """The share of each trial's measured record inside its predictive band."""
+    table = Table(title=Text(f"{title}: share of the measured record inside"))
+    for col in ("trial", "role", "channels: covered"):
+        table.add_column(col, justify="right")
+    for b in bands:
+        table.add_row(Text(b.trial), b.role, Text(", ".join(
+            f"{c} {100 * v:.1f} %" for c, v in zip(b.channels, b.coverage, strict=True))))
+    console.print(table)
+
+
 def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
     """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:

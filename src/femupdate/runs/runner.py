@@ -45,7 +45,7 @@ CHUNK_SECONDS = 1.0
 #: Methods whose steps evaluate a population (several candidates; multistart-lm: its pools
 #: and Jacobians): with fewer runs than workers their populations are spread over the
 #: workers instead (``RunExecutor.mapper``: compiled problems over threads of this process).
-POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm"})
+POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm", "tmcmc"})
 
 
 @dataclass(frozen=True)
