@@ -23,10 +23,11 @@ def plot_corner(samples: np.ndarray, names: Sequence[str],
     """Marginals and pairs of the posterior samples (as ``corner`` draws them), with the
     truth's lines where known and the 5/50/95 % quantiles over each marginal."""
     import corner
+    from matplotlib.figure import Figure
 
     n = min(len(names), MAX_CORNER)
     size = min(14.0, max(4.0, 1.6 * n))
-    fig = new_figure(size, size)
+    fig = Figure(figsize=(size, size))  # no layout engine: corner places its panels itself
     data = np.asarray(samples, dtype=float)[:, :n]
     # A column without spread (a parameter the data pin to rounding) has no histogram range.
     ranges = [(lo, hi) if hi > lo else (lo - 0.5 * abs(lo) - 1e-12, hi + 0.5 * abs(hi) + 1e-12)

@@ -90,10 +90,12 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str
     """The error model fixed at the best fit ``x`` and the Laplace Gaussian there (None, with
     why, when it cannot be had: TMCMC then starts from the prior)."""
     prior = case_priors(problem.case)
-    r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+    x = np.asarray(x, dtype=float)
+    r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
     model = problem_error_model(problem, r, kind)
-    best_unit = prior.to_unit(np.asarray(x, dtype=float))
+    best_unit = prior.to_unit(x)
     try:
+        r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
         return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                      prior), None
     except FemupdateError as exc:
