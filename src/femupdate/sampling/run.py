@@ -27,7 +27,7 @@ import numpy as np
 
 from femupdate.case import Case
 from femupdate.case.posterior_section import DEFAULT_POSTERIOR, PosteriorSection
-from femupdate.errors import DataError, FemupdateError
+from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.posterior.best_fit import case_priors, centred
 from femupdate.posterior.jacobian import residual_jacobian
@@ -63,6 +63,7 @@ class PosteriorResult:
     samples: np.ndarray  # (N, n) physical (empty when β = 1 was not reached)
     bands: list[Bands]
     search: UpdateResult
+    error_model: ErrorModel
 
 
 def posterior_settings(case: Case) -> PosteriorSection:
@@ -85,14 +86,24 @@ def check_records(experiments: Sequence[Experiment], case: Case) -> None:
                             "channel from [[data.outputs]])")
 
 
-def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str
+def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
+                      counts_from: ErrorModel | None = None
                       ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
-    """The error model fixed at the best fit ``x`` and the Laplace Gaussian there (None, with
-    why, when it cannot be had: TMCMC then starts from the prior)."""
+    """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
+    and the Laplace Gaussian there (None, with why, when it cannot be had: TMCMC then starts
+    from the prior)."""
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
     model = problem_error_model(problem, r, kind)
+    if counts_from is not None:
+        if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
+                or model.stops.tolist() != counts_from.stops.tolist()):
+            raise ConfigError(f"{problem.case.label}: the error model to share ({counts_from.kind}"
+                              f", {counts_from.starts.size} blocks) is not of this case's data "
+                              f"({model.kind}, {model.starts.size} blocks) (allowed: model "
+                              "classes of the same trials, channels and error model)")
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
     best_unit = prior.to_unit(x)
     try:
         r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
@@ -106,7 +117,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   samples: int | None = None, workers: int | None = None,
                   resume: bool = False, restart: bool = False,
                   execution: Execution | None = None,
-                  experiments: Sequence[Experiment] | None = None) -> PosteriorResult:
+                  experiments: Sequence[Experiment] | None = None,
+                  counts_from: ErrorModel | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -124,6 +136,12 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         Discard both stores and start over.
     execution : Execution or None
         Progress, scheduler, chunks (:class:`femupdate.runs.Execution`).
+    experiments : sequence of Experiment or None
+        The case's processed trials, when the caller has them.
+    counts_from : ErrorModel or None
+        Take the effective counts N_c (and ρ_c) of this error model instead of measuring them
+        at this case's best fit: model classes compared by their evidence must share one
+        likelihood of the data (:mod:`femupdate.sampling.classes`).
     """
     settings = posterior_settings(case)
     seed = settings.seed if seed is None else seed
@@ -142,7 +160,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                       execution=execution, keep_history=False, experiments=experiments)
     problem = SampledProblem.of(search.problem)
     best_x = np.asarray(search.summary.runs[search.summary.best.run].x, dtype=float)
-    model, prior, gaussian, why = best_fit_gaussian(problem, best_x, settings.error_model)
+    model, prior, gaussian, why = best_fit_gaussian(problem, best_x, settings.error_model,
+                                                    counts_from)
     specs = {n: p.spec() for n, p in settings.priors.items()}
     reference = (None if gaussian is None or settings.start == "prior"
                  else (gaussian.mean_unit, gaussian.cov_unit))
@@ -169,7 +188,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         save_bands(out_dir / POSTERIOR_FILE, list(problem.names), physical, freqs, bands)
     summary = search.summary.model_copy(update={"posterior": record})
     write_summary(summary, out_dir)
-    return PosteriorResult(summary, record, physical, bands, search)
+    return PosteriorResult(summary, record, physical, bands, search, model)
 
 
 def thinned(samples: np.ndarray, count: int) -> np.ndarray:
