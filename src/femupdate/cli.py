@@ -729,6 +729,10 @@ def validate(
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
     json_path: JsonOption = None,
+    posterior_dir: Annotated[Path | None, typer.Option(
+        "--posterior", help="Also the 5–95 % predictive bands of the posterior in this "
+        "directory (the --out of `femupdate posterior`) on every trial, and the share of "
+        "each measured record inside them.")] = None,
 ) -> None:
     """Evaluate fixed parameters on every trial of a case: NMSE per trial and channel.
 
@@ -743,19 +747,36 @@ def validate(
     values = _read_params("--params", params, case)
     result = validate_case(case, values)
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
+    bands = None
+    if posterior_dir is not None:
+        from femupdate.sampling.validate import validate_posterior
+
+        bands = validate_posterior(case, posterior_dir)
+        print_coverage(bands, f"{case.label}: 5–95 % predictive bands of the posterior")
+    report = result.to_dict()
+    if bands is not None:
+        report["coverage"] = {b.trial: dict(zip(b.channels, b.coverage.tolist(), strict=True))
+                              for b in bands}
     if out is not None:
         from femupdate.report.figures import plot_fit, save_png
 
         out.mkdir(parents=True, exist_ok=True)
-        (out / "validation.json").write_text(json.dumps(result.to_dict(), indent=2) + "\n")
+        (out / "validation.json").write_text(json.dumps(report, indent=2) + "\n")
         records = {t.name: t for t in result.trials}
         for fit in result.fits:
             nmse = [100.0 * records[fit.trial].nmse_per_channel[c] for c in fit.channels]
             save_png(plot_fit(fit.t, fit.measured, fit.predicted, channels=fit.channels,
                               unit=fit.unit, nmse_percent=nmse,
                               title=f"{fit.trial} ({fit.role})"), out / f"fit-{fit.trial}.png")
+        if bands is not None:
+            from femupdate.report.posterior_plots import plot_bands
+
+            for b in bands:
+                save_png(plot_bands(b.t, b.measured, np.stack([b.q05, b.q50, b.q95]),
+                                    b.channels, b.unit, b.coverage, f"{b.trial} ({b.role})"),
+                         out / f"bands-{b.trial}.png")
         console.print(f"validation in {out.resolve()}")
-    _write_json(json_path, result.to_dict())
+    _write_json(json_path, report)
 
 
 @app.command()
