@@ -210,3 +210,45 @@ def test_a_case_without_posterior_keeps_its_fingerprint(case_path: Path) -> None
     data.pop("posterior")
     case = parse_case(data)
     assert "posterior" not in case.to_dict()
+
+
+def test_laplace_at_the_best_fit_agrees_with_the_samples(result: PosteriorResult) -> None:
+    # Four parameters nearly linear over their posterior: the Gaussian at the best fit and
+    # TMCMC's samples must tell the same story (measured: sd ratios 0.98–1.14).
+    laplace, sampled = result.summary.laplace, result.record
+    assert laplace is not None and laplace.note is None and not laplace.undetermined
+    for name, m in sampled.params.items():
+        g = laplace.params[name]
+        assert 0.7 < g.sd / m.sd < 1.4, (name, g.sd, m.sd)
+        assert abs(g.q50 - m.q50) < 0.5 * m.sd, (name, g.q50, m.q50)
+
+
+def test_validate_with_the_posterior_gives_bands_and_coverage(result: PosteriorResult,
+                                                              case_path: Path,
+                                                              tmp_path: Path) -> None:
+    from femupdate.errors import FemupdateError
+    from femupdate.sampling.validate import validate_posterior
+
+    out = case_path.parent / "out"
+    bands = validate_posterior(load_case(case_path), out, samples=15)
+    assert [b.trial for b in bands] == ["two-storey"] and bands[0].samples == 15
+    assert bands[0].q05.shape == bands[0].measured.shape
+    assert np.all((bands[0].coverage > 0.0) & (bands[0].coverage <= 1.0))
+    with pytest.raises(FemupdateError, match="no posterior samples"):
+        validate_posterior(load_case(case_path), tmp_path)
+
+
+def test_the_command_says_when_it_did_not_reach_the_posterior(case_path: Path,
+                                                              tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    folder = tmp_path / "cli"
+    folder.mkdir()
+    (folder / "data").symlink_to(case_path.parent / "data")
+    path = write_case(folder, max_evals=300)
+    got = CliRunner().invoke(app, ["posterior", str(path), "--out", str(folder / "out"),
+                                   "--quiet"], terminal_width=100)
+    assert got.exit_code == 0, got.output
+    assert "NOT A POSTERIOR: the sampler stopped at tempering exponent β =" in got.output

@@ -41,9 +41,9 @@ def validate_posterior(case: Case, results_dir: Path, *, samples: int = DEFAULT_
     """The 5–95 % predictive bands of the posterior in ``results_dir`` on every trial of
     ``case`` (fitted or not), at ``samples`` of its samples, with the noise levels of the
     fit (its summary's channel errors); the noise draws from ``seed``."""
-    summary = read_summary(Path(results_dir) / SUMMARY_FILE)
     names = case.parameter_names
     subset = thinned(posterior_samples(results_dir, names), samples)
+    summary = read_summary(Path(results_dir) / SUMMARY_FILE)
     levels = noise_levels(summary)
     rng = np.random.default_rng(seed)
     out = []
