@@ -22,8 +22,11 @@ def plot_corner(samples: np.ndarray, names: Sequence[str],
                 truth: Sequence[float] | None = None) -> Figure:
     """Marginals and pairs of the posterior samples (as ``corner`` draws them), with the
     truth's lines where known and the 5/50/95 % quantiles over each marginal."""
-    import corner
     from matplotlib.figure import Figure
+
+    from femupdate._optional import require
+
+    corner = require("corner", "posterior")
 
     n = min(len(names), MAX_CORNER)
     size = min(14.0, max(4.0, 1.6 * n))
