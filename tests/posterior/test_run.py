@@ -205,6 +205,14 @@ def test_bad_posterior_settings_are_one_line_errors(case_path: Path, posterior: 
         parse_case(data)
 
 
+def test_too_few_samples_given_on_the_command_line_are_refused(case_path: Path,
+                                                               tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"samples: got 25 for 4 parameters \(allowed: at "
+                                          r"least 40"):
+        run_posterior(load_case(case_path), tmp_path / "few", samples=25)
+    assert not (tmp_path / "few").exists()  # refused before anything is written
+
+
 def test_a_case_without_posterior_keeps_its_fingerprint(case_path: Path) -> None:
     data = load_case(case_path).to_dict()
     data.pop("posterior")

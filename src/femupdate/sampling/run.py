@@ -26,7 +26,11 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case
-from femupdate.case.posterior_section import DEFAULT_POSTERIOR, PosteriorSection
+from femupdate.case.posterior_section import (
+    DEFAULT_POSTERIOR,
+    SAMPLES_PER_PARAMETER,
+    PosteriorSection,
+)
 from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.posterior.best_fit import case_priors, centred
@@ -146,6 +150,11 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     settings = posterior_settings(case)
     seed = settings.seed if seed is None else seed
     population = settings.samples if samples is None else samples
+    need = SAMPLES_PER_PARAMETER * len(case.parameters)
+    if population < need:
+        raise ConfigError(f"{case.label}: samples: got {population} for "
+                          f"{len(case.parameters)} parameters (allowed: at least {need}, "
+                          f"{SAMPLES_PER_PARAMETER} per parameter)")
     experiments = list(experiments or load_experiments(case))
     check_records(experiments, case)
     execution = execution or Execution(label=case.label)
@@ -175,7 +184,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                               data=file_hashes(data_files(case))),
         execution=dataclasses.replace(execution, workers=workers), residuals=True)[0]
     wall = time.perf_counter() - start
-    record, physical = posterior_record(problem, prior, outcome, settings, seed, wall)
+    record, physical = posterior_record(problem, prior, outcome, settings, seed, wall,
+                                        population)
     if why is not None:
         record.message += f"; started from the prior: no Laplace approximation ({why})"
     bands: list[Bands] = []
@@ -201,8 +211,8 @@ def thinned(samples: np.ndarray, count: int) -> np.ndarray:
 
 
 def posterior_record(problem: UpdateProblem, prior: Prior, outcome: RunOutcome,
-                     settings: PosteriorSection, seed: int | None, wall_s: float
-                     ) -> tuple[PosteriorRecord, np.ndarray]:
+                     settings: PosteriorSection, seed: int | None, wall_s: float,
+                     population: int) -> tuple[PosteriorRecord, np.ndarray]:
     """The summary's record of a TMCMC run and its samples in physical units (none when
     β = 1 was not reached: it never reports a posterior it did not reach)."""
     extras: dict[str, Any] = outcome.extras or {}
@@ -211,7 +221,7 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcome: RunOutcome,
                           ess=s["weights_ess"]) for s in extras.get("stages", [])]
     reached = bool(extras.get("reached"))
     common = dict(method=METHOD, error_model=settings.error_model,
-                  samples=settings.samples if not reached else len(extras["samples_unit"]),
+                  samples=population if not reached else len(extras["samples_unit"]),
                   seed=seed, nfev=outcome.nfev, wall_s=wall_s, stages=stages, names=names,
                   failed_evaluations=int(extras.get("failures", outcome.nfail)),
                   failure=outcome.failure)
