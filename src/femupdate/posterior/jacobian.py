@@ -18,14 +18,14 @@ import numpy as np
 from femupdate.errors import FemupdateError
 from femupdate.optimize.trust import second_order_columns, second_order_stencils
 
-#: Difference step in the unit cube: 1 % of each range, the step of multistart-lm's coarse
-#: stage, for the same reason. φ has ripples finer than that along weakly seen directions (on
-#: the viscous bridge, minima about 1e-3 apart along the kp1 valley, where a stiff abutment
-#: mode's phase turns over the record): a local step (1e-4) measures the curvature of one
-#: ripple and gave kp1 a ±9 % interval that missed the truth by 70 %; this step sees the
-#: valley (kp1 not determined) and left the well-determined parameters' intervals within a
-#: factor 2 of the local ones.
+#: Difference step in the unit cube over 1 % of each range, the step of multistart-lm's coarse
+#: stage, for the same reason: φ has ripples finer than that along weakly seen directions
+#: (see :func:`femupdate.posterior.best_fit.two_scale_record`), which it sees through.
 UNIT_STEP = 1e-2
+#: The local step: the compiled residuals are smooth to rounding (about 1e-13 of their size),
+#: so a central difference's error (h² of the third derivative, plus rounding over h) is small
+#: at 1e-4, far inside the bounds.
+LOCAL_STEP = 1e-4
 
 
 def residual_jacobian(residuals_batch: Callable[[np.ndarray], np.ndarray],
