@@ -5,30 +5,14 @@ log-evidence against the closed form."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from linear_gaussian import SIGMA, Residuals, linear_gaussian
 
+from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
 from femupdate.posterior.laplace import jacobian_unit, laplace
 from femupdate.posterior.tmcmc import run_tmcmc
 
 CASE = linear_gaussian()
-
-
-def _exact_log_evidence() -> float:
-    """log ∫ prior·L: Gaussian in θ (the bounds' truncation is negligible)."""
-    y = CASE.data
-    prior_mean, prior_sd = CASE.prior.params[0]["mean"], CASE.prior.params[0]["sd"]
-    precision = np.linalg.inv(CASE.cov)
-    rhs = precision @ CASE.mean
-    constant = (-0.5 * y @ y / SIGMA ** 2 - 0.5 * y.size * math.log(2 * math.pi * SIGMA ** 2)
-                - 0.5 * prior_mean ** 2 / prior_sd ** 2 - 0.5 * math.log(2 * math.pi
-                                                                         * prior_sd ** 2)
-                - math.log(CASE.prior.span[1]) - math.log(CASE.prior.span[2]))
-    return float(constant + 0.5 * rhs @ CASE.mean + 1.5 * math.log(2 * math.pi)
-                 - 0.5 * np.linalg.slogdet(precision)[1])
 
 
 def _laplace():
@@ -63,6 +47,6 @@ def test_tmcmc_meets_the_analytic_check(start: str) -> None:
     x = CASE.prior.to_search(post.samples)
     _check(x.mean(axis=0), np.cov(x.T))
     # log-evidence: within 0.15 (the prior start's stages add their noise) of the closed form
-    assert post.log_evidence == pytest.approx(_exact_log_evidence(), abs=0.15)
+    assert post.log_evidence == pytest.approx(exact_log_evidence(CASE), abs=0.15)
     assert post.stages[-1]["beta"] == 1.0
     assert (len(post.stages) == 1) == (start == "laplace")  # a good reference: one stage

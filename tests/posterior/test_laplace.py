@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from linear_gaussian import linear_gaussian
 
 from femupdate.errors import DataError
+from femupdate.posterior.analytic import linear_gaussian
 from femupdate.posterior.laplace import jacobian_unit, laplace, summarize_gaussian
 from femupdate.posterior.priors import Prior
 

@@ -163,7 +163,9 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
     model = problem_error_model(problem, r)
     assert model.kind == "neff" and model.size == r.size
     assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
-    with pytest.raises(ConfigError, match="allowed: neff, iid, ar1, known"):
+    tau = problem_error_model(problem, r, "tau")
+    assert np.all(tau.counts < (tau.stops - tau.starts))
+    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, known"):
         error_model([slice(0, 5)], "gaussian")
     with pytest.raises(ConfigError, match="needs the residuals"):
         error_model([slice(0, 5)], "neff")

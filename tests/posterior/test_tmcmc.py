@@ -8,10 +8,10 @@ import pickle
 
 import numpy as np
 import pytest
-from linear_gaussian import Residuals, linear_gaussian
 
 from femupdate.errors import ConfigError
 from femupdate.optimize.minimize import MinimizeState
+from femupdate.posterior.analytic import Residuals, linear_gaussian
 from femupdate.posterior.tmcmc import (
     TMCMC,
     ess_of_population,

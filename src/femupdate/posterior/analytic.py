@@ -1,8 +1,11 @@
-"""A model linear in its parameters with Gaussian noise of known variance: its posterior is
-Gaussian in closed form (with a Gaussian prior whose bounds are too far to matter)."""
+"""The analytic check of the posterior: a model linear in its parameters with Gaussian noise of
+known variance, whose posterior is Gaussian in closed form (a Gaussian prior on one parameter,
+uniform on the others, with bounds too far to matter), and its log-evidence. Used by the tests
+and ``benchmarks/posterior.py``."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +47,20 @@ def linear_gaussian(seed: int = 0, m: int = 60) -> LinearGaussian:
     rhs[0] += prior_mean / prior_sd ** 2
     model = error_model([slice(0, m)], "known", sigma=SIGMA)
     return LinearGaussian(design, data, prior, model, cov @ rhs, cov)
+
+
+def exact_log_evidence(case: LinearGaussian) -> float:
+    """log ∫ prior·L dθ of the case in closed form (the bounds' truncation neglected)."""
+    y = case.data
+    prior_mean, prior_sd = case.prior.params[0]["mean"], case.prior.params[0]["sd"]
+    precision = np.linalg.inv(case.cov)
+    rhs = precision @ case.mean
+    constant = (-0.5 * y @ y / SIGMA ** 2 - 0.5 * y.size * math.log(2 * math.pi * SIGMA ** 2)
+                - 0.5 * prior_mean ** 2 / prior_sd ** 2
+                - 0.5 * math.log(2 * math.pi * prior_sd ** 2)
+                - math.log(case.prior.span[1]) - math.log(case.prior.span[2]))
+    return float(constant + 0.5 * rhs @ case.mean + 1.5 * math.log(2 * math.pi)
+                 - 0.5 * np.linalg.slogdet(precision)[1])
 
 
 class Residuals:

@@ -17,8 +17,12 @@ values than samples), so taking N_c as the block length (kind ``"iid"``) makes c
 intervals far too narrow. Kind ``"neff"`` (the default) takes the effective count of an AR(1)
 process with the residuals' lag-1 autocorrelation ρ_c, N_c = N·(1 − ρ_c)/(1 + ρ_c), measured
 once at the best fit and then held fixed, so the likelihood is one fixed function of the
-parameters. Kind ``"ar1"`` models the errors as an AR(1) process of that fixed ρ_c instead
-(the conditional likelihood of the innovations r_t − ρ r_{t−1}). Kind ``"known"``: Gaussian
+parameters. Kind ``"tau"`` takes N_c = N/τ_c with τ_c the residuals' integrated
+autocorrelation time (Geyer's initial monotone sequence, as ArviZ's effective sample size
+computes it), which, unlike the AR(1) count, credits the oscillating (band-limited) residual
+of a structure's response with the many cycles it holds. Kind ``"ar1"`` models the errors as
+an AR(1) process of that fixed ρ_c instead (the conditional likelihood of the innovations
+r_t − ρ r_{t−1}). Kind ``"known"``: Gaussian
 errors of a given standard deviation per block (analytic checks).
 
 Every function takes residual rows (k, m), so that a population is one call; a row with a
@@ -37,7 +41,7 @@ from scipy.special import gammaln
 from femupdate.errors import ConfigError, DataError
 
 #: The kinds of error model, the default first.
-KINDS: tuple[str, ...] = ("neff", "iid", "ar1", "known")
+KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "known")
 DEFAULT_KIND = "neff"
 
 
@@ -68,6 +72,16 @@ def lag1_autocorrelation(r: np.ndarray) -> float:
     if r.size < 2 or energy == 0.0:
         return 0.0
     return float(r[1:] @ r[:-1]) / energy
+
+
+def autocorrelation_count(r: np.ndarray) -> float:
+    """N/τ of a residual block: its effective sample size by ArviZ (``method="mean"``:
+    Geyer's initial monotone sequence on the autocorrelation), at most N."""
+    from femupdate._optional import require
+
+    arviz = require("arviz", "posterior")
+    r = np.asarray(r, dtype=float)
+    return float(min(arviz.ess(r[None, :], method="mean"), r.size))
 
 
 def effective_count(n: int, rho: float) -> float:
@@ -196,7 +210,7 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     kind : {"neff", "iid", "ar1", "known"}
         See the module docstring.
     best_residuals : ndarray (m,), optional
-        r at the best fit: needed by ``"neff"`` and ``"ar1"`` (ρ_c is measured on it, once).
+        r at the best fit: needed by ``"neff"``, ``"tau"`` and ``"ar1"`` (measured on it, once).
     dof_removed : sequence of int, optional
         Degrees of freedom each block lost to fitted constants (subtracted from N_c).
     sigma : float or ndarray (c,), optional
@@ -216,7 +230,7 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     removed = np.zeros(len(blocks)) if dof_removed is None else np.asarray(dof_removed, float)
     rho = np.zeros(len(blocks))
     sig = None
-    if kind in ("neff", "ar1"):
+    if kind in ("neff", "tau", "ar1"):
         if best_residuals is None:
             raise ConfigError(f"error model {kind!r} needs the residuals at the best fit "
                               "(best_residuals)")
@@ -232,6 +246,9 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     if kind == "neff":
         counts = np.array([effective_count(int(n - k), p)
                            for n, k, p in zip(lengths, removed, rho, strict=True)])
+    elif kind == "tau":
+        counts = np.array([autocorrelation_count(r[a:b]) * (1.0 - k / (b - a))
+                           for a, b, k in zip(starts, stops, removed, strict=True)])
     elif kind == "ar1":
         counts = (lengths - 1 - removed).astype(float)
     else:
