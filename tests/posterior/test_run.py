@@ -147,6 +147,13 @@ def test_dask_gives_the_same_samples(result: PosteriorResult, case_path: Path,
     assert remote.samples.tobytes() == result.samples.tobytes()
 
 
+def test_two_workers_give_the_same_samples(result: PosteriorResult, case_path: Path,
+                                           tmp_path: Path) -> None:
+    # One run and two workers: each stage's population is spread over them.
+    got = run_posterior(load_case(case_path), tmp_path / "two", workers=2)
+    assert got.samples.tobytes() == result.samples.tobytes()
+
+
 def test_a_failed_evaluation_in_a_stage_is_recorded_not_fatal(
         case_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     fast = SampledProblem.residuals_batch
