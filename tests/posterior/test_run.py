@@ -220,6 +220,17 @@ def test_too_few_samples_given_on_the_command_line_are_refused(case_path: Path,
     assert not (tmp_path / "few").exists()  # refused before anything is written
 
 
+def test_the_case_file_offers_the_error_models_of_the_likelihood() -> None:
+    import typing
+
+    from femupdate.case.posterior_section import DEFAULT_POSTERIOR, PosteriorSection
+    from femupdate.posterior.likelihood import DEFAULT_KIND, KINDS
+
+    offered = typing.get_args(PosteriorSection.model_fields["error_model"].annotation)
+    assert set(offered) == set(KINDS) - {"known"}
+    assert DEFAULT_POSTERIOR.error_model == DEFAULT_KIND
+
+
 def test_a_case_without_posterior_keeps_its_fingerprint(case_path: Path) -> None:
     data = load_case(case_path).to_dict()
     data.pop("posterior")
