@@ -160,10 +160,10 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     execution = execution or Execution(label=case.label)
     out_dir.mkdir(parents=True, exist_ok=True)
     sampler_dir = out_dir / POSTERIOR_DIR
-    if restart:
+    if restart and sampler_dir.is_dir():
         from femupdate.workflow import start_over
 
-        start_over(sampler_dir) if sampler_dir.is_dir() else None
+        start_over(sampler_dir)
     reuse = not restart and (out_dir / FILENAME).is_file()
     search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
                       execution=execution, keep_history=False, experiments=experiments)
@@ -189,6 +189,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     if why is not None:
         record.message += f"; started from the prior: no Laplace approximation ({why})"
     bands: list[Bands] = []
+    (out_dir / POSTERIOR_FILE).unlink(missing_ok=True)  # never an earlier run's samples
     if physical.shape[0]:
         subset = thinned(physical, settings.modes_samples)
         freqs, zetas = sample_modes(problem, subset)
