@@ -54,6 +54,9 @@ def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
         m = record.params[name]
         assert m.q05 < m.q50 < m.q95 and abs(m.mean - value) < 4.0 * m.sd, (name, m, value)
     assert set(record.frequencies_hz) == {"f1", "f2"} and record.modes_from == 20
+    joint = np.array(record.joint_correlations, dtype=float)
+    assert record.joint_names == ["k1", "k2", "c1", "c2", "f1", "f2", "zeta1", "zeta2"]
+    assert joint.shape == (8, 8) and np.allclose(np.diag(joint), 1.0)
     assert [s.beta for s in record.stages][-1] == 1.0
     summary = read_summary(case_path.parent / "out" / "summary.json")
     assert summary.posterior == record and summary.laplace is not None
@@ -66,7 +69,8 @@ def test_the_report_renders_the_posterior(result: PosteriorResult, case_path: Pa
 
     html = render_report(case_path.parent / "out")
     for ident in ('id="laplace"', 'id="posterior"', 'id="stages"', 'id="figure-corner"',
-                  'id="figure-frequency-posteriors"', 'id="coverage"', 'id="figure-bands-0"'):
+                  'id="figure-frequency-posteriors"', 'id="coverage"', 'id="figure-bands-0"',
+                  'id="figure-posterior-correlation"'):
         assert ident in html, ident
 
 

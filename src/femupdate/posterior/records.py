@@ -61,6 +61,11 @@ class StageRecord(_Record):
 class PosteriorRecord(_Record):
     """The sampled posterior (``summary.json posterior``).
 
+    ``correlations``: of the parameters over every sample (search space: log10 on a log
+    scale), in ``names`` order; ``joint_correlations``: of the parameters, natural frequencies
+    and damping ratios over the ``modes_from`` samples whose modes were computed, in
+    ``joint_names`` order.
+
     ``reached`` is False when the sampler ran out of budget before the tempering exponent
     reached 1: then the marginals are those of the last tempered stage, said in ``message``,
     and no evidence is reported.
@@ -83,6 +88,8 @@ class PosteriorRecord(_Record):
     frequencies_hz: dict[str, Marginal] = Field(default_factory=dict)
     damping_ratios: dict[str, Marginal] = Field(default_factory=dict)
     modes_from: int = 0
+    joint_names: list[str] = Field(default_factory=list)
+    joint_correlations: list[list[float | None]] = Field(default_factory=list)
     undetermined: list[str] = Field(default_factory=list)
     sentences: list[str] = Field(default_factory=list)
     failed_evaluations: int = 0

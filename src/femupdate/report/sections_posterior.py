@@ -59,6 +59,7 @@ def _read_npz(path: Path) -> dict[str, np.ndarray] | str:
 
 def section_posterior(ctx: Context, page: Page) -> str:
     """The sampled posterior, when the summary has one."""
+    from femupdate.report.plots import plot_correlation
     from femupdate.report.posterior_plots import plot_corner, plot_frequency_posteriors
 
     record: PosteriorRecord | None = ctx.res.summary.posterior
@@ -92,6 +93,11 @@ def section_posterior(ctx: Context, page: Page) -> str:
     out.append(table(["stage", "β", "acceptance", "ESS"], stages, table_id="stages",
                      caption="TMCMC stages: tempering exponent, acceptance rate of the moves, "
                              "effective sample size of the weights"))
+    if record.joint_correlations:
+        out.append(page.figure(plot_correlation(np.array(record.joint_correlations, dtype=float),
+                                                record.joint_names), "posterior-correlation",
+                               "posterior correlations of the parameters, natural frequencies "
+                               "and damping ratios"))
     data = _read_npz(ctx.res.directory / POSTERIOR_FILE)
     if isinstance(data, str):
         out.append(page.absent("posterior figures", data))

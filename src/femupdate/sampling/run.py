@@ -194,6 +194,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         subset = thinned(physical, settings.modes_samples)
         freqs, zetas = sample_modes(problem, subset)
         _modes_into(record, freqs, zetas, subset.shape[0])
+        record.joint_names, record.joint_correlations = joint_correlations(
+            list(problem.names), prior.physical_to_search(subset), freqs, zetas)
         rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         bands = predictive_bands(problem, subset, search.summary, rng)
         save_bands(out_dir / POSTERIOR_FILE, list(problem.names), physical, freqs, bands)
@@ -251,6 +253,22 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcome: RunOutcome,
 
 def _finite(value: Any) -> float:
     return float(value) if value is not None and math.isfinite(float(value)) else 0.0
+
+
+def joint_correlations(names: list[str], search: np.ndarray, freqs: np.ndarray,
+                       zetas: np.ndarray) -> tuple[list[str], list[list[float | None]]]:
+    """Correlations of the parameters (search space: log10 on a log scale) with the natural
+    frequencies and damping ratios and among them, over the samples whose modes were
+    computed (rows with a NaN left out)."""
+    labels = [*names, *(f"f{i + 1}" for i in range(freqs.shape[1])),
+              *(f"zeta{i + 1}" for i in range(zetas.shape[1]))]
+    table = np.column_stack([search, freqs, zetas])
+    table = table[np.all(np.isfinite(table), axis=1)]
+    if table.shape[0] < 3:
+        return labels, []
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.atleast_2d(np.corrcoef(table, rowvar=False))
+    return labels, correlation_rows(corr)
 
 
 def _modes_into(record: PosteriorRecord, freqs: np.ndarray, zetas: np.ndarray,
