@@ -1,10 +1,12 @@
-"""``femupdate posterior`` on the viscous bridge with 2 % noise: what it says of each parameter,
-beside the Laplace approximation at the best fit, with its evaluations and wall time.
+"""``femupdate posterior`` on the bridge with 2 % noise (viscous, or friction with --model):
+what it says of each parameter, beside the Laplace approximation at the best fit, with its
+evaluations and wall time.
 
-    python benchmarks/bridge_posterior.py [--samples 2000] [--seed 1] [--out DIR]
+    python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples 2000]
+        [--seed 1] [--out DIR]
 
-The virtual experiment of ``femupdate bench bridge --model viscous`` (seed 0, 2 % noise), the
-case of ``examples/bridge/viscous-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
+The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
+case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
 evaluations each, no target: the records are noisy), then TMCMC. Prints the sampler's
 evaluations, wall time, effective sample size, stages and log-evidence, the sentences of the
 posterior and of the Laplace approximation, the truth's place in each 90 % interval, the
@@ -28,17 +30,18 @@ from femupdate.sampling.run import run_posterior
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--model", choices=("viscous", "friction"), default="viscous")
     parser.add_argument("--samples", type=int, default=2000)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
     out = args.out or Path(tempfile.mkdtemp(prefix="femupdate-bridge-posterior-"))
     data = (out / "data").resolve()
-    spec = bridge_case("viscous", "narrow", directory=str(data))
+    spec = bridge_case(args.model, "narrow", directory=str(data))
     spec["search"].update(runs=2, f_target=None, max_evals=3000, seed=1)
     spec["posterior"] = {"samples": args.samples, "seed": args.seed, "modes_samples": 100}
-    case = parse_case(spec, source=out / "viscous-narrow.toml")
-    truth_values = truth("viscous")
+    case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
+    truth_values = truth(args.model)
     ensure_records(case, truth_values, data, seed=0, snr=0.02)
     start = time.perf_counter()
     result = run_posterior(case, out / "results", restart=True,
