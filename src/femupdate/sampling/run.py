@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -175,7 +174,6 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     reference = (None if gaussian is None or settings.start == "prior"
                  else (gaussian.mean_unit, gaussian.cov_unit))
     options = sampler_options(model, prior, specs, population, reference)
-    start = time.perf_counter()
     workers = case.search.workers if workers is None else workers
     outcome = run_all(
         problem.residuals, problem.bounds, METHOD, runs=1, seed=seed,
@@ -183,9 +181,9 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
                               data=file_hashes(data_files(case))),
         execution=dataclasses.replace(execution, workers=workers), residuals=True)[0]
-    wall = time.perf_counter() - start
-    record, physical = posterior_record(problem, prior, outcome, settings, seed, wall,
-                                        population)
+    # The run's own time over every session (a resumed run counts its earlier ones).
+    record, physical = posterior_record(problem, prior, outcome, settings, seed,
+                                        outcome.wall_s, population)
     if why is not None:
         record.message += f"; started from the prior: no Laplace approximation ({why})"
     bands: list[Bands] = []
