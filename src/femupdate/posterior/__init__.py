@@ -8,7 +8,14 @@
 - :mod:`~femupdate.posterior.tmcmc`: transitional MCMC on the ask/tell loop (:class:`TMCMC`).
 """
 
-from femupdate.posterior.laplace import LaplaceResult, jacobian_unit, laplace
+from femupdate.posterior.laplace import (
+    LaplaceResult,
+    interval_spread,
+    jacobian_unit,
+    laplace,
+    sentences,
+    summarize_gaussian,
+)
 from femupdate.posterior.likelihood import (
     DEFAULT_KIND,
     KINDS,
@@ -18,16 +25,24 @@ from femupdate.posterior.likelihood import (
     residual_blocks,
 )
 from femupdate.posterior.priors import Prior
+from femupdate.posterior.tmcmc import TMCMC, TMCMCPosterior, make_tmcmc, run_tmcmc
 
 __all__ = [
     "DEFAULT_KIND",
     "KINDS",
+    "TMCMC",
     "ErrorModel",
     "LaplaceResult",
     "Prior",
+    "TMCMCPosterior",
     "error_model",
+    "interval_spread",
     "jacobian_unit",
     "laplace",
+    "make_tmcmc",
     "problem_error_model",
     "residual_blocks",
+    "run_tmcmc",
+    "sentences",
+    "summarize_gaussian",
 ]
