@@ -122,3 +122,16 @@ def test_bad_options(options: dict, match: str) -> None:
     with pytest.raises(ConfigError, match=match):
         make_tmcmc(3, np.random.default_rng(0), error_model=CASE.model, prior=CASE.prior,
                    **options)
+
+
+def test_a_last_step_with_every_proposal_outside_ends_the_run() -> None:
+    state, sampler = _state(4, steps=1)
+    fun = Residuals(CASE).residuals
+    while sampler.beta < 1.0:
+        state.step(fun)
+    # the final stage's only step: every proposal outside the cube
+    sampler._move = (sampler._move[0], sampler._move[1] * 1e6)
+    while not state.done:
+        state.step(fun)
+    post = sampler.posterior()
+    assert post.reached and post.stages[-1]["acceptance"] < 0.01

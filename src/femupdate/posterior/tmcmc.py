@@ -310,12 +310,16 @@ class TMCMC:
             return x
         if self.phase != "mcmc":
             raise FemupdateError(f"TMCMC: ask() after the run ended ({self.phase})")
-        while True:  # until some proposal falls inside the cube (else: all rejected)
+        while self.phase == "mcmc":  # until a proposal falls inside the cube
             x, chains, log_g_new, log_g_old = self._propose()
             if x.shape[0]:
                 self._pending = (x, chains, log_g_new, log_g_old)
                 return x
-            self._end_step(0)
+            self._end_step(0)  # every proposal outside: all rejected, a step without cost
+        # that step ended the run: ask one point whose value is not used (the loop needs
+        # candidates; its stop() fires after this tell)
+        self._pending = (self.x[:1].copy(), np.empty(0, dtype=int), np.empty(0), np.empty(0))
+        return self._pending[0]
 
     def _propose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         mean, chol = self._move
@@ -350,6 +354,8 @@ class TMCMC:
         self.failures += failed
         self._stage_evaluations += ll.size
         self._stage_failures += failed
+        if self.phase not in ("init", "mcmc"):
+            return  # the point asked after the run ended
         if self.phase == "init":
             self.x = x
             self.ll = ll
