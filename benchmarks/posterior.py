@@ -145,7 +145,9 @@ def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: st
 # -------------------------------------------------------------------------------- calibration
 
 
-def calibration(replicates: int, root: Path) -> dict[str, Any]:
+def calibration(replicates: int, root: Path, first: int = 0) -> dict[str, Any]:
+    """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
+    processes: replicate i is the same wherever it runs)."""
     children = np.random.SeedSequence(SEED).spawn(replicates)
     hits: dict[str, list[np.ndarray]] = {k: [] for k in KINDS}
     names: tuple[str, ...] = ()
@@ -154,6 +156,8 @@ def calibration(replicates: int, root: Path) -> dict[str, Any]:
           f"the prior, fresh noise), Laplace 90 % intervals at the best fit of a local "
           f"least-squares search started at the truth")
     for i, child in enumerate(children):
+        if i < first:
+            continue
         rng = np.random.default_rng(child)
         case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
                           source=root / "viscous.toml")
@@ -178,7 +182,8 @@ def calibration(replicates: int, root: Path) -> dict[str, Any]:
         share = np.mean(hits[kind], axis=0)
         print(f"{kind:6s} " + " ".join(f"{s:6.2f}" for s in share))
         out[kind] = dict(zip(names, share.tolist(), strict=True))
-    print(f"({replicates} replicates in {time.perf_counter() - start:.0f} s; {load()})")
+    print(f"(replicates {first}–{replicates - 1} in {time.perf_counter() - start:.0f} s; "
+          f"{load()})")
     return out
 
 
@@ -321,6 +326,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="CI: analytic + a small run")
     parser.add_argument("--only", default="analytic,calibration,speed,friction,evidence")
     parser.add_argument("--replicates", type=int, default=50)
+    parser.add_argument("--first-replicate", type=int, default=0,
+                        help="calibration: start at this replicate (split a run over processes)")
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--population", type=int, default=3000)
     parser.add_argument("--steps", type=int, default=2)
@@ -337,7 +344,7 @@ def main() -> None:
         if "analytic" in sections:
             out["analytic"] = analytic(4000)
         if "calibration" in sections:
-            out["calibration"] = calibration(args.replicates, root)
+            out["calibration"] = calibration(args.replicates, root, args.first_replicate)
         if "speed" in sections:
             out["speed"] = speed(args.population, args.steps, root, emcee_max=400_000)
         if "friction" in sections:
