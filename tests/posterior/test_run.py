@@ -70,7 +70,7 @@ def test_the_report_renders_the_posterior(result: PosteriorResult, case_path: Pa
     html = render_report(case_path.parent / "out")
     for ident in ('id="laplace"', 'id="posterior"', 'id="stages"', 'id="figure-corner"',
                   'id="figure-frequency-posteriors"', 'id="coverage"', 'id="figure-bands-0"',
-                  'id="figure-posterior-correlation"', 'id="figure-laplace-correlation"'):
+                  'id="figure-posterior-correlation"'):
         assert ident in html, ident
 
 

@@ -33,8 +33,8 @@ def _sentences(sentences: list[str], undetermined: list[str], ident: str) -> str
     return warn(" ".join(s + "." for s in said), ident)
 
 
-def section_laplace(record: LaplaceRecord | None, page: Page) -> str:
-    """The Gaussian approximation at the best fit: sd, 90 % intervals, words, correlations."""
+def section_laplace(record: LaplaceRecord | None) -> str:
+    """The Gaussian approximation at the best fit: sd, 90 % intervals, words."""
     if record is None:
         return note("No Laplace approximation in this summary (written by an older femupdate).")
     if record.note:
@@ -47,20 +47,7 @@ def section_laplace(record: LaplaceRecord | None, page: Page) -> str:
                       f"{record.error_model!r}; lognormal on a log scale; quantiles clipped "
                       f"to the bounds; {record.nfev} evaluations)"),
         _sentences(record.sentences, record.undetermined, "laplace-undetermined"),
-        _laplace_correlations(record, page),
     ])
-
-
-def _laplace_correlations(record: LaplaceRecord, page: Page) -> str:
-    from femupdate.report.plots import plot_correlation
-
-    corr = np.array([[np.nan if v is None else v for v in row] for row in record.correlations],
-                    dtype=float)
-    if len(record.names) < 2 or corr.shape != (len(record.names),) * 2:
-        return ""
-    return page.figure(plot_correlation(corr, record.names), "laplace-correlation",
-                       "correlations of the parameters at the best fit (Laplace; search space: "
-                       "log10 on a log scale)")
 
 
 def _read_npz(path: Path) -> dict[str, np.ndarray] | str:
@@ -162,5 +149,5 @@ def section_bands(data: dict[str, np.ndarray], page: Page) -> str:
 def section_uncertainty(ctx: Context, page: Page) -> str:
     """How far to trust the parameters: Laplace at the best fit, then the sampled posterior."""
     return "\n".join([
-        "<h3>At the best fit (Laplace)</h3>", section_laplace(ctx.res.summary.laplace, page),
+        "<h3>At the best fit (Laplace)</h3>", section_laplace(ctx.res.summary.laplace),
         '<h3 id="sampled">Sampled posterior</h3>', section_posterior(ctx, page)])
