@@ -217,8 +217,11 @@ def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
         return out
 
     cov = lap.cov_unit
-    start = rng.multivariate_normal(np.clip(lap.mean_unit, 0, 1), cov, size=4 * walkers)
-    start = start[np.all((start > 0) & (start < 1), axis=1)][:walkers]
+    start = np.empty((0, prior.dim))
+    while start.shape[0] < walkers:  # the Laplace Gaussian truncated to the cube
+        draws = rng.multivariate_normal(np.clip(lap.mean_unit, 0, 1), cov, size=10 * walkers)
+        start = np.vstack([start, draws[np.all((draws > 0) & (draws < 1), axis=1)]])
+    start = start[:walkers]
     sampler = emcee.EnsembleSampler(walkers, prior.dim, log_posterior, vectorize=True)
     sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 31))).get_state()
     t0 = time.perf_counter()
