@@ -474,6 +474,9 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
     ))
     freqs = ", ".join(f"{f:.3f}" for f in summary.best.frequencies_hz)
     say(f"natural frequencies of the best model [Hz]: {freqs}", out=out)
+    from femupdate.sampling.console import print_laplace
+
+    print_laplace(summary.laplace, summary.best.params, out)
     print_trials(summary.trials, "the best model on each trial", out=out)
     say(f"successful runs ({rule}): {summary.successes}/{len(summary.runs)}; "
         f"evaluations (successful): mean {_fmt(summary.evals_mean)}, "
@@ -611,6 +614,80 @@ def run(
     _write_json(json_path, result.summary.model_dump())
 
 
+@app.command()
+def posterior(
+    case_file: CaseArgument,
+    out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
+    seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.")] = None,
+    samples: Annotated[int | None, typer.Option(
+        min=20, help="Override [posterior] samples (TMCMC's population).")] = None,
+    data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
+                                                   "instead of [data] directory.")] = None,
+    resume: Annotated[bool, typer.Option(
+        "--resume", help="Continue the sampler (and the search) stored in --out from its "
+        "last checkpoint: the samples are those of an uninterrupted run.")] = False,
+    restart: Annotated[bool, typer.Option(
+        "--restart", help="Discard the search and the sampler stored in --out and start "
+        "over.")] = False,
+    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address, e.g. "
+                                                       "tcp://host:8786 (extra 'dask').")
+                         ] = None,
+    quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
+    log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
+                                                       "run event) to this file.")] = None,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
+        "workers).")] = None,
+    json_path: JsonOption = None,
+) -> None:
+    """The posterior of the parameters by TMCMC, beside the best fit: intervals,
+    correlations, frequency posteriors, predictive bands, log-evidence.
+
+    The case's search runs first (a finished one in OUT is reused); then the sampler, with
+    its settings from [posterior], checkpointed in OUT/posterior (--resume continues it to
+    the same samples). The results go into OUT/summary.json (posterior) and
+    OUT/posterior.npz; `femupdate report OUT` draws them.
+    """
+    from femupdate.runs import Execution
+    from femupdate.sampling.console import print_posterior
+    from femupdate.sampling.run import run_posterior
+    from femupdate.workflow import with_data_directory
+
+    if resume and restart:
+        raise ConfigError("--resume and --restart exclude each other: --resume continues the "
+                          "sampler stored in --out, --restart discards it and starts over")
+    case = _load(case_file)
+    if data is not None:
+        case = with_data_directory(case, data)
+    execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
+    try:
+        result = run_posterior(case, out, seed=seed, samples=samples, workers=workers,
+                               resume=resume, restart=restart, execution=execution)
+    except KeyboardInterrupt:
+        words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
+        for flag, value in (("--seed", seed), ("--samples", samples), ("--data", data)):
+            if value is not None:
+                words += [flag, str(value)]
+        _resume_hint([*words, "--resume"])
+        raise SystemExit(130) from None
+    print_posterior(result.record, console)
+    if result.bands:
+        print_coverage(result.bands)
+    say(f"results in {out.resolve()} (femupdate report {out})")
+    _write_json(json_path, result.summary.model_dump())
+
+
+def print_coverage(bands: list[Any], title: str = "5–95 % predictive bands") -> None:
+    """The share of each trial's measured record inside its predictive band."""
+    table = Table(title=Text(f"{title}: share of the measured record inside"))
+    for col in ("trial", "role", "channels: covered"):
+        table.add_column(col, justify="right")
+    for b in bands:
+        table.add_row(Text(b.trial), b.role, Text(", ".join(
+            f"{c} {100 * v:.1f} %" for c, v in zip(b.channels, b.coverage, strict=True))))
+    console.print(table)
+
+
 def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
     """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:
@@ -746,6 +823,10 @@ def validate(
                                                    "instead of [data] directory.",
                                               callback=_input_dir("--data"))] = None,
     json_path: JsonOption = None,
+    posterior_dir: Annotated[Path | None, typer.Option(
+        "--posterior", help="Also the 5–95 % predictive bands of the posterior in this "
+        "directory (the --out of `femupdate posterior`) on every trial, and the share of "
+        "each measured record inside them.")] = None,
 ) -> None:
     """Evaluate fixed parameters on every trial of a case: NMSE per trial and channel.
 
@@ -764,19 +845,36 @@ def validate(
         say("natural frequencies of the model [Hz]: "
             + ", ".join(f"{f:.3f}" for f in result.frequencies_hz))
     print_trials(result.trials, f"{case.label}: the given parameters on each trial")
+    bands = None
+    if posterior_dir is not None:
+        from femupdate.sampling.validate import validate_posterior
+
+        bands = validate_posterior(case, posterior_dir)
+        print_coverage(bands, f"{case.label}: 5–95 % predictive bands of the posterior")
+    report = result.to_dict()
+    if bands is not None:
+        report["coverage"] = {b.trial: dict(zip(b.channels, b.coverage.tolist(), strict=True))
+                              for b in bands}
     if out is not None:
         from femupdate.report.figures import plot_fit, save_png
 
         out.mkdir(parents=True, exist_ok=True)
-        (out / "validation.json").write_text(json.dumps(result.to_dict(), indent=2) + "\n")
+        (out / "validation.json").write_text(json.dumps(report, indent=2) + "\n")
         records = {t.name: t for t in result.trials}
         for fit in result.fits:
             nmse = [100.0 * records[fit.trial].nmse_per_channel[c] for c in fit.channels]
             save_png(plot_fit(fit.t, fit.measured, fit.predicted, channels=fit.channels,
                               unit=fit.unit, nmse_percent=nmse,
                               title=f"{fit.trial} ({fit.role})"), out / f"fit-{fit.trial}.png")
+        if bands is not None:
+            from femupdate.report.posterior_plots import plot_bands
+
+            for b in bands:
+                save_png(plot_bands(b.t, b.measured, np.stack([b.q05, b.q50, b.q95]),
+                                    b.channels, b.unit, b.coverage, f"{b.trial} ({b.role})"),
+                         out / f"bands-{b.trial}.png")
         console.print(f"validation in {out.resolve()}")
-    _write_json(json_path, result.to_dict())
+    _write_json(json_path, report)
 
 
 @app.command()

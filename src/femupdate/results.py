@@ -26,10 +26,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from femupdate.case import Case, parse_case
 from femupdate.errors import FemupdateError
+from femupdate.posterior.records import LaplaceRecord, PosteriorRecord
 from femupdate.runs.store import FILENAME as STORE_FILENAME
 
 __all__ = [
     "FIT_FILE",
+    "POSTERIOR_FILE",
     "REPORT_FILE",
     "STORE_FILE",
     "SUMMARY_FILE",
@@ -52,6 +54,8 @@ SUMMARY_FILE = "summary.json"
 STORE_FILE = STORE_FILENAME
 FIT_FILE = "fit.npz"
 REPORT_FILE = "report.html"
+#: The sampled posterior's arrays (``femupdate posterior``): samples, modes, predictive bands.
+POSTERIOR_FILE = "posterior.npz"
 
 
 class _Record(BaseModel):
@@ -177,6 +181,9 @@ class Summary(_Record):
     The evaluation statistics (``successes`` … ``evals_per_success``) are those of
     :func:`femupdate.runs.stats.evaluation_stats`; ``success_rule`` says what success meant.
     ``defects``: what the checks found in the records; an open one makes every run no success.
+    ``laplace``: the Laplace approximation of the posterior at the best fit (a least-squares
+    run); ``posterior``: the sampled posterior (``femupdate posterior``); None in summaries
+    written without them.
     """
 
     case: dict[str, Any]
@@ -202,6 +209,8 @@ class Summary(_Record):
     benchmark: BridgeBenchmark | None = None
     verdict: VerdictRecord | None = None
     defects: list[DefectRecord] = Field(default_factory=list)
+    laplace: LaplaceRecord | None = None
+    posterior: PosteriorRecord | None = None
 
     @property
     def name(self) -> str:

@@ -24,6 +24,7 @@ from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.inputs import check_search_override
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
+from femupdate.posterior.best_fit import laplace_record
 from femupdate.results import (
     Best,
     DefectRecord,
@@ -95,7 +96,8 @@ def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
 def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: float,
               f_target: float | None, settings: dict[str, Any] | None = None,
               sensitivities: bool = False) -> Summary:
-    """Every run, the best, and the spread over successful runs.
+    """Every run, the best, the spread over successful runs, and the Laplace approximation of
+    the posterior at the best run (2n + 1 more evaluations).
 
     The case is saved with its data directory made absolute, so that the results can be
     traced back to their records from anywhere. ``sensitivities``: add the identifiability
@@ -163,6 +165,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         verdict=VerdictRecord(**{**dataclasses.asdict(verdict),
                                  "phi_range": list(verdict.phi_range)}),
         defects=[DefectRecord(**f.to_dict()) for f in found],
+        laplace=laplace_record(problem, best.x),
     )
 
 

@@ -46,3 +46,20 @@ def test_quiet_writes_nothing_but_the_log(tmp_path: Path) -> None:
     with RunProgress(2, quiet=True, log_json=log) as progress:
         progress.start(runs_done=1, evals=20)
     assert len(log.read_text().splitlines()) == 7
+
+
+def test_a_sampler_s_stages_are_logged_once_each(tmp_path: Path) -> None:
+    import numpy as np
+
+    log = tmp_path / "log.jsonl"
+    rows = {"stage": np.array([0.0, 1.0, 1.0, 2.0]), "beta": np.array([0.0, 0.3, 0.3, 1.0]),
+            "acceptance": np.array([np.nan, 0.2, 0.4, 0.3]),
+            "weights_ess": np.array([100.0, 50.0, 50.0, 60.0])}
+    with RunProgress(1, quiet=True, log_json=log) as progress:
+        progress.start()
+        progress.stages(0, {k: v[:2] for k, v in rows.items()})
+        progress.stages(0, {k: v[2:] for k, v in rows.items()})  # the next chunk
+        progress.stages(0, {"x": np.zeros(3)})  # a search's trace: nothing
+    events = [json.loads(line) for line in log.read_text().splitlines()]
+    stages = [(e["stage"], e["beta"], e["acceptance"]) for e in events if e["event"] == "stage"]
+    assert stages == [(0, 0.0, None), (1, 0.3, None), (2, 1.0, 0.4)]

@@ -45,6 +45,7 @@ from femupdate.case.issues import Issue, duplicates, raise_issues
 from femupdate.case.model_sections import (
     Model,
 )
+from femupdate.case.posterior_section import PosteriorSection, posterior_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.errors import ConfigError
 
@@ -342,12 +343,13 @@ class Case(Section):
     objective: ObjectiveOptions = Field(default_factory=ObjectiveOptions)
     simulation: Simulation = Field(default_factory=Simulation)
     search: Search = Field(default_factory=Search)
+    posterior: PosteriorSection | None = None
 
     _source: Path | None = PrivateAttr(default=None)
 
     @model_validator(mode="after")
     def _check(self) -> Case:
-        raise_issues(case_issues(self))
+        raise_issues(case_issues(self) + posterior_issues(self))
         return self
 
     # -- where it came from
@@ -452,8 +454,14 @@ class Case(Section):
     # -- saving
 
     def to_dict(self) -> dict[str, Any]:
-        """The whole case, defaults included, as JSON-ready data (saved with every result)."""
-        return self.model_dump(mode="json")
+        """The whole case, defaults included, as JSON-ready data (saved with every result).
+
+        Without ``[posterior]`` nothing is saved for it: the fingerprints of cases written
+        before it existed stay the same."""
+        data = self.model_dump(mode="json")
+        if data.get("posterior") is None:
+            data.pop("posterior", None)
+        return data
 
     def fingerprint(self) -> str:
         """SHA-256 of the canonical JSON of ``to_dict()``: equal for equal cases."""

@@ -345,6 +345,9 @@ class MinimizeState:
             failure=self.first_failure,
             history=self.history(),
             **({} if self.best_r is None else {"residuals": self.best_r.copy()}),
+            # What a sampler hands back besides a best point (TMCMC: its final samples).
+            **({} if not hasattr(self.optimizer, "extras") else
+               {"extras": self.optimizer.extras()}),
         )
 
 

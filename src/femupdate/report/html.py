@@ -29,6 +29,7 @@ from femupdate.report.sections_model import (
     section_validation,
     validation_trials,
 )
+from femupdate.report.sections_posterior import section_uncertainty
 from femupdate.report.sections_runs import (
     section_case,
     section_convergence,
@@ -108,6 +109,7 @@ def _render(res: Results) -> str:
         ("identifiability", "7. Identifiability", section_identifiability(ctx, page)),
         ("validation", "8. Validation",
          section_validation(validation_trials(res.summary), page)),
+        ("uncertainty", "9. Uncertainty", section_uncertainty(ctx, page)),
     ]
     defects = section_defects(res.summary.defects)
     if defects:  # shown only when the checks found something, first

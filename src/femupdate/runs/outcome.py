@@ -35,6 +35,9 @@ class RunOutcome:
     nfail: int = 0
     failure: str | None = None
     history: dict[str, np.ndarray] | None = field(default=None, repr=False)
+    #: What the optimizer handed back besides its best point (JSON-ready; a sampler's final
+    #: samples), None for the searches.
+    extras: dict[str, Any] | None = field(default=None, repr=False)
 
     def to_dict(self, names: Sequence[str] | None = None) -> dict[str, Any]:
         """JSON-ready summary; ``params`` maps the names to the values when names are given."""
@@ -54,6 +57,8 @@ class RunOutcome:
             "wall_s": self.wall_s,
             "x": self.x.tolist(),
         }
+        if self.extras is not None:  # only then: the searches' stored results are unchanged
+            out["extras"] = self.extras
         if names is not None:
             out["params"] = dict(zip(names, self.x.tolist(), strict=True))
         return out
@@ -76,6 +81,7 @@ class RunOutcome:
             restarts=int(data.get("restarts", 0)),
             nfail=int(data.get("nfail", 0)),
             failure=data.get("failure"),
+            extras=data.get("extras"),
         )
 
 
@@ -112,4 +118,5 @@ def outcome_of(index: int, seed: np.random.SeedSequence, res: OptimizeResult, wa
                       success=bool(res.success), status=int(res.status),
                       message=str(res.message), stop=dict(res.stop), wall_s=wall_s,
                       restarts=int(res.restarts), nfail=int(res.get("nfail", 0)),
-                      failure=res.get("failure"), history=history)
+                      failure=res.get("failure"), history=history,
+                      extras=res.get("extras"))

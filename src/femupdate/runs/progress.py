@@ -18,9 +18,11 @@ import json
 import math
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import IO, Any
 
+import numpy as np
 from rich.console import Console
 from rich.progress import (
     BarColumn,
@@ -77,6 +79,7 @@ class RunProgress:
         self._log: IO[str] | None = None
         self._bar: Progress | None = None
         self._task: TaskID | None = None
+        self._stages: dict[int, tuple[float, float]] = {}  # run → (last stage, acceptance)
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -157,6 +160,30 @@ class RunProgress:
         self.best_phi = min(self.best_phi, best_phi)
         self._write("chunk", run=run, nfev=nfev, best_phi=_finite_or_none(best_phi))
         self._refresh()
+
+    def stages(self, run: int, trace: Mapping[str, np.ndarray]) -> None:
+        """A sampler's stages from its trace rows of a chunk (``stage``, ``beta``,
+        ``acceptance``, ``weights_ess``: TMCMC's): a line and a ``stage`` log event as each
+        new stage begins, with the tempering exponent, the effective sample size of its
+        weights and the acceptance rate of the previous stage's moves. Nothing for traces
+        without stages (the searches)."""
+        stage = trace.get("stage")
+        if stage is None or not len(stage):
+            return
+        seen = self._stages.get(run, (-1.0, math.nan))
+        for i, k in enumerate(stage.tolist()):
+            previous_acceptance = float(trace["acceptance"][i - 1]) if i else seen[1]
+            if k != seen[0]:
+                beta, ess = float(trace["beta"][i]), float(trace["weights_ess"][i])
+                self._write("stage", run=run, stage=int(k), beta=beta, weights_ess=ess,
+                            acceptance=_finite_or_none(previous_acceptance))
+                if self._bar is not None and k > 0:
+                    acc = ("" if not math.isfinite(previous_acceptance) else
+                           f", acceptance of the moves before {previous_acceptance:.2f}")
+                    self._bar.console.print(Text(f"run {run}: stage {int(k)}, β = {beta:.4g}"
+                                                 f", ESS of the weights {ess:,.0f}{acc}"))
+            seen = (k, float(trace["acceptance"][i]))
+        self._stages[run] = seen
 
     def run_done(self, run: int, nfev: int, best_phi: float, status: str) -> None:
         """Run ``run`` finished (after its last :meth:`chunk`)."""

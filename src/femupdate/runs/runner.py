@@ -45,7 +45,7 @@ CHUNK_SECONDS = 1.0
 #: Methods whose steps evaluate a population (several candidates; multistart-lm: its pools
 #: and Jacobians): with fewer runs than workers their populations are spread over the
 #: workers instead (``RunExecutor.mapper``: compiled problems over threads of this process).
-POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm"})
+POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm", "tmcmc"})
 
 
 @dataclass(frozen=True)
@@ -332,6 +332,7 @@ def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: lis
                     rec = replace(rec, result=res.outcome.to_dict(names))
                 store.write_chunk(rec)
                 progress.chunk(rec.run, rec.nfev, rec.best_phi, rec.phi.shape[0])
+                progress.stages(rec.run, rec.trace)  # a sampler's (TMCMC's) stages
                 if res.outcome is None:
                     item.state, item.wall_s = rec.state, rec.run_wall_s
                     send(item)

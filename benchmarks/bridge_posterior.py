@@ -1,0 +1,72 @@
+"""``femupdate posterior`` on the bridge with 2 % noise (viscous, or friction with --model):
+what it says of each parameter, beside the Laplace approximation at the best fit, with its
+evaluations and wall time.
+
+    python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples 2000]
+        [--seed 1] [--out DIR]
+
+The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
+case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
+evaluations each, no target: the records are noisy), then TMCMC. Prints the sampler's
+evaluations, wall time, effective sample size, stages and log-evidence, the sentences of the
+posterior and of the Laplace approximation, the truth's place in each 90 % interval, the
+frequency posteriors and the predictive bands' coverage, with the load average (the machine
+may be shared: wall times are inflated by other jobs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from femupdate.case import parse_case
+from femupdate.problems.bridge import bridge_case, ensure_records, truth
+from femupdate.runs import Execution
+from femupdate.sampling.run import run_posterior
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--model", choices=("viscous", "friction"), default="viscous")
+    parser.add_argument("--samples", type=int, default=2000)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=None)
+    args = parser.parse_args(argv)
+    out = args.out or Path(tempfile.mkdtemp(prefix="femupdate-bridge-posterior-"))
+    data = (out / "data").resolve()
+    spec = bridge_case(args.model, "narrow", directory=str(data))
+    spec["search"].update(runs=2, f_target=None, max_evals=3000, seed=1)
+    spec["posterior"] = {"samples": args.samples, "seed": args.seed, "modes_samples": 100}
+    case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
+    truth_values = truth(args.model)
+    ensure_records(case, truth_values, data, seed=0, snr=0.02)
+    start = time.perf_counter()
+    result = run_posterior(case, out / "results", restart=True,
+                           execution=Execution(label="bridge posterior"))
+    wall = time.perf_counter() - start
+    rec = result.record
+    print(f"TMCMC: {rec.message}; {rec.nfev:,} evaluations in {rec.wall_s:.1f} s "
+          f"({rec.nfev / rec.ess:.1f} evaluations per effective sample), ESS {rec.ess:,.0f}, "
+          f"log-evidence {rec.log_evidence:.3f}; search + sampler + modes + bands {wall:.1f} s; "
+          f"load average {os.getloadavg()[0]:.2f}")
+    print("stages (β, acceptance, ESS of the weights): " + "; ".join(
+        f"{s.beta:.4g}, {s.acceptance:.2f}, {s.ess:.0f}" for s in rec.stages))
+    print("\nposterior:\n  " + "\n  ".join(rec.sentences))
+    print("Laplace at the best fit:\n  " + "\n  ".join(result.summary.laplace.sentences))
+    inside = [n for n, m in rec.params.items() if m.q05 <= truth_values[n] <= m.q95]
+    print(f"\ntruth inside the posterior's 90 % interval: {len(inside)}/{len(rec.params)} "
+          f"({', '.join(inside)})")
+    print("frequencies [Hz], 5/50/95 %: " + "; ".join(
+        f"{k} {m.q05:.3f}/{m.q50:.3f}/{m.q95:.3f}" for k, m in rec.frequencies_hz.items()))
+    for b in result.bands:
+        print(f"predictive bands, {b.trial}: " + ", ".join(
+            f"{c} {100 * v:.1f} %" for c, v in zip(b.channels, b.coverage, strict=True)))
+    print(f"results in {out / 'results'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

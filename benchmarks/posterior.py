@@ -1,0 +1,366 @@
+"""The posterior's figures: analytic check, calibration, speed beside emcee, evidence spread.
+
+    python benchmarks/posterior.py                  # everything (tens of minutes)
+    python benchmarks/posterior.py --quick          # CI: analytic check + a small bridge run
+    python benchmarks/posterior.py --only calibration --replicates 50
+
+Sections (``--only`` takes a comma-separated list):
+
+- ``analytic``: a model linear in its parameters, Gaussian noise of known variance: TMCMC
+  (from the prior and from the Laplace Gaussian) and Laplace against the closed-form
+  posterior (means within 0.1 sd, sds within 5 %, correlations within 0.05) and evidence.
+- ``calibration``: viscous bridge, 2 % noise, replicates with truths drawn from the prior and
+  fresh noise: the best fit by a local least-squares search started at the truth (where
+  multistart-lm ends at this noise level, at a tenth of its cost), then the **Laplace** 90 %
+  interval of every parameter for each error model kind; the share of replicates whose
+  interval holds the truth.
+- ``speed``: viscous bridge (9 parameters), 2 % noise: TMCMC started from the Laplace
+  Gaussian against emcee on the same log-posterior (unit cube, same batches), both started
+  from the Laplace Gaussian, in the same run: evaluations, wall time, effective samples.
+- ``friction``: friction bridge (13 parameters): best fit, Laplace, TMCMC: wall time.
+- ``evidence``: TMCMC's log-evidence on the viscous bridge over 10 seeds (spawned), and the
+  effective sample size measured across them (posterior variance over the variance of the
+  seeds' means: no autocorrelation model needed).
+
+Wall times are of this machine at its load (printed beside them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from femupdate import minimize
+from femupdate.case import parse_case
+from femupdate.experiment import load_experiment
+from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
+from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
+from femupdate.posterior.tmcmc import run_tmcmc
+from femupdate.problems import bridge
+from femupdate.update import UpdateProblem
+
+SEED = 2026
+FIT_EVALS = 2000
+KINDS = ("neff", "tau", "iid")
+#: TMCMC's moves on the bridge: independent proposals from the weighted population's Gaussian,
+#: 12 steps at β = 1 (measured across 6 seeds: 4× fewer evaluations per effective sample than
+#: random-walk moves with 2 steps per stage and at β = 1)
+MOVES = {"proposal": "independent", "final_steps": 12}
+
+
+def load() -> str:
+    return "load average " + ", ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+# -------------------------------------------------------------------------------- analytic
+
+
+def analytic(population: int) -> dict[str, Any]:
+    case = linear_gaussian()
+    sd = np.sqrt(np.diag(case.cov))
+    corr = case.cov / np.outer(sd, sd)
+    best_theta = np.linalg.lstsq(case.design, case.data, rcond=None)[0]
+    best = case.prior.to_unit(best_theta)
+    lap = laplace(jacobian_unit(case.residuals_batch, best, case.prior),
+                  case.residuals_batch(best_theta)[0], best, case.model, case.prior)
+    rows = {"laplace": (lap.mean, lap.cov, None, 0)}
+    for start in ("prior", "laplace"):
+        options = {} if start == "prior" else {"reference": (lap.mean_unit, lap.cov_unit)}
+        post, _ = run_tmcmc(Residuals(case).residuals, case.prior, case.model, seed=SEED,
+                            population=population, **options)
+        x = case.prior.to_search(post.samples)
+        rows[f"tmcmc from {start}"] = (x.mean(axis=0), np.cov(x.T), post.log_evidence,
+                                       post.evaluations)
+    print(f"\n## Analytic check (3 parameters, closed-form Gaussian posterior; "
+          f"log-evidence {exact_log_evidence(case):.4f})")
+    print(f"{'':20s} {'max |Δmean|/sd':>15s} {'max |sd/sd−1|':>14s} {'max |Δcorr|':>12s} "
+          f"{'log Z':>9s} {'evals':>7s}  pass")
+    out = {}
+    for name, (mean, cov, log_z, evals) in rows.items():
+        s = np.sqrt(np.diag(cov))
+        dm = float(np.max(np.abs(mean - case.mean) / sd))
+        ds = float(np.max(np.abs(s / sd - 1)))
+        dc = float(np.max(np.abs(cov / np.outer(s, s) - corr)))
+        ok = dm <= 0.1 and ds <= 0.05 and dc <= 0.05
+        z = "" if log_z is None else f"{log_z:.4f}"
+        print(f"{name:20s} {dm:15.3f} {ds:14.3f} {dc:12.3f} {z:>9s} {evals:7d}  "
+              f"{'yes' if ok else 'NO'}")
+        out[name] = {"mean_error_sd": dm, "sd_error": ds, "corr_error": dc, "log_z": log_z,
+                     "pass": ok}
+    return out
+
+
+# -------------------------------------------------------------------------------- the bridge
+
+
+def bridge_problem(model: str, truth: dict[str, float], work: Path, seed: int
+                   ) -> UpdateProblem:
+    """The bridge's update problem on a virtual experiment of ``truth`` with 2 % noise."""
+    case = parse_case(bridge.bridge_case(model, "narrow", directory=str(work)),
+                      source=work / f"{model}.toml")
+    bridge.ensure_records(case, truth, work, seed=seed, snr=0.02)
+    return UpdateProblem(case, load_experiment(case))
+
+
+def best_fit(problem: UpdateProblem, rng: np.random.Generator, max_evals: int = FIT_EVALS
+             ) -> tuple[np.ndarray, np.ndarray, int]:
+    """(best fit in the unit cube, its residuals, evaluations) by multistart-lm."""
+    res = minimize(problem.residuals, problem.bounds, "multistart-lm", residuals=True,
+                   seed=rng, max_evals=max_evals)
+    prior = Prior.from_case(problem.case)
+    return prior.to_unit(res.x), res.residuals, int(res.nfev)
+
+
+def local_fit(problem: UpdateProblem, start_unit: np.ndarray) -> tuple[np.ndarray,
+                                                                       np.ndarray, int]:
+    """(best fit in the unit cube, its residuals, evaluations) by a local trust-region
+    least-squares search (scipy) from ``start_unit``: the calibration's replicates start it at
+    their truth, where the global search ends at this noise level, at a tenth of its cost."""
+    from scipy.optimize import least_squares
+
+    prior = Prior.from_case(problem.case)
+    calls = {"n": 0}
+
+    def residuals(unit: np.ndarray) -> np.ndarray:
+        calls["n"] += 1
+        return problem.residuals(prior.to_search(unit))
+
+    res = least_squares(residuals, np.clip(start_unit, 1e-6, 1 - 1e-6), bounds=(0.0, 1.0),
+                        diff_step=1e-3, x_scale="jac", max_nfev=60)
+    return res.x, problem.residuals(prior.to_search(res.x)), calls["n"] + 1
+
+
+def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: str):
+    prior = Prior.from_case(problem.case)
+    # steps of 1 % of each range: the slope of the kp1 valley, not of one of its ripples
+    jac = jacobian_unit(problem.residuals_batch, unit, prior, step=1e-2)
+    model = problem_error_model(problem, r, kind)
+    return laplace(jac, r, unit, model, prior), model, prior
+
+
+# -------------------------------------------------------------------------------- calibration
+
+
+def calibration(replicates: int, root: Path, first: int = 0) -> dict[str, Any]:
+    """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
+    processes: replicate i is the same wherever it runs)."""
+    children = np.random.SeedSequence(SEED).spawn(replicates)
+    hits: dict[str, list[np.ndarray]] = {k: [] for k in KINDS}
+    names: tuple[str, ...] = ()
+    start = time.perf_counter()
+    print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
+          f"the prior, fresh noise), Laplace 90 % intervals at the best fit of a local "
+          f"least-squares search started at the truth")
+    for i, child in enumerate(children):
+        if i < first:
+            continue
+        rng = np.random.default_rng(child)
+        case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
+                          source=root / "viscous.toml")
+        prior = Prior.from_case(case)
+        names = prior.names
+        truth_values = prior.sample(rng, 1)[1][0]
+        truth = dict(zip(names, truth_values.tolist(), strict=True))
+        problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
+                                 int(rng.integers(2 ** 31)))
+        unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
+        line = []
+        for kind in KINDS:
+            lap, _, _ = laplace_of(problem, unit, r, kind)
+            inside = (lap.quantiles[0] <= truth_values) & (truth_values <= lap.quantiles[2])
+            hits[kind].append(inside)
+            line.append(f"{kind} {''.join('1' if h else '0' for h in inside)}")
+        print(f"  replicate {i:2d}: " + "  ".join(line), flush=True)
+    print(f"\n{'kind':6s} " + " ".join(f"{n:>6s}" for n in names) + "   (share of "
+          "replicates whose 90 % interval holds the truth; target 0.84–0.96)")
+    out = {}
+    for kind in KINDS:
+        share = np.mean(hits[kind], axis=0)
+        print(f"{kind:6s} " + " ".join(f"{s:6.2f}" for s in share))
+        out[kind] = dict(zip(names, share.tolist(), strict=True))
+    print(f"(replicates {first}–{replicates - 1} in {time.perf_counter() - start:.0f} s; "
+          f"{load()})")
+    return out
+
+
+# -------------------------------------------------------------------------------- speed
+
+
+def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
+              rng: np.random.Generator, walkers: int, target_ess: float,
+              max_evals: int) -> dict[str, Any]:
+    """emcee on the same log-posterior (unit cube, batches), from the Laplace Gaussian,
+    until its effective sample size (ArviZ, second half of the chains) reaches
+    ``target_ess`` or ``max_evals``."""
+    import arviz
+    import emcee
+
+    calls = {"evals": 0}
+
+    def log_posterior(unit: np.ndarray) -> np.ndarray:
+        unit = np.atleast_2d(unit)
+        lp = prior.logpdf_unit(unit)
+        out = np.full(unit.shape[0], -np.inf)
+        ok = np.isfinite(lp)
+        if np.any(ok):
+            rows = problem.residuals_batch(prior.to_search(unit[ok]))
+            calls["evals"] += int(ok.sum())
+            out[ok] = lp[ok] + model.loglike_rows(rows)
+        return out
+
+    cov = lap.cov_unit
+    start = np.empty((0, prior.dim))
+    while start.shape[0] < walkers:  # the Laplace Gaussian truncated to the cube
+        draws = rng.multivariate_normal(np.clip(lap.mean_unit, 0, 1), cov, size=10 * walkers)
+        start = np.vstack([start, draws[np.all((draws > 0) & (draws < 1), axis=1)]])
+    start = start[:walkers]
+    sampler = emcee.EnsembleSampler(walkers, prior.dim, log_posterior, vectorize=True)
+    sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 31))).get_state()
+    t0 = time.perf_counter()
+    state = start
+    ess = 0.0
+    while calls["evals"] < max_evals:
+        state = sampler.run_mcmc(state, 100, progress=False)
+        chain = sampler.get_chain()  # (steps, walkers, n)
+        half = chain[chain.shape[0] // 2:]
+        ess = min(float(arviz.ess(np.ascontiguousarray(half[:, :, i].T), method="bulk"))
+                  for i in range(prior.dim))
+        if ess >= target_ess:
+            break
+    seconds = time.perf_counter() - t0
+    return {"evals": calls["evals"], "seconds": seconds, "ess": ess,
+            "steps": int(sampler.get_chain().shape[0])}
+
+
+def speed(population: int, steps: int, root: Path, emcee_max: int) -> dict[str, Any]:
+    rng = np.random.default_rng(SEED)
+    problem = bridge_problem("viscous", bridge.truth("viscous"), root / "speed", seed=1)
+    t0 = time.perf_counter()
+    unit, r, fit_evals = best_fit(problem, rng)
+    fit_s = time.perf_counter() - t0
+    lap, model, prior = laplace_of(problem, unit, r, "neff")
+    print(f"\n## Speed: viscous bridge, 9 parameters, 2 % noise ({load()})")
+    print(f"best fit: {fit_evals} evaluations in {fit_s:.1f} s; Laplace: {2 * prior.dim} "
+          f"evaluations")
+    for sentence in lap.sentences:
+        print("  " + sentence)
+    t0 = time.perf_counter()
+    post, _ = run_tmcmc(problem.residuals, prior, model, seed=rng, population=population,
+                        steps=steps, reference=(lap.mean_unit, lap.cov_unit), **MOVES)
+    tm_s = time.perf_counter() - t0
+    print(f"TMCMC: {post.evaluations} evaluations in {tm_s:.1f} s ({load()}), "
+          f"{len(post.stages)} stages, ESS {post.ess:.0f} -> "
+          f"{post.evaluations / post.ess:.1f} evaluations per effective sample; "
+          f"log Z {post.log_evidence:.3f}")
+    for s in post.stages:
+        print(f"   β {s['beta']:.4f}  acceptance {s['acceptance']:.2f}  weights ESS "
+              f"{s['weights_ess']:.0f}  evaluations {s['evaluations']}")
+    samples = prior.to_physical(post.samples)
+    q = np.quantile(samples, [0.05, 0.5, 0.95], axis=0)
+    for i, name in enumerate(prior.names):
+        print(f"   {name:4s} 5/50/95 %: {q[0, i]:.4g} {q[1, i]:.4g} {q[2, i]:.4g}")
+    em = emcee_run(problem, model, prior, lap, rng, walkers=36, target_ess=post.ess,
+                   max_evals=emcee_max)
+    print(f"emcee (36 walkers): {em['evals']} evaluations in {em['seconds']:.1f} s "
+          f"({load()}), {em['steps']} steps, ESS {em['ess']:.0f} (ArviZ bulk, second half) "
+          f"-> {em['evals'] / max(em['ess'], 1e-9):.1f} evaluations per effective sample")
+    ratio = (em["evals"] / max(em["ess"], 1e-9)) / (post.evaluations / post.ess)
+    print(f"evaluations per effective sample, emcee / TMCMC: {ratio:.1f}")
+    return {"tmcmc": {"evals": post.evaluations, "seconds": tm_s, "ess": post.ess,
+                      "stages": len(post.stages), "log_z": post.log_evidence},
+            "emcee": em, "ratio": ratio, "fit_evals": fit_evals,
+            "sentences": lap.sentences}
+
+
+def friction(population: int, steps: int, root: Path) -> dict[str, Any]:
+    rng = np.random.default_rng(SEED)
+    problem = bridge_problem("friction", bridge.truth("friction"), root / "friction", seed=1)
+    t0 = time.perf_counter()
+    unit, r, fit_evals = best_fit(problem, rng, max_evals=3000)
+    fit_s = time.perf_counter() - t0
+    lap, model, prior = laplace_of(problem, unit, r, "neff")
+    t1 = time.perf_counter()
+    post, _ = run_tmcmc(problem.residuals, prior, model, seed=rng, population=population,
+                        steps=steps, reference=(lap.mean_unit, lap.cov_unit), **MOVES)
+    tm_s = time.perf_counter() - t1
+    print(f"\n## Friction bridge, 13 parameters, 2 % noise ({load()})")
+    print(f"best fit {fit_evals} evaluations {fit_s:.1f} s; TMCMC {post.evaluations} "
+          f"evaluations {tm_s:.1f} s, {len(post.stages)} stages, ESS {post.ess:.0f}, "
+          f"reached {post.reached}; total {time.perf_counter() - t0:.1f} s")
+    return {"fit_evals": fit_evals, "fit_seconds": fit_s, "evals": post.evaluations,
+            "seconds": tm_s, "ess": post.ess}
+
+
+def evidence(population: int, steps: int, root: Path, seeds: int) -> dict[str, Any]:
+    rng = np.random.default_rng(SEED)
+    problem = bridge_problem("viscous", bridge.truth("viscous"), root / "speed", seed=1)
+    unit, r, _ = best_fit(problem, rng)
+    lap, model, prior = laplace_of(problem, unit, r, "neff")
+    log_z, means, variances, ess, evals = [], [], [], [], []
+    t0 = time.perf_counter()
+    for child in np.random.SeedSequence(SEED + 1).spawn(seeds):
+        post, _ = run_tmcmc(problem.residuals, prior, model, seed=child,
+                            population=population, steps=steps,
+                            reference=(lap.mean_unit, lap.cov_unit), **MOVES)
+        log_z.append(post.log_evidence)
+        means.append(post.samples.mean(axis=0))
+        variances.append(post.samples.var(axis=0))
+        ess.append(post.ess)
+        evals.append(post.evaluations)
+    across = np.mean(variances, axis=0) / np.var(means, axis=0, ddof=1)
+    print(f"\n## Evidence over {seeds} seeds (viscous bridge, population {population}; "
+          f"{time.perf_counter() - t0:.0f} s, {load()})")
+    print(f"log Z: mean {np.mean(log_z):.3f}, sd {np.std(log_z, ddof=1):.3f}, range "
+          f"[{min(log_z):.3f}, {max(log_z):.3f}]")
+    print(f"ESS per run: estimated {np.mean(ess):.0f} (min over parameters); measured across "
+          f"the seeds per parameter (posterior variance / variance of the means): "
+          + " ".join(f"{n} {a:.0f}" for n, a in zip(prior.names, across, strict=True)))
+    print(f"evaluations per run: {np.mean(evals):.0f}")
+    return {"log_z": log_z, "ess_estimated": ess, "ess_across_seeds": across.tolist(),
+            "evals": evals}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="CI: analytic + a small run")
+    parser.add_argument("--only", default="analytic,calibration,speed,friction,evidence")
+    parser.add_argument("--replicates", type=int, default=50)
+    parser.add_argument("--first-replicate", type=int, default=0,
+                        help="calibration: start at this replicate (split a run over processes)")
+    parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--population", type=int, default=2000)
+    parser.add_argument("--steps", type=int, default=3)
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    warnings.filterwarnings("ignore", category=FutureWarning)  # ArviZ's refactor notice
+    sections = args.only.split(",")
+    root = Path(tempfile.mkdtemp(prefix="femupdate-posterior-"))
+    out: dict[str, Any] = {}
+    if args.quick:
+        out["analytic"] = analytic(4000)
+        out["speed"] = speed(400, args.steps, root, emcee_max=8000)
+    else:
+        if "analytic" in sections:
+            out["analytic"] = analytic(4000)
+        if "calibration" in sections:
+            out["calibration"] = calibration(args.replicates, root, args.first_replicate)
+        if "speed" in sections:
+            out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000)
+        if "friction" in sections:
+            out["friction"] = friction(2000, args.steps, root)
+        if "evidence" in sections:
+            out["evidence"] = evidence(1000, args.steps, root, args.seeds)
+    if args.json is not None:
+        args.json.write_text(json.dumps(out, indent=1, default=float))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,120 @@
+"""What ``summary.json`` holds of the uncertainty: typed records, written and read back.
+
+``Summary.laplace`` (every least-squares run: the Gauss–Newton approximation at the best fit)
+and ``Summary.posterior`` (``femupdate posterior``: the samples of TMCMC) are optional fields,
+so a summary written before them still reads. Everything is in physical units; intervals are
+the 5 and 95 % quantiles (a 90 % credible interval).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = ["LaplaceRecord", "Marginal", "PosteriorRecord", "StageRecord", "marginals"]
+
+
+class _Record(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Marginal(_Record):
+    """One quantity's posterior: mean, standard deviation and 5/50/95 % quantiles."""
+
+    mean: float
+    sd: float
+    q05: float
+    q50: float
+    q95: float
+
+
+class LaplaceRecord(_Record):
+    """The Laplace (Gauss–Newton) approximation at the best fit (``summary.json laplace``).
+
+    ``params``: each parameter's marginal (a log-scale parameter's is lognormal: Gaussian in
+    log10); ``correlations``: of the search-space coordinates, in ``names`` order (None where
+    a parameter has no variance the data fix); ``undetermined``: the parameters whose 90 %
+    interval covers most of their bounds (``sentences`` says so in words); ``note``: why it is
+    missing, if it is.
+    """
+
+    error_model: str = ""
+    names: list[str] = Field(default_factory=list)
+    params: dict[str, Marginal] = Field(default_factory=dict)
+    correlations: list[list[float | None]] = Field(default_factory=list)
+    undetermined: list[str] = Field(default_factory=list)
+    sentences: list[str] = Field(default_factory=list)
+    nfev: int = 0
+    note: str | None = None
+
+
+class StageRecord(_Record):
+    """One TMCMC stage: its tempering exponent, acceptance rate and effective sample size."""
+
+    beta: float
+    acceptance: float
+    ess: float
+
+
+class PosteriorRecord(_Record):
+    """The sampled posterior (``summary.json posterior``).
+
+    ``correlations``: of the parameters over every sample (search space: log10 on a log
+    scale), in ``names`` order; ``joint_correlations``: of the parameters, natural frequencies
+    and damping ratios over the ``modes_from`` samples whose modes were computed, in
+    ``joint_names`` order.
+
+    ``reached`` is False when the sampler ran out of budget before the tempering exponent
+    reached 1: then the marginals are those of the last tempered stage, said in ``message``,
+    and no evidence is reported.
+    """
+
+    method: str
+    error_model: str
+    samples: int
+    seed: int | None
+    nfev: int
+    wall_s: float
+    reached: bool
+    message: str
+    log_evidence: float | None
+    ess: float | None
+    stages: list[StageRecord] = Field(default_factory=list)
+    names: list[str] = Field(default_factory=list)
+    params: dict[str, Marginal] = Field(default_factory=dict)
+    correlations: list[list[float | None]] = Field(default_factory=list)
+    frequencies_hz: dict[str, Marginal] = Field(default_factory=dict)
+    damping_ratios: dict[str, Marginal] = Field(default_factory=dict)
+    modes_from: int = 0
+    joint_names: list[str] = Field(default_factory=list)
+    joint_correlations: list[list[float | None]] = Field(default_factory=list)
+    undetermined: list[str] = Field(default_factory=list)
+    sentences: list[str] = Field(default_factory=list)
+    failed_evaluations: int = 0
+    failure: str | None = None
+
+
+def marginals(samples: np.ndarray, names: list[str]) -> dict[str, Marginal]:
+    """Mean, sd and 5/50/95 % quantiles of each column of equally weighted ``samples`` (k, n)
+    (NaN rows, e.g. a mode that could not be computed, left out column by column)."""
+    out = {}
+    for j, name in enumerate(names):
+        col = samples[:, j]
+        col = col[np.isfinite(col)]
+        if col.size == 0:
+            continue
+        q05, q50, q95 = np.quantile(col, [0.05, 0.5, 0.95])
+        out[name] = Marginal(mean=float(col.mean()), sd=float(col.std(ddof=1)) if col.size > 1
+                             else 0.0, q05=float(q05), q50=float(q50), q95=float(q95))
+    return out
+
+
+def correlation_rows(matrix: np.ndarray) -> list[list[float | None]]:
+    """A correlation matrix as JSON rows, None where it is not defined (NaN)."""
+    return [[None if not np.isfinite(v) else float(v) for v in row] for row in matrix]
+
+
+def as_dict(record: BaseModel | None) -> dict[str, Any] | None:
+    return None if record is None else record.model_dump()

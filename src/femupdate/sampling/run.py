@@ -1,0 +1,279 @@
+"""``femupdate posterior CASE.toml --out DIR``: the full posterior of a case by TMCMC.
+
+1. The best fit: the case's search in ``DIR`` as ``femupdate run`` does it (a finished search
+   already there is reused; ``--restart`` discards it). It fixes the error model (each
+   channel's residual correlation is measured there) and gives the Laplace approximation,
+   TMCMC's starting Gaussian.
+2. TMCMC through ``run_all`` (method ``"tmcmc"``, :mod:`femupdate.posterior.method`): its own
+   results store in ``DIR/posterior`` (checkpointed: ``--resume`` after a kill continues to the
+   identical samples), workers or Dask, seeded by ``[posterior] seed``.
+3. What the samples say: marginals and correlations of the parameters, the natural
+   frequencies and damping ratios over a thinned subset, predictive bands on every trial with
+   the share of each measured record they cover; into ``DIR/summary.json`` (``posterior``)
+   and ``DIR/posterior.npz``, read by the report.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from femupdate.case import Case
+from femupdate.case.posterior_section import (
+    DEFAULT_POSTERIOR,
+    SAMPLES_PER_PARAMETER,
+    PosteriorSection,
+)
+from femupdate.errors import ConfigError, DataError, FemupdateError
+from femupdate.experiment import Experiment, data_files, load_experiments
+from femupdate.posterior.best_fit import case_priors, centred
+from femupdate.posterior.jacobian import residual_jacobian
+from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
+from femupdate.posterior.likelihood import ErrorModel, problem_error_model
+from femupdate.posterior.method import METHOD, SampledProblem, sampler_options
+from femupdate.posterior.priors import Prior
+from femupdate.posterior.records import (
+    PosteriorRecord,
+    StageRecord,
+    correlation_rows,
+    marginals,
+)
+from femupdate.results import POSTERIOR_FILE, Summary, write_summary
+from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
+from femupdate.runs.changes import file_hashes
+from femupdate.runs.store import FILENAME
+from femupdate.sampling.bands import Bands, predictive_bands, save_bands
+from femupdate.sampling.modes import sample_modes
+from femupdate.update import UpdateProblem
+from femupdate.workflow import UpdateResult, run_case
+
+#: The sampler's own results store, beside the search's.
+POSTERIOR_DIR = "posterior"
+
+
+@dataclass
+class PosteriorResult:
+    """What ``femupdate posterior`` produced."""
+
+    summary: Summary
+    record: PosteriorRecord
+    samples: np.ndarray  # (N, n) physical (empty when β = 1 was not reached)
+    bands: list[Bands]
+    search: UpdateResult
+    error_model: ErrorModel
+
+
+def posterior_settings(case: Case) -> PosteriorSection:
+    """``[posterior]``, or its defaults."""
+    return case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
+
+
+def check_records(experiments: Sequence[Experiment], case: Case) -> None:
+    """A posterior of all-zero records has no error variance to learn: DataError naming the
+    trial and channel."""
+    for exp in experiments:
+        if exp.role != "fit":
+            continue
+        zero = [c for c, col in zip(exp.channels, np.atleast_2d(exp.target.T), strict=True)
+                if not np.any(col)]
+        if zero:
+            raise DataError(f"{case.label}: trial {exp.name!r}: the measured record of "
+                            f"channel(s) {', '.join(zero)} is all zero, so no error variance "
+                            "can be estimated (allowed: records with a response; drop the "
+                            "channel from [[data.outputs]])")
+
+
+def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
+                      counts_from: ErrorModel | None = None
+                      ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
+    """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
+    and the Laplace Gaussian there (None, with why, when it cannot be had: TMCMC then starts
+    from the prior)."""
+    prior = case_priors(problem.case)
+    x = np.asarray(x, dtype=float)
+    r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
+    model = problem_error_model(problem, r, kind)
+    if counts_from is not None:
+        if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
+                or model.stops.tolist() != counts_from.stops.tolist()):
+            raise ConfigError(f"{problem.case.label}: the error model to share ({counts_from.kind}"
+                              f", {counts_from.starts.size} blocks) is not of this case's data "
+                              f"({model.kind}, {model.starts.size} blocks) (allowed: model "
+                              "classes of the same trials, channels and error model)")
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
+    best_unit = prior.to_unit(x)
+    try:
+        r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+        return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
+                                     prior), None
+    except FemupdateError as exc:
+        return model, prior, None, str(exc)
+
+
+def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
+                  samples: int | None = None, workers: int | None = None,
+                  resume: bool = False, restart: bool = False,
+                  execution: Execution | None = None,
+                  experiments: Sequence[Experiment] | None = None,
+                  counts_from: ErrorModel | None = None) -> PosteriorResult:
+    """The search's best fit, then TMCMC, then what the samples say (module docstring).
+
+    Parameters
+    ----------
+    case : Case
+    out_dir : Path
+        Results directory (the search's results, ``posterior/`` and ``posterior.npz``).
+    seed, samples : int or None
+        Override ``[posterior] seed`` and ``samples``.
+    workers : int or None
+        Override ``[search] workers`` (for the search and the sampler).
+    resume : bool
+        Continue the sampler's store in ``out_dir/posterior`` (and the search's).
+    restart : bool
+        Discard both stores and start over.
+    execution : Execution or None
+        Progress, scheduler, chunks (:class:`femupdate.runs.Execution`).
+    experiments : sequence of Experiment or None
+        The case's processed trials, when the caller has them.
+    counts_from : ErrorModel or None
+        Take the effective counts N_c (and ρ_c) of this error model instead of measuring them
+        at this case's best fit: model classes compared by their evidence must share one
+        likelihood of the data (:mod:`femupdate.sampling.classes`).
+    """
+    settings = posterior_settings(case)
+    seed = settings.seed if seed is None else seed
+    population = settings.samples if samples is None else samples
+    need = SAMPLES_PER_PARAMETER * len(case.parameters)
+    if population < need:
+        raise ConfigError(f"{case.label}: samples: got {population} for "
+                          f"{len(case.parameters)} parameters (allowed: at least {need}, "
+                          f"{SAMPLES_PER_PARAMETER} per parameter)")
+    experiments = list(experiments or load_experiments(case))
+    check_records(experiments, case)
+    execution = execution or Execution(label=case.label)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    sampler_dir = out_dir / POSTERIOR_DIR
+    if restart and sampler_dir.is_dir():
+        from femupdate.workflow import start_over
+
+        start_over(sampler_dir)
+    reuse = not restart and (out_dir / FILENAME).is_file()
+    search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
+                      execution=execution, keep_history=False, experiments=experiments)
+    problem = SampledProblem.of(search.problem)
+    best_x = np.asarray(search.summary.runs[search.summary.best.run].x, dtype=float)
+    model, prior, gaussian, why = best_fit_gaussian(problem, best_x, settings.error_model,
+                                                    counts_from)
+    specs = {n: p.spec() for n, p in settings.priors.items()}
+    reference = (None if gaussian is None or settings.start == "prior"
+                 else (gaussian.mean_unit, gaussian.cov_unit))
+    options = sampler_options(model, prior, specs, population, reference)
+    workers = case.search.workers if workers is None else workers
+    outcome = run_all(
+        problem.residuals, problem.bounds, METHOD, runs=1, seed=seed,
+        max_evals=settings.max_evals, options=options, store_dir=sampler_dir, resume=resume,
+        identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
+                              data=file_hashes(data_files(case))),
+        execution=dataclasses.replace(execution, workers=workers), residuals=True)[0]
+    # The run's own time over every session (a resumed run counts its earlier ones).
+    record, physical = posterior_record(problem, prior, outcome, settings, seed,
+                                        outcome.wall_s, population)
+    if why is not None:
+        record.message += f"; started from the prior: no Laplace approximation ({why})"
+    bands: list[Bands] = []
+    (out_dir / POSTERIOR_FILE).unlink(missing_ok=True)  # never an earlier run's samples
+    if physical.shape[0]:
+        subset = thinned(physical, settings.modes_samples)
+        freqs, zetas = sample_modes(problem, subset)
+        _modes_into(record, freqs, zetas, subset.shape[0])
+        record.joint_names, record.joint_correlations = joint_correlations(
+            list(problem.names), prior.physical_to_search(subset), freqs, zetas)
+        rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+        bands = predictive_bands(problem, subset, search.summary, rng)
+        save_bands(out_dir / POSTERIOR_FILE, list(problem.names), physical, freqs, bands)
+    summary = search.summary.model_copy(update={"posterior": record})
+    write_summary(summary, out_dir)
+    return PosteriorResult(summary, record, physical, bands, search, model)
+
+
+def thinned(samples: np.ndarray, count: int) -> np.ndarray:
+    """``count`` samples spread evenly over the rows (all of them if fewer)."""
+    if count <= 0:
+        return samples[:0]
+    if samples.shape[0] <= count:
+        return samples
+    return samples[np.linspace(0, samples.shape[0] - 1, count).round().astype(int)]
+
+
+def posterior_record(problem: UpdateProblem, prior: Prior, outcome: RunOutcome,
+                     settings: PosteriorSection, seed: int | None, wall_s: float,
+                     population: int) -> tuple[PosteriorRecord, np.ndarray]:
+    """The summary's record of a TMCMC run and its samples in physical units (none when
+    β = 1 was not reached: it never reports a posterior it did not reach)."""
+    extras: dict[str, Any] = outcome.extras or {}
+    names = list(problem.names)
+    stages = [StageRecord(beta=s["beta"], acceptance=_finite(s.get("acceptance")),
+                          ess=s["weights_ess"]) for s in extras.get("stages", [])]
+    reached = bool(extras.get("reached"))
+    common = dict(method=METHOD, error_model=settings.error_model,
+                  samples=population if not reached else len(extras["samples_unit"]),
+                  seed=seed, nfev=outcome.nfev, wall_s=wall_s, stages=stages, names=names,
+                  failed_evaluations=int(extras.get("failures", outcome.nfail)),
+                  failure=outcome.failure)
+    if not reached:
+        beta = float(extras.get("beta", 0.0))
+        message = (f"the sampler stopped at tempering exponent β = {beta:.4g} < 1 "
+                   f"({outcome.message}; {outcome.nfev:,} evaluations): raise [posterior] "
+                   "max_evals and resume")
+        return PosteriorRecord(**common, reached=False, message=message, log_evidence=None,
+                               ess=None), np.empty((0, len(names)))
+    unit = np.asarray(extras["samples_unit"], dtype=float)
+    search = prior.to_search(unit)
+    physical = prior.search_to_physical(search)
+    q = np.quantile(search, [0.05, 0.5, 0.95], axis=0)
+    spread = interval_spread(q[0], q[2], prior)
+    words = sentences(prior, prior.search_to_physical(q), spread)
+    undetermined = [n for n, s in zip(names, spread, strict=True) if s >= 0.5]
+    corr = np.corrcoef(search, rowvar=False) if len(names) > 1 else np.ones((1, 1))
+    record = PosteriorRecord(
+        **common, reached=True, message=f"β = 1 reached in {len(stages)} stages",
+        log_evidence=float(extras["log_evidence"]), ess=float(extras["ess"]),
+        params=marginals(physical, names), correlations=correlation_rows(np.atleast_2d(corr)),
+        undetermined=undetermined, sentences=words)
+    return record, physical
+
+
+def _finite(value: Any) -> float:
+    return float(value) if value is not None and math.isfinite(float(value)) else 0.0
+
+
+def joint_correlations(names: list[str], search: np.ndarray, freqs: np.ndarray,
+                       zetas: np.ndarray) -> tuple[list[str], list[list[float | None]]]:
+    """Correlations of the parameters (search space: log10 on a log scale) with the natural
+    frequencies and damping ratios and among them, over the samples whose modes were
+    computed (rows with a NaN left out)."""
+    labels = [*names, *(f"f{i + 1}" for i in range(freqs.shape[1])),
+              *(f"zeta{i + 1}" for i in range(zetas.shape[1]))]
+    table = np.column_stack([search, freqs, zetas])
+    table = table[np.all(np.isfinite(table), axis=1)]
+    if table.shape[0] < 3:
+        return labels, []
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.atleast_2d(np.corrcoef(table, rowvar=False))
+    return labels, correlation_rows(corr)
+
+
+def _modes_into(record: PosteriorRecord, freqs: np.ndarray, zetas: np.ndarray,
+                count: int) -> None:
+    record.modes_from = count
+    if freqs.size:
+        record.frequencies_hz = marginals(freqs, [f"f{i + 1}" for i in range(freqs.shape[1])])
+    if zetas.size:
+        record.damping_ratios = marginals(zetas,
+                                          [f"zeta{i + 1}" for i in range(zetas.shape[1])])

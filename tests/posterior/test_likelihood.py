@@ -1,0 +1,175 @@
+"""The error model: blocks of a case's residuals, the integrated-variance likelihood, N_eff."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from femupdate.case import parse_case
+from femupdate.errors import ConfigError, DataError
+from femupdate.experiment import load_experiments
+from femupdate.posterior.likelihood import (
+    effective_count,
+    error_model,
+    lag1_autocorrelation,
+    problem_error_model,
+    residual_blocks,
+)
+from femupdate.update import UpdateProblem
+from femupdate.virtual import virtual_experiment
+
+TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
+
+
+def _spec(root: Path) -> dict:
+    return {
+        "case": {"name": "two-storey"},
+        "model": {"shear_building": {"masses": [1.0, 0.8], "stiffnesses": ["k1", "k2"],
+                                     "dampers": ["c1", "c2"]}},
+        "parameters": [{"name": "k1", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
+                       {"name": "k2", "lower": 1000.0, "upper": 10000.0},
+                       {"name": "c1", "lower": 0.0, "upper": 5.0},
+                       {"name": "c2", "lower": 0.0, "upper": 5.0}],
+        "data": {"format": "csv", "directory": str(root / "a"), "time_column": "t",
+                 "input": {"file": "table.csv", "column": "table"},
+                 "outputs": [{"file": "floors.csv", "column": "a1", "node": "F1", "dof": "ux"},
+                             {"file": "floors.csv", "column": "a2", "node": "F2",
+                              "dof": "ux"}]},
+        "trials": [{"name": "a", "directory": str(root / "a")},
+                   {"name": "b", "directory": str(root / "b"), "weight": 3.0}],
+        "preprocess": {"highpass_hz": 0.5},
+        "objective": {"quantity": "displacement", "experimental_parameters": True},
+    }
+
+
+@pytest.fixture(scope="module")
+def problem(tmp_path_factory: pytest.TempPathFactory) -> UpdateProblem:
+    root = tmp_path_factory.mktemp("blocks")
+    case = parse_case(_spec(root), source=root / "case.toml")
+    for folder, seed, rate in (("a", 1, 200.0), ("b", 2, 250.0)):
+        virtual_experiment(case, TRUTH, root / folder, seed=seed, rate=rate, duration=2.0,
+                           snr=0.03)
+    return UpdateProblem(case, load_experiments(case))
+
+
+def test_blocks_follow_the_residual_layout_trial_by_channel(problem: UpdateProblem) -> None:
+    blocks, removed = residual_blocks(problem)
+    x = problem.case.to_search(TRUTH)
+    r = problem.residuals(x)
+    assert len(blocks) == 4 and blocks[-1].stop == r.size
+    assert removed == (2, 2, 2, 2)  # experimental parameters: a + b t fitted per channel
+    # each block is one trial's channel: its squared norm is that channel's share of φ
+    trial_a = problem.fitted[0]
+    ra = trial_a.residuals(problem.case.to_physical(x))
+    n_a = trial_a.objective.target.shape[0]
+    assert blocks[0] == slice(0, n_a) and blocks[1] == slice(n_a, 2 * n_a)
+    share_a = 0.25  # weights 1 and 3
+    assert np.allclose(r[blocks[0]], math.sqrt(share_a) * ra[:n_a])
+    assert np.allclose(r[blocks[1]], math.sqrt(share_a) * ra[n_a:])
+
+
+def test_integrated_variance_matches_numerical_integration() -> None:
+    rng = np.random.default_rng(3)
+    r = 0.3 * rng.standard_normal(12)
+    model = error_model([slice(0, 12)], "iid")
+
+    def integrand(s: float) -> float:  # Gaussian likelihood × Jeffreys prior 1/v, v = e^s
+        v = math.exp(s)
+        return (2 * math.pi * v) ** -6 * math.exp(-(r @ r) / (2 * v))
+
+    centre = math.log(r @ r / 12)
+    value, _ = integrate.quad(integrand, centre - 30, centre + 30, limit=200)
+    assert model.loglike(r) == pytest.approx(math.log(value), rel=1e-8)
+
+
+def test_blocks_are_independent_and_scale_free() -> None:
+    rng = np.random.default_rng(4)
+    r = rng.standard_normal(30)
+    two = error_model([slice(0, 10), slice(10, 30)], "iid")
+    a = error_model([slice(0, 10)], "iid").loglike(r[:10])
+    b = error_model([slice(0, 20)], "iid").loglike(r[10:])
+    assert two.loglike(r) == pytest.approx(a + b)
+    scaled = r.copy()
+    scaled[:10] *= 7.0  # a block's scale only shifts log L by a constant
+    shift = two.loglike(scaled) - two.loglike(r)
+    r2 = r + 0.1 * rng.standard_normal(30)
+    s2 = r2.copy()
+    s2[:10] *= 7.0
+    assert two.loglike(s2) - two.loglike(r2) == pytest.approx(shift)
+
+
+def test_batch_rows_equal_single_calls_and_failures_are_minus_inf() -> None:
+    rng = np.random.default_rng(5)
+    rows = rng.standard_normal((4, 40))
+    rows[2, 7] = np.nan
+    model = error_model([slice(0, 25), slice(25, 40)], "neff", best_residuals=rows[0])
+    out = model.loglike_rows(rows)
+    assert out[2] == -np.inf
+    for i in (0, 1, 3):
+        assert out[i] == model.loglike(rows[i])
+
+
+def test_effective_count_of_an_ar1_series() -> None:
+    rng = np.random.default_rng(6)
+    rho, n = 0.9, 200_000
+    e = np.empty(n)
+    e[0] = rng.standard_normal()
+    for t in range(1, n):
+        e[t] = rho * e[t - 1] + rng.standard_normal()
+    assert lag1_autocorrelation(e) == pytest.approx(rho, abs=0.005)
+    model = error_model([slice(0, n)], "neff", best_residuals=e)
+    assert model.counts[0] == pytest.approx(n * 0.1 / 1.9, rel=0.06)
+    assert effective_count(100, -0.5) == 100.0  # never more than N
+
+
+def test_ar1_whitens_an_ar1_series() -> None:
+    rng = np.random.default_rng(7)
+    rho, n = 0.8, 20_000
+    u = rng.standard_normal(n)
+    e = np.empty(n)
+    e[0] = u[0]
+    for t in range(1, n):
+        e[t] = rho * e[t - 1] + u[t]
+    model = error_model([slice(0, n)], "ar1", best_residuals=e)
+    white = model.whiten(e)[0]
+    assert white.size == n - 1
+    assert abs(lag1_autocorrelation(white)) < 0.03
+    assert model.counts[0] == n - 1
+
+
+def test_weights_are_the_hessian_of_the_log_likelihood() -> None:
+    """−∂²log L/∂θ² of r(θ) = a·θ − y at θ where aᵀr = 0 equals aᵀ W a."""
+    rng = np.random.default_rng(8)
+    a = rng.standard_normal(50)
+    y = rng.standard_normal(50)
+    theta = (a @ y) / (a @ a)
+    model = error_model([slice(0, 20), slice(20, 50)], "iid")
+    h = 1e-4
+    f = [model.loglike(a * (theta + s) - y) for s in (-h, 0.0, h)]
+    hess = -(f[0] - 2 * f[1] + f[2]) / h ** 2
+    w = model.weights(a * theta - y)
+    # the dropped (Jᵀr)(rᵀJ) terms are of the blocks' own aᵀr, not zero per block
+    assert a @ (w * a) == pytest.approx(hess, rel=0.15)
+    known = error_model([slice(0, 50)], "known", sigma=0.5)
+    assert np.all(known.weights(y) == 4.0)
+
+
+def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
+    r = problem.residuals(problem.case.to_search(TRUTH))
+    model = problem_error_model(problem, r)
+    assert model.kind == "neff" and model.size == r.size
+    assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
+    tau = problem_error_model(problem, r, "tau")
+    assert np.all(tau.counts < (tau.stops - tau.starts))
+    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, known"):
+        error_model([slice(0, 5)], "gaussian")
+    with pytest.raises(ConfigError, match="needs the residuals"):
+        error_model([slice(0, 5)], "neff")
+    with pytest.raises(DataError, match="all zero"):
+        error_model([slice(0, 5)], "neff", best_residuals=np.zeros(5))
+    with pytest.raises(ConfigError, match="sigma must be > 0"):
+        error_model([slice(0, 5)], "known", sigma=0.0)

@@ -1,0 +1,284 @@
+"""``femupdate posterior`` through the run machinery: the posterior of a small case, same seed
+same samples, SIGKILL then --resume gives the identical samples, Dask, a failed evaluation
+inside a stage, a budget too small to reach the posterior, and bad input."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from two_storey import TRUTH, write_case
+
+from femupdate.case import load_case, parse_case
+from femupdate.errors import ConfigError, DataError
+from femupdate.posterior.method import SampledProblem
+from femupdate.results import POSTERIOR_FILE, read_summary
+from femupdate.runs import Execution
+from femupdate.runs.store import FILENAME
+from femupdate.sampling.run import POSTERIOR_DIR, PosteriorResult, run_posterior
+
+SRC = str(Path(__file__).resolve().parents[2] / "src")
+HERE = str(Path(__file__).resolve().parent)
+
+
+@pytest.fixture(scope="module")
+def case_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_case(tmp_path_factory.mktemp("two-storey"))
+
+
+@pytest.fixture(scope="module")
+def result(case_path: Path) -> PosteriorResult:
+    return run_posterior(load_case(case_path), case_path.parent / "out")
+
+
+def _samples(out: Path) -> np.ndarray:
+    with np.load(out / POSTERIOR_FILE) as data:
+        return data["samples"]
+
+
+def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
+                                                      case_path: Path) -> None:
+    record = result.record
+    assert record.reached and record.log_evidence is not None and math.isfinite(
+        record.log_evidence)
+    assert record.samples == 200 and result.samples.shape == (200, 4)
+    for name, value in TRUTH.items():  # 2 % noise: the truth is a few sd from the mean
+        m = record.params[name]
+        assert m.q05 < m.q50 < m.q95 and abs(m.mean - value) < 4.0 * m.sd, (name, m, value)
+    assert set(record.frequencies_hz) == {"f1", "f2"} and record.modes_from == 20
+    joint = np.array(record.joint_correlations, dtype=float)
+    assert record.joint_names == ["k1", "k2", "c1", "c2", "f1", "f2", "zeta1", "zeta2"]
+    assert joint.shape == (8, 8) and np.allclose(np.diag(joint), 1.0)
+    assert [s.beta for s in record.stages][-1] == 1.0
+    summary = read_summary(case_path.parent / "out" / "summary.json")
+    assert summary.posterior == record and summary.laplace is not None
+    assert np.array_equal(_samples(case_path.parent / "out"), result.samples)
+    assert 0.0 < result.bands[0].coverage.min() <= 1.0
+
+
+def test_the_report_renders_the_posterior(result: PosteriorResult, case_path: Path) -> None:
+    from femupdate.report.html import render_report
+
+    html = render_report(case_path.parent / "out")
+    for ident in ('id="laplace"', 'id="posterior"', 'id="stages"', 'id="figure-corner"',
+                  'id="figure-frequency-posteriors"', 'id="coverage"', 'id="figure-bands-0"',
+                  'id="figure-posterior-correlation"'):
+        assert ident in html, ident
+
+
+# The killed run evaluates the same residuals slowed down (same values), so that it is still
+# sampling when the poller sees its checkpoints.
+CHILD = """
+import sys, time
+sys.path[:0] = [{src!r}, {here!r}]
+from pathlib import Path
+from femupdate.case import load_case
+from femupdate.posterior.method import SampledProblem
+from femupdate.runs import Execution
+from femupdate.sampling.run import run_posterior
+
+fast = SampledProblem.residuals_batch
+def slow(self, X, **kw):
+    time.sleep(2e-3 * len(X))
+    return fast(self, X, **kw)
+SampledProblem.residuals_batch = slow
+run_posterior(load_case(Path(sys.argv[1])), Path(sys.argv[2]),
+              execution=Execution(chunk_evals=100))
+"""
+
+
+def _progress(path: Path) -> tuple[int, int]:
+    """Evaluations and checkpoints stored so far (0, 0 before the store exists)."""
+    if not path.is_file():
+        return 0, 0
+    conn = sqlite3.connect(path, timeout=10)
+    try:
+        evals = conn.execute("SELECT count(*) FROM evaluations").fetchone()[0]
+        ckpts = conn.execute("SELECT count(*) FROM checkpoints").fetchone()[0]
+    except sqlite3.OperationalError:  # tables not created yet
+        return 0, 0
+    finally:
+        conn.close()
+    return evals, ckpts
+
+
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
+def test_sigkill_then_resume_gives_the_identical_samples(result: PosteriorResult,
+                                                         case_path: Path,
+                                                         tmp_path: Path) -> None:
+    out = tmp_path / "killed"
+    code = CHILD.format(src=SRC, here=HERE)
+    child = subprocess.Popen([sys.executable, "-c", code, str(case_path), str(out)],
+                             start_new_session=True)
+    store = out / POSTERIOR_DIR / FILENAME
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and child.poll() is None:
+            evals, ckpts = _progress(store)
+            if evals >= 500 and ckpts >= 1:  # past the first stage, before the end (1,400)
+                os.killpg(child.pid, signal.SIGKILL)
+                break
+            time.sleep(0.01)
+    finally:
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    assert child.returncode == -signal.SIGKILL, "the sampler ended before it was killed"
+    assert not (out / POSTERIOR_FILE).exists()
+    resumed = run_posterior(load_case(case_path), out, resume=True)
+    assert resumed.samples.tobytes() == result.samples.tobytes()
+    assert resumed.record.log_evidence == result.record.log_evidence
+
+
+def test_dask_gives_the_same_samples(result: PosteriorResult, case_path: Path,
+                                     tmp_path: Path) -> None:
+    distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
+    # Workers as threads: the tasks, the scatter and the chunks go through Dask as on a real
+    # cluster, without starting two interpreters (tests/runs/test_dask.py does that).
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        remote = run_posterior(load_case(case_path), tmp_path / "dask",
+                               execution=Execution(scheduler=cluster.scheduler_address,
+                                                   chunk_evals=400))
+    assert remote.samples.tobytes() == result.samples.tobytes()
+
+
+def test_two_workers_give_the_same_samples(result: PosteriorResult, case_path: Path,
+                                           tmp_path: Path) -> None:
+    # One run and two workers: each stage's population is spread over them.
+    got = run_posterior(load_case(case_path), tmp_path / "two", workers=2)
+    assert got.samples.tobytes() == result.samples.tobytes()
+
+
+def test_a_failed_evaluation_in_a_stage_is_recorded_not_fatal(
+        case_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    fast = SampledProblem.residuals_batch
+
+    def fails_for_stiff_k1(self: SampledProblem, X: np.ndarray, **kw: object) -> np.ndarray:
+        rows = fast(self, X, **kw)
+        rows[X[:, 0] > math.log10(4010.0)] = np.inf  # the model "diverges" there
+        return rows
+
+    monkeypatch.setattr(SampledProblem, "residuals_batch", fails_for_stiff_k1)
+    got = run_posterior(load_case(case_path), tmp_path / "failing")
+    assert got.record.reached and got.record.failed_evaluations > 0
+    assert "started from the prior" in got.record.message  # no Jacobian beside the bound
+    assert got.record.params["k1"].q95 <= 4010.0  # never accepted where it failed
+
+
+def test_a_budget_too_small_says_so_and_reports_no_posterior(case_path: Path,
+                                                             tmp_path: Path) -> None:
+    folder = tmp_path / "small"
+    folder.mkdir()
+    (folder / "data").symlink_to(case_path.parent / "data")
+    got = run_posterior(load_case(write_case(folder, max_evals=300)), folder / "out")
+    assert not got.record.reached and got.record.log_evidence is None
+    assert "β =" in got.record.message and "max_evals" in got.record.message
+    assert got.samples.size == 0 and not got.record.params
+    assert not (folder / "out" / POSTERIOR_FILE).exists()
+
+
+def test_all_zero_records_are_a_one_line_error(case_path: Path, tmp_path: Path) -> None:
+    from femupdate.experiment import load_experiments
+
+    case = load_case(case_path)
+    experiments = load_experiments(case)
+    experiments[0].target[:, 1] = 0.0
+    with pytest.raises(DataError, match=r"channel\(s\) F2.ux is all zero") as err:
+        run_posterior(case, tmp_path / "zero", experiments=experiments)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(("posterior", "message"), [
+    ({"samples": 30}, r"posterior\.samples: got 30 for 4 parameters \(allowed: at least 40"),
+    ({"priors": {"k1": {"kind": "normal", "mean": 50.0, "sd": 10.0}}},
+     r"posterior\.priors\.k1\.mean: got 50, outside the bounds .*\[1000, 10000\]"),
+    ({"priors": {"c1": {"kind": "log-uniform"}}},
+     r"posterior\.priors\.c1\.kind: 'log-uniform' on parameter 'c1' whose lower bound is 0"),
+    ({"priors": {"c1": {"kind": "lognormal", "median": 1.0, "sigma": 0.5}}},
+     r"'lognormal' on parameter 'c1' whose lower bound is 0"),
+    ({"priors": {"k3": {"kind": "uniform"}}}, r"no parameter 'k3'"),
+    ({"error_model": "white"}, r"posterior\.error_model: got 'white'"),
+])
+def test_bad_posterior_settings_are_one_line_errors(case_path: Path, posterior: dict,
+                                                    message: str) -> None:
+    data = load_case(case_path).to_dict()
+    data["posterior"] = posterior
+    with pytest.raises(ConfigError, match=message):
+        parse_case(data)
+
+
+def test_too_few_samples_given_on_the_command_line_are_refused(case_path: Path,
+                                                               tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"samples: got 25 for 4 parameters \(allowed: at "
+                                          r"least 40"):
+        run_posterior(load_case(case_path), tmp_path / "few", samples=25)
+    assert not (tmp_path / "few").exists()  # refused before anything is written
+
+
+def test_the_case_file_offers_the_error_models_of_the_likelihood() -> None:
+    import typing
+
+    from femupdate.case.posterior_section import DEFAULT_POSTERIOR, PosteriorSection
+    from femupdate.posterior.likelihood import DEFAULT_KIND, KINDS
+
+    offered = typing.get_args(PosteriorSection.model_fields["error_model"].annotation)
+    assert set(offered) == set(KINDS) - {"known"}
+    assert DEFAULT_POSTERIOR.error_model == DEFAULT_KIND
+
+
+def test_a_case_without_posterior_keeps_its_fingerprint(case_path: Path) -> None:
+    data = load_case(case_path).to_dict()
+    data.pop("posterior")
+    case = parse_case(data)
+    assert "posterior" not in case.to_dict()
+
+
+def test_laplace_at_the_best_fit_agrees_with_the_samples(result: PosteriorResult) -> None:
+    # Four parameters nearly linear over their posterior: the Gaussian at the best fit and
+    # TMCMC's samples must tell the same story (measured: sd ratios 0.98–1.14).
+    laplace, sampled = result.summary.laplace, result.record
+    assert laplace is not None and laplace.note is None and not laplace.undetermined
+    for name, m in sampled.params.items():
+        g = laplace.params[name]
+        assert 0.7 < g.sd / m.sd < 1.4, (name, g.sd, m.sd)
+        assert abs(g.q50 - m.q50) < 0.5 * m.sd, (name, g.q50, m.q50)
+
+
+def test_validate_with_the_posterior_gives_bands_and_coverage(result: PosteriorResult,
+                                                              case_path: Path,
+                                                              tmp_path: Path) -> None:
+    from femupdate.errors import FemupdateError
+    from femupdate.sampling.validate import validate_posterior
+
+    out = case_path.parent / "out"
+    bands = validate_posterior(load_case(case_path), out, samples=15)
+    assert [b.trial for b in bands] == ["two-storey"] and bands[0].samples == 15
+    assert bands[0].q05.shape == bands[0].measured.shape
+    assert np.all((bands[0].coverage > 0.0) & (bands[0].coverage <= 1.0))
+    with pytest.raises(FemupdateError, match="no posterior samples"):
+        validate_posterior(load_case(case_path), tmp_path)
+
+
+def test_the_command_says_when_it_did_not_reach_the_posterior(case_path: Path,
+                                                              tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    folder = tmp_path / "cli"
+    folder.mkdir()
+    (folder / "data").symlink_to(case_path.parent / "data")
+    path = write_case(folder, max_evals=300)
+    got = CliRunner().invoke(app, ["posterior", str(path), "--out", str(folder / "out"),
+                                   "--quiet"], terminal_width=100)
+    assert got.exit_code == 0, got.output
+    assert "NOT A POSTERIOR: the sampler stopped at tempering exponent β =" in got.output
