@@ -3,7 +3,9 @@ what it says of each parameter, beside the Laplace approximation at the best fit
 evaluations and wall time.
 
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples 2000]
-        [--seed 1] [--out DIR]
+        [--seed 1] [--out DIR] [--quick]
+
+``--quick`` (a smoke run for CI): 300 samples after a search of 2 runs of 600 evaluations.
 
 The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
 case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
@@ -34,11 +36,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--samples", type=int, default=2000)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--quick", action="store_true", help="300 samples, a short search (CI)")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.samples = 300
     out = args.out or Path(tempfile.mkdtemp(prefix="femupdate-bridge-posterior-"))
     data = (out / "data").resolve()
     spec = bridge_case(args.model, "narrow", directory=str(data))
-    spec["search"].update(runs=2, f_target=None, max_evals=3000, seed=1)
+    spec["search"].update(runs=2, f_target=None, max_evals=600 if args.quick else 3000, seed=1)
     spec["posterior"] = {"samples": args.samples, "seed": args.seed, "modes_samples": 100}
     case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
     truth_values = truth(args.model)

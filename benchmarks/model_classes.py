@@ -46,7 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--quick", action="store_true",
+                        help="200 samples a class (a smoke run for CI)")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.samples = 200
     data = find_data(args.data)
     cases = {}
     for model in args.models.split(","):

@@ -55,6 +55,7 @@ def _module_missing(*modules: str) -> str | None:
 
 #: script -> (a line its output must contain, what to check for a skip)
 QUICK = {
+    "bridge_posterior.py": ("truth inside the posterior's 90 % interval", lambda: None),
     "coco_bbob.py": ("targets hit", lambda: _module_missing("cocoex", "cma")),
     "dask_runs.py": ("dask results identical to inline: True",
                      lambda: _module_missing("dask.distributed")),
@@ -64,7 +65,10 @@ QUICK = {
     "hysteresis.py": ("4. Three storeys, a slider per storey", lambda: None),
     "jacobian_cost.py": ("fd err", lambda: None),
     "jenkins_reliability.py": ("verdict: ", _shared_data_missing),
+    "model_classes.py": ("β = 1 reached", _shared_data_missing),
     "optimizer_overhead.py": ("scipy-lsq", lambda: None),
+    "posterior.py": ("evaluations per effective sample, emcee / TMCMC",
+                     lambda: _module_missing("emcee", "arviz")),
     "report_speed.py": ("10 parameters: report in", lambda: None),
     "scale.py": ("peak memory of a 48-parameter multistart-lm run", _opensees_missing),
     "simulate_kernels.py": ("friction", lambda: None),
