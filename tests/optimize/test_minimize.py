@@ -413,3 +413,12 @@ def test_a_function_value_that_is_not_a_number_is_an_error(value: object) -> Non
 def test_a_one_element_array_is_a_number() -> None:
     res = minimize(lambda x: np.array([sphere(x)]), BOX, seed=0, max_evals=5)
     assert res.nfev == 5 and np.isfinite(res.fun)
+
+
+def test_a_scalar_function_may_have_a_negative_target() -> None:
+    # bbob's optima are negative; only a sum of squares (residuals=True) never goes below 0.
+    res = minimize(lambda x: float(x @ x) - 5.0, [(-1.0, 1.0)] * 2, "ab", seed=0,
+                   max_evals=5000, f_target=-4.9)
+    assert "f_target" in res.stop and res.fun <= -4.9
+    with pytest.raises(ConfigError, match="f_target"):
+        minimize(lambda x: x, [(-1.0, 1.0)] * 2, "multistart-lm", residuals=True, f_target=-1)

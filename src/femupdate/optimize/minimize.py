@@ -423,7 +423,7 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
         raise ConfigError(f"unknown method {method!r}; allowed methods: {', '.join(METHODS)}")
     low, high = parse_bounds(bounds)
     max_evals = check_max_evals(max_evals)
-    f_target = check_f_target(f_target)
+    f_target = check_f_target(f_target, sum_of_squares=residuals)
     try:
         rng = np.random.default_rng(seed)
     except (TypeError, ValueError) as exc:

@@ -42,8 +42,10 @@ def check_max_evals(max_evals: Any) -> int:
     return int(max_evals)
 
 
-def check_f_target(f_target: Any) -> float | None:
-    """``f_target`` as a finite float ≥ 0 or None; ConfigError otherwise."""
+def check_f_target(f_target: Any, *, sum_of_squares: bool = True) -> float | None:
+    """``f_target`` as a finite float or None; ConfigError otherwise. A target below 0 is
+    refused for a sum of squares (φ = ‖r‖², a case's error), which never goes below 0; a
+    scalar function of :func:`~femupdate.minimize` may have negative values (bbob's optima)."""
     if f_target is None:
         return None
     if isinstance(f_target, bool) or not isinstance(f_target, numbers.Real):
@@ -51,7 +53,7 @@ def check_f_target(f_target: Any) -> float | None:
     value = float(f_target)
     if not math.isfinite(value):
         raise ConfigError(f"f_target must be a finite real number or None, got {f_target!r}")
-    if value < 0:
+    if value < 0 and sum_of_squares:
         raise ConfigError(f"f_target: got {value!r} (allowed: >= 0 or None: φ is an error, a "
                           "sum of squares or a normalised one, never below 0, so a negative "
                           "target can never be reached; as [search] f_target in a case file)")
