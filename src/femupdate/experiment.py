@@ -6,6 +6,11 @@ table, integrated twice by the trapezoidal rule) or absolute acceleration.
 
 A case may hold several trials (``[[trials]]``): each is read and processed on its own
 (:func:`load_experiments`), with its own delays; the model is shared.
+
+Why this file is long (about 630 lines): every check that needs the records themselves (files
+present and in step, rates, windows past the end, delays that disagree between trials, the band
+against the model's modes) runs where the records are read, so that each names the file,
+channel and field it is about; the checks of the signals' defects are apart (trial_checks).
 """
 
 from __future__ import annotations

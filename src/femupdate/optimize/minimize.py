@@ -48,8 +48,7 @@ METHODS: dict[str, Factory] = {
     "scipy-lsq": make_scipy_lsq,
 }
 
-#: Methods that use residual vectors when the problem has them: ``run_case`` and the
-#: benchmarks give them ``problem.residuals`` with ``residuals=True``.
+#: Methods given ``problem.residuals`` with ``residuals=True`` when the problem has them.
 RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm", "scipy-lsq"})
 
 
