@@ -79,7 +79,8 @@ def check_records(records: Mapping[str, tuple[np.ndarray, float]]) -> tuple[np.n
                             "length and rate")
         if abs(rates[n] - rates[first]) > 1e-12 * rates[first]:
             raise DataError(f"support records {first!r} and {n!r} differ in rate (dt "
-                            f"{rates[first]!r} and {rates[n]!r} s); they must share length and rate")
+                            f"{rates[first]!r} and {rates[n]!r} s); they must share length and "
+                            "rate")
     stack = np.column_stack([np.asarray(records[n][0], dtype=float) for n in names])
     bad = np.argwhere(~np.isfinite(stack))
     if bad.size:
