@@ -136,3 +136,26 @@ def test_bad_input_is_one_line(call, match):
     with pytest.raises(ModelError, match=match) as err:
         call(f)
     assert "\n" not in str(err.value)
+
+
+def test_parameter_names_give_the_numeric_frame():
+    def frame(e: float | str, m: float | str) -> Frame3D:
+        f = Frame3D()
+        f.add_node("A", 0.0)
+        f.add_node("B", 0.0, 0.0, 3.0)
+        f.add_beam("A", "B", vecxz=(1.0, 0, 0), E=e, A=4e-3, Iy=2e-5, Iz=5e-5, J=3e-5, nu=0.3,
+                   rho=7850.0)
+        f.add_mass("B", m)
+        f.fix("A")
+        return f
+
+    named = frame("E", "m")
+    assert named.parameters == ("E", "m")
+    a = named.assemble({"E": 2.1e11, "m": 300.0}).system
+    b = frame(2.1e11, 300.0).assemble().system
+    np.testing.assert_array_equal(a.K, b.K)
+    np.testing.assert_array_equal(a.M, b.M)
+    with pytest.raises(ModelError, match="parameter 'm' has no value"):
+        named.assemble({"E": 2.1e11})
+    with pytest.raises(ModelError, match=r"E = -1\.0 is out of range"):
+        named.assemble({"E": -1.0, "m": 1.0})

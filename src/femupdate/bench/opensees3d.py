@@ -18,13 +18,13 @@ Time histories use Newmark's average acceleration in both codes at the same step
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from femupdate.errors import ModelError, SimulationError
 from femupdate.external.openseespy import import_opensees
-from femupdate.model.frame3d import DOF_NAMES_3D, Frame3D, Frame3DModel
+from femupdate.model.frame3d import DOF_NAMES_3D, Frame3D, Frame3DModel, _beam_numbers
 
 __all__ = ["OpenSees3DPeer"]
 
@@ -32,10 +32,12 @@ __all__ = ["OpenSees3DPeer"]
 class OpenSees3DPeer:
     """A :class:`Frame3D` built in OpenSees (one domain per process: building wipes it)."""
 
-    def __init__(self, frame: Frame3D, model: Frame3DModel) -> None:
+    def __init__(self, frame: Frame3D, model: Frame3DModel,
+                 values: Mapping[str, float] | None = None) -> None:
         self.ops = import_opensees()
         self.frame = frame
         self.model = model
+        self.values = {} if values is None else dict(values)
         self.build()
 
     def build(self) -> None:
@@ -46,11 +48,12 @@ class OpenSees3DPeer:
             ops.node(i + 1, *xyz)
         mass = np.zeros((len(f._xyz), 6))
         for n, vals in f._masses:
-            mass[n] += vals
+            mass[n] += [self._number(v) for v in vals]
         for i, row in enumerate(mass):
             if row.any():
                 ops.mass(i + 1, *row.tolist())
-        for e, (name, n1, n2, p) in enumerate(f._beams):
+        for e, (name, n1, n2, raw) in enumerate(f._beams):
+            p: dict = _beam_numbers(raw, self.values, name)
             if p["Ip"] is not None and p["Ip"] != p["J"]:
                 raise ModelError(f"OpenSees peer: beam {name!r} has Ip != J; OpenSees uses J")
             ops.geomTransf("Linear", e + 1, *np.asarray(p["vecxz"]).tolist())
@@ -72,7 +75,7 @@ class OpenSees3DPeer:
             ground = n_nodes + s + 1
             ops.node(ground, *f._xyz[g // 6])
             ops.fix(ground, 1, 1, 1, 1, 1, 1)
-            ops.uniaxialMaterial("Elastic", s + 2, k)
+            ops.uniaxialMaterial("Elastic", s + 2, self._number(k))
             ops.element("zeroLength", 10_000 + s, ground, g // 6 + 1, "-mat", s + 2,
                         "-dir", g % 6 + 1)
         masters: dict[int, list[int]] = {}
@@ -85,6 +88,9 @@ class OpenSees3DPeer:
             ops.rayleigh(alpha, 0.0, 0.0, beta)  # β on the initial (= current) stiffness
         self._dofs = [(f.nodes.index(lab.split(".")[0]) + 1, DOF_NAMES_3D.index(
             lab.split(".")[1]) + 1) for lab in self.model.system.dof_labels]
+
+    def _number(self, v: float | str) -> float:
+        return float(self.values[v]) if isinstance(v, str) else float(v)
 
     def _analysis(self) -> None:
         ops = self.ops

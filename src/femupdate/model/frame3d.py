@@ -14,21 +14,23 @@ DOFs ``u = T q``, ``q`` the independent DOFs (the slaves' ``ux, uy, rz`` are not
 OpenSees's ``rigidDiaphragm`` with the ``Transformation`` constraint handler does). A dedicated
 master node has no stiffness of its own in ``uz, rx, ry``: fix them.
 
-Assembly is dense and for fixed numeric properties (frames of up to a few hundred DOFs); parameter
-names are not supported here, unlike :class:`~femupdate.model.structure.Structure`.
+Any numeric property of a beam, mass or spring may be the name of a parameter, given at
+``assemble(values)``. Assembly is dense (frames of up to a few hundred DOFs) and re-evaluates
+every element: this builder is not on the compiled path of
+:class:`~femupdate.model.structure.Structure`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from femupdate.errors import ModelError
 from femupdate.model.elements import check_value
-from femupdate.model.elements3d import frame3d_element
+from femupdate.model.elements3d import frame3d_element, frame3d_rotation
 from femupdate.model.system import System
 
 __all__ = ["DOF_NAMES_3D", "Frame3D", "Frame3DModel", "null_space_dofs"]
@@ -37,6 +39,33 @@ __all__ = ["DOF_NAMES_3D", "Frame3D", "Frame3DModel", "null_space_dofs"]
 DOF_NAMES_3D: tuple[str, ...] = ("ux", "uy", "uz", "rx", "ry", "rz")
 _DPN = 6
 _IUX, _IUY, _IRZ = 0, 1, 5
+
+Value = float | str
+"""A numeric property: a number, or the name of a parameter given at assembly."""
+
+_BEAM_NUMBERS = ("E", "A", "Iy", "Iz", "J", "G", "nu", "kappa_y", "kappa_z", "rho",
+                 "mass_per_length", "Ip")
+
+
+def _resolve(v: Value | None, values: Mapping[str, float], where: str) -> float | None:
+    if not isinstance(v, str):
+        return v
+    if v not in values:
+        raise ModelError(f"{where}: parameter {v!r} has no value; give it in values")
+    return float(values[v])
+
+
+def _beam_numbers(props: Mapping[str, object], values: Mapping[str, float], label: str
+                  ) -> dict[str, object]:
+    """Beam properties with parameters replaced by their values and ``G`` from ``nu``."""
+    out = dict(props)
+    for key in _BEAM_NUMBERS:
+        out[key] = _resolve(props[key], values, f"{label}: {key}")  # type: ignore[arg-type]
+    nu = out.pop("nu")
+    if nu is not None:
+        nu = check_value(label, "nu", nu, -1.0, 0.5, low_open=True)  # type: ignore[arg-type]
+        out["G"] = check_value(label, "E", out["E"]) / (2.0 * (1.0 + nu))  # type: ignore[arg-type]
+    return out
 
 
 @dataclass(frozen=True)
@@ -99,6 +128,14 @@ def null_space_dofs(K: np.ndarray, labels: Sequence[str], rtol: float = 1e-10) -
     return [lab for lab, wt in zip(labels, weight, strict=True) if wt > 0.1 * weight.max()]
 
 
+def _check_axes(xyz1: Sequence[float], xyz2: Sequence[float], vecxz: np.ndarray,
+                label: str) -> None:
+    try:
+        frame3d_rotation(xyz1, xyz2, vecxz)
+    except ModelError as exc:
+        raise ModelError(f"{label}: {str(exc).removeprefix('3-D beam: ')}") from None
+
+
 class Frame3D:
     """A 3-D frame of nodes with six DOFs ``(ux, uy, uz, rx, ry, rz)``.
 
@@ -152,10 +189,10 @@ class Frame3D:
         return DOF_NAMES_3D.index(dof)
 
     def add_beam(
-        self, node1: str, node2: str, *, E: float, A: float, Iy: float, Iz: float, J: float,
-        vecxz: Sequence[float], G: float | None = None, nu: float | None = None,
-        kappa_y: float = 5 / 6, kappa_z: float = 5 / 6, rho: float = 0.0,
-        mass_per_length: float = 0.0, Ip: float | None = None, rotary_inertia: bool = True,
+        self, node1: str, node2: str, *, E: Value, A: Value, Iy: Value, Iz: Value, J: Value,
+        vecxz: Sequence[float], G: Value | None = None, nu: Value | None = None,
+        kappa_y: Value = 5 / 6, kappa_z: Value = 5 / 6, rho: Value = 0.0,
+        mass_per_length: Value = 0.0, Ip: Value | None = None, rotary_inertia: bool = True,
         name: str | None = None,
     ) -> str:
         """Add a 3-D Timoshenko beam-column (:mod:`femupdate.model.elements3d`).
@@ -164,8 +201,9 @@ class Frame3D:
         ----------
         node1, node2 : str
             End nodes (local x from node1 to node2).
-        E, A, Iy, Iz, J : float
-            Young's modulus, area, second moments about local y and z, torsion constant.
+        E, A, Iy, Iz, J : float or str
+            Young's modulus, area, second moments about local y and z, torsion constant. Any
+            number here and below may be a parameter name.
         vecxz : sequence of 3 floats
             A vector in the local xz plane (OpenSees ``geomTransf Linear``).
         G, nu : float
@@ -188,35 +226,56 @@ class Frame3D:
             raise ModelError(f"duplicate element name {name!r}")
         if (G is None) == (nu is None):
             raise ModelError(f"{label}: give exactly one of G and nu (a 3-D frame needs torsion)")
-        if G is None:
-            nu = check_value(label, "nu", nu, -1.0, 0.5, low_open=True)  # type: ignore[arg-type]
-            G = check_value(label, "E", E) / (2.0 * (1.0 + nu))
         vec = np.asarray(vecxz, dtype=float)
         if vec.shape != (3,) or not np.all(np.isfinite(vec)):
             raise ModelError(f"{label}: vecxz = {vecxz!r}; give three finite numbers")
         n1, n2 = self._node(node1, label), self._node(node2, label)
-        props = dict(E=E, A=A, Iy=Iy, Iz=Iz, J=J, G=G, kappa_y=kappa_y, kappa_z=kappa_z,
+        props = dict(E=E, A=A, Iy=Iy, Iz=Iz, J=J, G=G, nu=nu, kappa_y=kappa_y, kappa_z=kappa_z,
                      rho=rho, mass_per_length=mass_per_length, Ip=Ip,
                      rotary_inertia=rotary_inertia, vecxz=vec)
-        # Check now, with the element's own messages.
-        frame3d_element(self._xyz[n1], self._xyz[n2], name=name, **props)  # type: ignore[arg-type]
+        for key in _BEAM_NUMBERS:
+            if props[key] == "":
+                raise ModelError(f"{label}: {key} is an empty parameter name")
+        if not any(isinstance(props[key], str) for key in _BEAM_NUMBERS):
+            # Check now, with the element's own messages.
+            frame3d_element(self._xyz[n1], self._xyz[n2], name=name,
+                            **_beam_numbers(props, {}, label))  # type: ignore[arg-type]
+        else:
+            _check_axes(self._xyz[n1], self._xyz[n2], vec, label)
         self._beams.append((name, n1, n2, props))
         return name
 
-    def add_mass(self, node: str, m: float = 0.0, *, Jx: float = 0.0, Jy: float = 0.0,
-                 Jz: float = 0.0) -> None:
+    def add_mass(self, node: str, m: Value = 0.0, *, Jx: Value = 0.0, Jy: Value = 0.0,
+                 Jz: Value = 0.0) -> None:
         """Add a lumped mass ``m`` on the three translations and rotary inertias ``Jx, Jy, Jz``."""
         label = f"mass at {node!r}"
         n = self._node(node, label)
-        vals = tuple(check_value(label, w, v) for w, v in
+        vals = tuple(v if isinstance(v, str) else check_value(label, w, v) for w, v in
                      (("m", m), ("m", m), ("m", m), ("Jx", Jx), ("Jy", Jy), ("Jz", Jz)))
         self._masses.append((n, vals))
 
-    def add_spring(self, node: str, dof: str, k: float) -> None:
+    def add_spring(self, node: str, dof: str, k: Value) -> None:
         """Add a linear spring ``k ≥ 0`` from ``node.dof`` to the ground."""
         label = f"spring at {node}.{dof}"
         self._springs.append((self._node(node, label) * _DPN + self._dof(dof, label),
-                              check_value(label, "k", k)))
+                              k if isinstance(k, str) else check_value(label, "k", k)))
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """Parameter names used by the beams, masses and springs, in first-use order."""
+        seen: dict[str, None] = {}
+        for _, _, _, props in self._beams:
+            for key in _BEAM_NUMBERS:
+                if isinstance(props[key], str):
+                    seen.setdefault(props[key], None)  # type: ignore[arg-type]
+        for _, vals in self._masses:
+            for v in vals:
+                if isinstance(v, str):
+                    seen.setdefault(v, None)
+        for _, k in self._springs:
+            if isinstance(k, str):
+                seen.setdefault(k, None)
+        return tuple(seen)
 
     def fix(self, node: str, *dofs: str) -> None:
         """Fix (support) the given DOFs of ``node``; all six when none is given."""
@@ -275,30 +334,45 @@ class Frame3D:
     def _label(self, g: int) -> str:
         return f"{self.nodes[g // _DPN]}.{DOF_NAMES_3D[g % _DPN]}"
 
-    def assemble(self) -> Frame3DModel:
+    def assemble(self, values: Mapping[str, float] | None = None) -> Frame3DModel:
         """Assemble ``M``, ``C``, ``K`` of the free DOFs and their coupling to the supports.
+
+        Parameters
+        ----------
+        values : mapping, optional
+            A value for every name in :attr:`parameters`.
 
         Raises
         ------
         ModelError
-            With no node or no free DOF, or when the frame is a mechanism (singular ``K``): the
-            message names the free DOFs of the zero-energy modes.
+            With no node or no free DOF, a parameter without value or out of range, or when the
+            frame is a mechanism (singular ``K``): the message names the free DOFs of the
+            zero-energy modes.
         """
+        values = {} if values is None else values
         if not self._xyz:
             raise ModelError("the 3-D frame has no nodes; add_node first")
+        unknown = sorted(set(values) - set(self.parameters))
+        if unknown:
+            raise ModelError(f"unknown parameter(s) {', '.join(map(repr, unknown))}; this frame "
+                             f"uses {self.parameters}")
         n_global = len(self._xyz) * _DPN
         k_g = np.zeros((n_global, n_global))
         m_g = np.zeros((n_global, n_global))
         for name, n1, n2, props in self._beams:
             k_e, m_e = frame3d_element(self._xyz[n1], self._xyz[n2], name=name,
-                                       **props)  # type: ignore[arg-type]
+                                       **_beam_numbers(props, values, f"3-D beam {name!r}"))
             idx = np.r_[n1 * _DPN:(n1 + 1) * _DPN, n2 * _DPN:(n2 + 1) * _DPN]
             k_g[np.ix_(idx, idx)] += k_e
             m_g[np.ix_(idx, idx)] += m_e
-        for n, vals in self._masses:
+        for n, raw in self._masses:
+            where = f"mass at {self.nodes[n]!r}"
+            vals = [check_value(where, w, _resolve(v, values, where))  # type: ignore[arg-type]
+                    for w, v in zip(("m", "m", "m", "Jx", "Jy", "Jz"), raw, strict=True)]
             m_g[range(n * _DPN, (n + 1) * _DPN), range(n * _DPN, (n + 1) * _DPN)] += vals
         for g, k in self._springs:
-            k_g[g, g] += k
+            where = f"spring at {self._label(g)}"
+            k_g[g, g] += check_value(where, "k", _resolve(k, values, where))  # type: ignore[arg-type]
         t, indep = self._transformation()
         free = [c for c, g in enumerate(indep) if g not in self._fixed]
         sup = [c for c, g in enumerate(indep) if g in self._fixed]
