@@ -97,3 +97,21 @@ def test_mechanism_in_a_case_names_the_file_and_dofs(folder):
     with pytest.raises(ModelError, match=match) as err:
         load_frame3d_case(folder / "case.toml")
     assert "\n" not in str(err.value)
+
+
+def test_cli_simulates_and_writes(folder):
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    (folder / "case.toml").write_text(_case_text())
+    result = CliRunner().invoke(app, ["frame3d", str(folder / "case.toml"), "--out",
+                                      str(folder / "out"), "--method", "newmark"])
+    assert result.exit_code == 0, result.output
+    assert "3 record(s) of 120 samples" in result.output
+    total = np.loadtxt(folder / "out" / "total_displacement.csv", delimiter=",", skiprows=1)
+    assert total.shape == (120, 1 + 90)  # 17 nodes × 6 - 12 support DOFs
+    _, _, model, groups, acc, dt = load_frame3d_case(folder / "case.toml")
+    expected = multi_support_response(model, groups, acc, dt, method="newmark").total
+    np.testing.assert_allclose(total[:, 1:], expected, rtol=1e-15,
+                               atol=1e-15 * np.abs(expected).max())
