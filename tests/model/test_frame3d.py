@@ -159,3 +159,10 @@ def test_parameter_names_give_the_numeric_frame():
         named.assemble({"E": 2.1e11})
     with pytest.raises(ModelError, match=r"E = -1\.0 is out of range"):
         named.assemble({"E": -1.0, "m": 1.0})
+
+
+def test_structure_points_to_frame3d_for_six_dofs():
+    from femupdate.model.structure import Structure
+
+    with pytest.raises(ModelError, match="allowed 1, 2 or 3; 3-D frames .*Frame3D"):
+        Structure(dofs_per_node=6)

@@ -99,3 +99,19 @@ def test_against_opensees(figures):
     assert len(figures) == 7
     for name, value in figures.items():
         assert value < 1e-8, name
+
+
+def test_two_horizontal_components_add_up():
+    # x on every support's ux and y on every uy, as two records, is the sum of the two uniform
+    # excitations (linear system; relative motion without the damping coupling).
+    model = example_frame(diaphragm=True).assemble()
+    acc = support_records(150, DT)[:, :2]
+    groups = [[lab for lab in model.support_labels if lab.endswith(f".u{d}")] for d in "xy"]
+    both = multi_support_response(model, groups, acc, DT, method="newmark",
+                                  damping_coupling=False)
+    x = simulate(model.uniform_system("x"), DT, ag=acc[:, 0], method="newmark")
+    y = simulate(model.uniform_system("y"), DT, ag=acc[:, 1], method="newmark")
+    expected = x.displacement + y.displacement
+    np.testing.assert_allclose(both.dynamic, expected, atol=1e-10 * np.abs(expected).max())
+    acc_abs = x.acceleration + y.acceleration
+    np.testing.assert_allclose(both.acceleration, acc_abs, atol=1e-10 * np.abs(acc_abs).max())

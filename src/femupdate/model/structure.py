@@ -215,7 +215,9 @@ class Structure:
 
     def __init__(self, dofs_per_node: int = 2) -> None:
         if dofs_per_node not in DOF_NAMES:
-            raise ModelError(f"dofs_per_node = {dofs_per_node!r}; allowed 1, 2 or 3")
+            hint = ("; 3-D frames (6 DOFs per node): femupdate.model.frame3d.Frame3D"
+                    if dofs_per_node == 6 else "")
+            raise ModelError(f"dofs_per_node = {dofs_per_node!r}; allowed 1, 2 or 3{hint}")
         self.dofs_per_node: int = dofs_per_node
         self._node_index: dict[str, int] = {}
         self._xy: list[tuple[float, float]] = []
