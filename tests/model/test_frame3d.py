@@ -164,5 +164,5 @@ def test_parameter_names_give_the_numeric_frame():
 def test_structure_points_to_frame3d_for_six_dofs():
     from femupdate.model.structure import Structure
 
-    with pytest.raises(ModelError, match="allowed 1, 2 or 3; 3-D frames .*Frame3D"):
+    with pytest.raises(ModelError, match=r"allowed 1, 2 or 3; 3-D frames .*Frame3D"):
         Structure(dofs_per_node=6)
