@@ -22,7 +22,7 @@ def main() -> int:
     figures = run_checks(quick=args.quick)
     worst = 0.0
     for name, value in figures.items():
-        print(f"{name:50s} {value:.2e}")
+        print(f"{name:56s} {value:.2e}")
         worst = max(worst, value)
     print(f"worst {worst:.2e} (target 1e-8); {time.perf_counter() - start:.1f} s, "
           f"load average {os.getloadavg()[0]:.2f}")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from femupdate.bench.frame3d_check import example_frame
+from femupdate.bench.frame3d_check import as_structure, example_frame, portal_frame
 from femupdate.errors import ModelError
 from femupdate.model.elements import frame_element
 from femupdate.model.elements3d import frame3d_element, frame3d_rotation
@@ -161,50 +161,10 @@ def test_parameter_names_give_the_numeric_frame():
         named.assemble({"E": -1.0, "m": 1.0})
 
 
-def _as_structure(frame: Frame3D):
-    """The same frame (no diaphragms) through Structure(dofs_per_node=6)."""
-    from femupdate.model.structure import Structure
-
-    s = Structure(dofs_per_node=6)
-    for name, xyz in zip(frame.nodes, frame._xyz, strict=True):
-        s.add_node(name, *xyz)
-    for name, n1, n2, p in frame._beams:
-        assert p["kappa_y"] == p["kappa_z"] and p["Ip"] is None
-        shear = {"G": p["G"]} if p["G"] is not None else {"nu": p["nu"]}
-        s.add_beam(frame.nodes[n1], frame.nodes[n2], E=p["E"], A=p["A"], Iy=p["Iy"],
-                   Iz=p["Iz"], J=p["J"], vecxz=tuple(p["vecxz"]), rho=p["rho"],
-                   kappa=p["kappa_y"], mass_per_length=p["mass_per_length"], name=name,
-                   **shear)
-    for k, (n, vals) in enumerate(frame._masses):
-        assert vals[3] == vals[4] == vals[5]
-        s.add_mass(frame.nodes[n], vals[0], vals[3], name=f"m{k}")
-    for g in sorted(frame._fixed):
-        s.fix(frame.nodes[g // 6], ("ux", "uy", "uz", "rx", "ry", "rz")[g % 6])
-    alpha, beta = frame._rayleigh
-    s.set_rayleigh(alpha, beta)
-    return s
-
-
-def _portal(e: float | str = 2.1e11) -> Frame3D:
-    f = Frame3D()
-    for i, (x, y) in enumerate([(0.0, 0.0), (4.0, 0.0), (4.0, 3.0)]):
-        f.add_node(f"B{i}", x, y, 0.0)
-        f.add_node(f"T{i}", x, y, 3.5)
-        f.fix(f"B{i}")
-        f.add_beam(f"B{i}", f"T{i}", vecxz=(1.0, 0.4, 0.0), E=e, nu=0.3, A=5e-3, Iy=3e-5,
-                   Iz=7e-5, J=2e-5, rho=7850.0, kappa_y=0.7, kappa_z=0.7)
-    for a, b in (("T0", "T1"), ("T1", "T2")):
-        f.add_beam(a, b, vecxz=(0.0, 0.0, 1.0), E=e, G=8e10, A=4e-3, Iy=2e-5, Iz=5e-5,
-                   J=1e-5, rho=7850.0, kappa_y=0.8, kappa_z=0.8)
-    f.add_mass("T1", 900.0, Jx=50.0, Jy=50.0, Jz=50.0)
-    f.set_rayleigh(0.2, 1e-4)
-    return f
-
-
 def test_structure_with_six_dofs_is_the_frame3d():
-    frame = _portal()
+    frame = portal_frame()
     a = frame.assemble()
-    b = _as_structure(frame).assemble(direction="y")
+    b = as_structure(frame).assemble(direction="y")
     assert b.dof_labels == a.system.dof_labels
     for x, y in ((b.K, a.system.K), (b.M, a.system.M), (b.C, a.system.C)):
         np.testing.assert_allclose(x, y, rtol=1e-13, atol=1e-13 * np.abs(y).max())
@@ -217,9 +177,9 @@ def test_structure_with_six_dofs_is_the_frame3d():
 def test_structure_with_six_dofs_takes_parameters():
     from femupdate.model.structure import Structure
 
-    s = _as_structure(_portal("E"))
+    s = as_structure(portal_frame("E"))
     assert s.parameters == ("E",)
-    np.testing.assert_allclose(s.assemble({"E": 2.1e11}).K, _portal().assemble().system.K,
+    np.testing.assert_allclose(s.assemble({"E": 2.1e11}).K, portal_frame().assemble().system.K,
                                rtol=1e-13, atol=1e-6)
     bad = Structure(dofs_per_node=6)
     bad.add_node("A", 0.0)

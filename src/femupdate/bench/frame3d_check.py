@@ -17,11 +17,14 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from femupdate.errors import ModelError
 from femupdate.model.frame3d import Frame3D
+from femupdate.model.structure import Structure
 from femupdate.simulate import simulate
 from femupdate.simulate.multisupport import integrate_record, multi_support_response
 
-__all__ = ["SUPPORT_GROUPS", "example_frame", "run_checks", "support_records", "two_span_beam"]
+__all__ = ["SUPPORT_GROUPS", "as_structure", "example_frame", "portal_frame", "run_checks",
+           "support_records", "two_span_beam"]
 
 _STEEL = dict(E=2.1e11, nu=0.3, A=6e-3, Iy=4e-5, Iz=6e-5, J=2e-5, rho=7850.0, kappa_y=0.8,
               kappa_z=0.7)
@@ -72,6 +75,47 @@ def two_span_beam() -> Frame3D:
     return f
 
 
+def as_structure(frame: Frame3D) -> Structure:
+    """The same frame (no diaphragms) as a ``Structure(dofs_per_node=6)``."""
+    s = Structure(dofs_per_node=6)
+    for name, xyz in zip(frame.nodes, frame._xyz, strict=True):
+        s.add_node(name, *xyz)
+    for name, n1, n2, p in frame._beams:
+        if p["kappa_y"] != p["kappa_z"] or p["Ip"] is not None:
+            raise ModelError(f"beam {name!r}: Structure takes one kappa and Ip = J")
+        shear = {"G": p["G"]} if p["G"] is not None else {"nu": p["nu"]}
+        s.add_beam(frame.nodes[n1], frame.nodes[n2], E=p["E"], A=p["A"], Iy=p["Iy"],
+                   Iz=p["Iz"], J=p["J"], vecxz=tuple(p["vecxz"]), rho=p["rho"],
+                   kappa=p["kappa_y"], mass_per_length=p["mass_per_length"], name=name,
+                   **shear)
+    for k, (n, vals) in enumerate(frame._masses):
+        if not vals[3] == vals[4] == vals[5]:
+            raise ModelError("Structure takes one rotary inertia J per mass")
+        s.add_mass(frame.nodes[n], vals[0], vals[3], name=f"m{k}")
+    for g in sorted(frame._fixed):
+        s.fix(frame.nodes[g // 6], ("ux", "uy", "uz", "rx", "ry", "rz")[g % 6])
+    alpha, beta = frame._rayleigh
+    s.set_rayleigh(alpha, beta)
+    return s
+
+
+def portal_frame(e: float | str = 2.1e11) -> Frame3D:
+    """Three columns and two girders (one shear modulus given, one from nu), a mass."""
+    f = Frame3D()
+    for i, (x, y) in enumerate([(0.0, 0.0), (4.0, 0.0), (4.0, 3.0)]):
+        f.add_node(f"B{i}", x, y, 0.0)
+        f.add_node(f"T{i}", x, y, 3.5)
+        f.fix(f"B{i}")
+        f.add_beam(f"B{i}", f"T{i}", vecxz=(1.0, 0.4, 0.0), E=e, nu=0.3, A=5e-3, Iy=3e-5,
+                   Iz=7e-5, J=2e-5, rho=7850.0, kappa_y=0.7, kappa_z=0.7)
+    for a, b in (("T0", "T1"), ("T1", "T2")):
+        f.add_beam(a, b, vecxz=(0.0, 0.0, 1.0), E=e, G=8e10, A=4e-3, Iy=2e-5, Iz=5e-5,
+                   J=1e-5, rho=7850.0, kappa_y=0.8, kappa_z=0.8)
+    f.add_mass("T1", 900.0, Jx=50.0, Jy=50.0, Jz=50.0)
+    f.set_rayleigh(0.2, 1e-4)
+    return f
+
+
 def support_records(n_samples: int, dt: float) -> np.ndarray:
     """Three smooth acceleration records (m/s²), starting at rest, the second delayed 0.2 s."""
     t = np.arange(n_samples) * dt
@@ -108,6 +152,16 @@ def run_checks(quick: bool = False) -> dict[str, float]:
             y = simulate(model.uniform_system(direction), dt, ag=ag, method="newmark")
             out[f"{tag} uniform {direction} time history"] = _rel(
                 y.displacement, peer.run_uniform(ag, dt, direction))
+    portal = portal_frame()
+    structure = as_structure(portal).assemble(direction="y")
+    ours = np.sqrt(scipy.linalg.eigh(structure.K, structure.M, eigvals_only=True)[:6]) / (
+        2 * np.pi)
+    peer = OpenSees3DPeer(portal, portal.assemble())
+    out["Structure(dofs_per_node=6) portal frequencies (6 modes)"] = _rel(
+        ours, peer.frequencies(6))
+    y = simulate(structure, dt, ag=ag, method="newmark")
+    out["Structure(dofs_per_node=6) portal uniform y"] = _rel(
+        y.displacement, peer.run_uniform(ag, dt, "y"))
     beam = two_span_beam()
     model = beam.assemble()
     dt = 0.01
