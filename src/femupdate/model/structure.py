@@ -253,7 +253,8 @@ class Structure:
     dofs_per_node : {1, 2, 3}
         1: ``(ux,)`` (springs, dampers and masses only, e.g. shear buildings);
         2: ``(uy, rz)``, beams along the x axis bending in the plane (the paper's bridge deck);
-        3: ``(ux, uy, rz)``, plane frames.
+        3: ``(ux, uy, rz)``, plane frames;
+        6: ``(ux, uy, uz, rx, ry, rz)``, 3-D frames (docs/frames-3d.md).
 
     Examples
     --------
