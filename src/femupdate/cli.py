@@ -939,6 +939,21 @@ def synth(
     say(f"wrote {', '.join(manifest['files'])}, truth.json, manifest.json in {out}")
 
 
+@app.command()
+def frame3d(
+    case_file: Annotated[Path, typer.Argument(help="A 3-D frame case file (docs/frames-3d.md).")],
+    out: Annotated[Path | None, typer.Option("--out", help="Write the responses (CSV) here.")
+                   ] = None,
+    method: Annotated[str, typer.Option(help="Integrator: exact, newmark or "
+                                             "central_difference.")] = "exact",
+) -> None:
+    """Simulate a 3-D frame under its ground motions (one record per support group)."""
+    from femupdate.case.frame3d_case import run_frame3d_case
+
+    for line in run_frame3d_case(case_file, out, method=method):
+        say(line)
+
+
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: Any = None, line: str | None = None) -> None:
     """Every warning as one line on the console, without Python's source echo."""

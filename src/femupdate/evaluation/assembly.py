@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 from numba import njit
 
+from femupdate.errors import ModelError
 from femupdate.model import elements
 from femupdate.model.structure import Structure
 
@@ -129,6 +130,9 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
         Valid physical values (e.g. the nominal ones): assembled once by the Structure to
         cache the mass matrix when no parameter changes it.
     """
+    if structure.dofs_per_node == 6:
+        raise ModelError("the compiled assembly is for planar structures; a 3-D frame "
+                         "(dofs_per_node=6) is assembled by Structure.assemble")
     topo = structure._topo()
     params = structure.parameters
     names = list(names)

@@ -33,6 +33,7 @@ from femupdate.model.elements import (
     frame_stiffness,
     spring_matrix,
 )
+from femupdate.model.elements3d import frame3d_mass, frame3d_rotation, frame3d_stiffness
 from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
 from femupdate.model.modes import check_mass_matrix
 from femupdate.model.sparse import check_sparse_mass, scatter_sparse
@@ -41,10 +42,11 @@ from femupdate.model.system import BoucWenElements, FrictionElements, System
 __all__ = ["DOF_NAMES", "Structure", "shear_building"]
 
 #: DOF names of a node for each ``dofs_per_node``.
-DOF_NAMES: dict[int, tuple[str, ...]] = {1: ("ux",), 2: ("uy", "rz"), 3: ("ux", "uy", "rz")}
+DOF_NAMES: dict[int, tuple[str, ...]] = {1: ("ux",), 2: ("uy", "rz"), 3: ("ux", "uy", "rz"),
+                                         6: ("ux", "uy", "uz", "rx", "ry", "rz")}
 
 #: Default base-excitation direction for each ``dofs_per_node``.
-_DEFAULT_DIRECTION = {1: "x", 2: "y", 3: "x"}
+_DEFAULT_DIRECTION = {1: "x", 2: "y", 3: "x", 6: "x"}
 
 Value = float | str
 """A numeric property: a number, or the name of a parameter given at assembly."""
@@ -73,6 +75,10 @@ _BEAM_SPECS = {
     "nu": _Spec(-1.0, 0.5, low_open=True),
     "kappa": _POSITIVE,
     "mass_per_length": _NONNEG,
+    # 3-D beams (dofs_per_node=6), femupdate.model.elements3d
+    "Iy": _POSITIVE,
+    "Iz": _POSITIVE,
+    "J": _POSITIVE,
 }
 
 # Bouc–Wen properties one by one; the admissible (β, γ) pairs are checked at assembly.
@@ -86,7 +92,7 @@ _BOUC_WEN_SPECS = {
 }
 
 # Beam properties the mass matrix depends on (besides E, through Φ, when G is given).
-_MASS_PROPS = ("A", "I", "rho", "G", "nu", "kappa", "mass_per_length")
+_MASS_PROPS = ("A", "I", "rho", "G", "nu", "kappa", "mass_per_length", "Iy", "Iz", "J")
 
 
 @dataclass(frozen=True)
@@ -137,6 +143,52 @@ class _Prop:
         v = self.const.copy()
         v[where] = vp
         return v
+
+
+def _beam3d_options(label: str, dpn: int, xyz1: tuple[float, float, float],
+                    xyz2: tuple[float, float, float], I: Value | None,  # noqa: E741
+                    Iy: Value | None, Iz: Value | None, J: Value | None,
+                    vecxz: Sequence[float] | None, shear: int) -> dict[str, object]:
+    """The 3-D beam's extra properties and options (checks which of I / Iy, Iz, J, vecxz)."""
+    given3d = {k: v for k, v in (("Iy", Iy), ("Iz", Iz), ("J", J)) if v is not None}
+    if dpn != 6:
+        if given3d or vecxz is not None:
+            raise ModelError(f"{label}: Iy, Iz, J and vecxz are for dofs_per_node=6; give I")
+        if I is None:
+            raise ModelError(f"{label}: I (second moment of area) is missing")
+        return {"options": {}}
+    if I is not None:
+        raise ModelError(f"{label}: with dofs_per_node=6 give Iy, Iz and J, not I")
+    missing = [k for k in ("Iy", "Iz", "J") if k not in given3d] + (
+        ["vecxz"] if vecxz is None else [])
+    if missing:
+        raise ModelError(f"{label}: {', '.join(missing)} missing; a 3-D beam needs Iy, Iz, J "
+                         "and vecxz")
+    if shear == 0:
+        raise ModelError(f"{label}: give G or nu (a 3-D beam needs its torsional stiffness)")
+    vec = np.asarray(vecxz, dtype=float)
+    if vec.shape != (3,) or not np.all(np.isfinite(vec)):
+        raise ModelError(f"{label}: vecxz = {vecxz!r}; give three finite numbers")
+    try:
+        frame3d_rotation(xyz1, xyz2, vec)
+    except ModelError as exc:
+        raise ModelError(f"{label}: {str(exc).removeprefix('3-D beam: ')}") from None
+    return {"options": {"vecxz": vec}, **given3d}
+
+
+def _shear_modulus(E: np.ndarray, bp: Mapping[str, np.ndarray], shear: np.ndarray
+                   ) -> np.ndarray:
+    """``G`` per beam: given (1), from ``nu`` (2), or infinite (0)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        from_nu = E / (2.0 * (1.0 + bp["nu"]))
+    return np.where(shear == 1, bp["G"], np.where(shear == 2, from_nu, _INF))
+
+
+def _beam3d_stack(kernel: object, *args: np.ndarray) -> np.ndarray:
+    """A 12 × 12 element matrix per beam from a scalar kernel of :mod:`elements3d`."""
+    n = int(np.asarray(args[-1]).size)
+    return np.array([kernel(*(float(a[e]) for a in args))  # type: ignore[operator]
+                     for e in range(n)]).reshape(n, 12, 12)
 
 
 def _scatter(dof_map: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -202,7 +254,8 @@ class Structure:
     dofs_per_node : {1, 2, 3}
         1: ``(ux,)`` (springs, dampers and masses only, e.g. shear buildings);
         2: ``(uy, rz)``, beams along the x axis bending in the plane (the paper's bridge deck);
-        3: ``(ux, uy, rz)``, plane frames.
+        3: ``(ux, uy, rz)``, plane frames;
+        6: ``(ux, uy, uz, rx, ry, rz)``, 3-D frames (docs/frames-3d.md).
 
     Examples
     --------
@@ -216,10 +269,11 @@ class Structure:
 
     def __init__(self, dofs_per_node: int = 2) -> None:
         if dofs_per_node not in DOF_NAMES:
-            raise ModelError(f"dofs_per_node = {dofs_per_node!r}; allowed 1, 2 or 3")
+            raise ModelError(f"dofs_per_node = {dofs_per_node!r}; allowed 1, 2, 3 or 6")
         self.dofs_per_node: int = dofs_per_node
         self._node_index: dict[str, int] = {}
         self._xy: list[tuple[float, float]] = []
+        self._z: list[float] = []  # heights, 3-D frames (dofs_per_node=6) only
         self._records: list[_Record] = []
         self._element_names: set[str] = set()
         self._fixed: set[int] = set()
@@ -250,16 +304,20 @@ class Structure:
             self._parameters = tuple(seen)
         return self._parameters
 
-    def add_node(self, name: str, x: float, y: float = 0.0) -> None:
-        """Add a node at ``(x, y)``."""
+    def add_node(self, name: str, x: float, y: float = 0.0, z: float = 0.0) -> None:
+        """Add a node at ``(x, y)`` (``(x, y, z)`` with ``dofs_per_node=6``)."""
         if not isinstance(name, str) or not name:
             raise ModelError(f"node name must be a non-empty string, got {name!r}")
         if name in self._node_index:
             raise ModelError(f"duplicate node {name!r}; node names must be unique")
         x = check_value(f"node {name!r}", "x", x, -_INF)
         y = check_value(f"node {name!r}", "y", y, -_INF)
+        z = check_value(f"node {name!r}", "z", z, -_INF)
+        if z != 0.0 and self.dofs_per_node != 6:
+            raise ModelError(f"node {name!r}: z = {z!r} needs dofs_per_node=6 (3-D frames)")
         self._node_index[name] = len(self._xy)
         self._xy.append((x, y))
+        self._z.append(z)
         self._topology = None
 
     def add_beam(
@@ -269,7 +327,7 @@ class Structure:
         *,
         E: Value,
         A: Value,
-        I: Value,  # noqa: E741
+        I: Value | None = None,  # noqa: E741
         rho: Value = 0.0,
         G: Value | None = None,
         nu: Value | None = None,
@@ -277,8 +335,16 @@ class Structure:
         mass_per_length: Value = 0.0,
         rotary_inertia: bool = True,
         name: str | None = None,
+        Iy: Value | None = None,
+        Iz: Value | None = None,
+        J: Value | None = None,
+        vecxz: Sequence[float] | None = None,
     ) -> str:
-        """Add a Timoshenko beam (``dofs_per_node`` 2: along x; 3: any direction in the plane).
+        """Add a Timoshenko beam (``dofs_per_node`` 2: along x; 3: any direction in the plane;
+        6: a 3-D beam-column, :mod:`femupdate.model.elements3d`).
+
+        With ``dofs_per_node=6`` give ``Iy``, ``Iz``, ``J`` and ``vecxz`` instead of ``I`` (the
+        shear areas are both ``κA``, the torsional inertia ``ρJ``) and ``G`` or ``nu``.
 
         Parameters
         ----------
@@ -314,7 +380,7 @@ class Structure:
             raise ModelError(f"{label}: beams need rotations; use dofs_per_node=2 or 3")
         n1, n2 = self._node(node1, label), self._node(node2, label)
         (x1, y1), (x2, y2) = self._xy[n1], self._xy[n2]
-        length = math.hypot(x2 - x1, y2 - y1)
+        length = math.hypot(x2 - x1, y2 - y1, self._z[n2] - self._z[n1])
         if not length > 0.0:
             raise ModelError(
                 f"{label}: length = {length!r} between nodes {node1!r} and {node2!r}; "
@@ -328,10 +394,14 @@ class Structure:
         if G is not None and nu is not None:
             raise ModelError(f"{label}: give G or nu, not both")
         shear = 0 if G is None and nu is None else (1 if G is not None else 2)
+        options: dict[str, object] = {"shear": shear, "rotary": bool(rotary_inertia)}
+        extra = _beam3d_options(label, self.dofs_per_node, self._xyz(n1), self._xyz(n2),
+                                I, Iy, Iz, J, vecxz, shear)
+        options.update(extra.pop("options"))  # type: ignore[arg-type]
         raw = {
             "E": E,
             "A": A,
-            "I": I,
+            "I": 1.0 if I is None else I,
             "rho": rho,
             "kappa": kappa,
             "mass_per_length": mass_per_length,
@@ -340,16 +410,9 @@ class Structure:
             raw["G"] = G
         if nu is not None:
             raw["nu"] = nu
+        raw.update(extra)  # type: ignore[arg-type]
         props = {k: self._value(v, label, k, _BEAM_SPECS[k]) for k, v in raw.items()}
-        self._add(
-            _Record(
-                "beam",
-                name,
-                props,
-                nodes=(n1, n2),
-                options={"shear": shear, "rotary": bool(rotary_inertia)},
-            )
-        )
+        self._add(_Record("beam", name, props, nodes=(n1, n2), options=options))
         return name
 
     def add_spring(
@@ -586,7 +649,14 @@ class Structure:
         )
         phi = flex * I / (bp["kappa"] * A * L * L)
         frame = self.dofs_per_node == 3
-        kb = frame_stiffness(E * A, E * I, L, phi) if frame else beam_stiffness(E * I, L, phi)
+        if self.dofs_per_node == 6:
+            g = _shear_modulus(E, bp, topo.beam_shear)
+            kb = _beam3d_stack(frame3d_stiffness, E, g, A, bp["Iy"], bp["Iz"], bp["J"],
+                               bp["kappa"] * A, bp["kappa"] * A, L)
+        elif frame:
+            kb = frame_stiffness(E * A, E * I, L, phi)
+        else:
+            kb = beam_stiffness(E * I, L, phi)
         if topo.beam_T is not None:
             kb = np.swapaxes(topo.beam_T, 1, 2) @ kb @ topo.beam_T
         mass_key = "mass_sparse" if sparse else "mass"
@@ -596,7 +666,17 @@ class Structure:
         else:
             mu = bp["rho"] * A + bp["mass_per_length"]
             rho_i = bp["rho"] * I * topo.beam_rotary
-            mb = frame_mass(mu, rho_i, L, phi) if frame else beam_mass(mu, rho_i, L, phi)
+            if self.dofs_per_node == 6:
+                g = _shear_modulus(E, bp, topo.beam_shear)
+                mb = np.array([
+                    frame3d_mass(mu[e], bp["rho"][e], E[e], g[e], A[e], bp["Iy"][e], bp["Iz"][e],
+                                 bp["kappa"][e] * A[e], bp["kappa"][e] * A[e], L[e],
+                                 Ip=bp["J"][e], rotary_inertia=bool(topo.beam_rotary[e]))
+                    for e in range(L.size)]).reshape(L.size, 12, 12)
+            elif frame:
+                mb = frame_mass(mu, rho_i, L, phi)
+            else:
+                mb = beam_mass(mu, rho_i, L, phi)
             if topo.beam_T is not None:
                 mb = np.swapaxes(topo.beam_T, 1, 2) @ mb @ topo.beam_T
             mm, mj = topo.mass_m.evaluate(p), topo.mass_J.evaluate(p)
@@ -736,6 +816,9 @@ class Structure:
         self._add(_Record(kind, name, props, nodes=(n1, n2), dofs=(d1, d2)))
         return name
 
+    def _xyz(self, node: int) -> tuple[float, float, float]:
+        return (*self._xy[node], self._z[node])
+
     def _rigid(self, direction: str | None) -> np.ndarray:
         """Rigid base translation over all global DOFs (fixed ones included)."""
         if direction is None:
@@ -794,17 +877,22 @@ class Structure:
         # beams
         beams = by_kind.get("beam", [])
         d = 2 * dpn
+        beam_t: np.ndarray | None
         gdofs = np.array(
             [[nd * dpn + j for nd in rec.nodes for j in range(dpn)] for rec in beams],
             dtype=np.int64,
         ).reshape(len(beams), d)
-        xy = np.array(self._xy)
+        xy = np.column_stack([np.array(self._xy).reshape(-1, 2), self._z])
         delta = xy[[rec.nodes[1] for rec in beams]] - xy[[rec.nodes[0] for rec in beams]]
-        delta = delta.reshape(len(beams), 2)
-        length = np.hypot(delta[:, 0], delta[:, 1])
+        delta = delta.reshape(len(beams), 3)
+        length = np.sqrt((delta * delta).sum(axis=1))
         cos, sin = delta[:, 0] / length, delta[:, 1] / length
-        if dpn == 3:
-            beam_t: np.ndarray | None = frame_rotation(cos, sin)
+        if dpn == 6:
+            beam_t = np.array([frame3d_rotation(self._xyz(rec.nodes[0]), self._xyz(rec.nodes[1]),
+                                                rec.options["vecxz"])  # type: ignore[arg-type]
+                               for rec in beams]).reshape(len(beams), 12, 12)
+        elif dpn == 3:
+            beam_t = frame_rotation(cos, sin)
         elif np.all(cos > 0):
             beam_t = None
         else:  # a beam from right to left: its local v is -uy

@@ -1,0 +1,273 @@
+"""Case files of 3-D frames under uniform or multi-support ground motion.
+
+A TOML file of its own (docs/frames-3d.md gives an example)::
+
+    [values]                       # parameter values, if any property names a parameter
+    E = 2.1e11
+
+    [[frame3d.nodes]]              # name, x, y, z (m)
+    [[frame3d.beams]]              # nodes, E, G or nu, A, Iy, Iz, J, vecxz, kappa_y, kappa_z,
+                                   # rho, mass_per_length, Ip, name
+    [[frame3d.masses]]             # node, m, Jx, Jy, Jz
+    [[frame3d.springs]]            # node, dof, k (to the ground)
+    [[frame3d.supports]]           # node, dofs (default all six)
+    [[frame3d.diaphragms]]         # master, nodes
+    [frame3d.rayleigh]             # alpha, beta
+
+    [[ground_motion]]              # one per record
+    file = "north.csv"             # one number per line (or a column of a CSV: column = k)
+    dt = 0.01                      # sample interval (s) of this record
+    scale = 9.81                   # to m/s²
+    dofs = ["A.uz", "B.uz"]        # the support DOFs that follow it
+
+Every record must share length and ``dt`` (one-line ``DataError`` otherwise); a support DOF
+takes at most one record; support DOFs without a record stay still.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import Field, ValidationError
+
+from femupdate.case.fields import (
+    Area,
+    Coordinate,
+    Density,
+    MassPerLength,
+    Modulus,
+    NodalMass,
+    NodeName,
+    ParameterValue,
+    Poisson,
+    PositiveModulus,
+    RayleighAlpha,
+    RayleighBeta,
+    RotaryInertia,
+    SecondMoment,
+    Section,
+    ShearFactor,
+    Stiffness,
+    integer_field,
+    number_field,
+    text_field,
+)
+from femupdate.errors import ConfigError, DataError, ModelError
+from femupdate.model.frame3d import Frame3D, Frame3DModel
+from femupdate.simulate.multisupport import check_records
+
+__all__ = ["Frame3DCase", "load_frame3d_case"]
+
+Dof3D = Literal["ux", "uy", "uz", "rx", "ry", "rz"]
+Vector3 = Annotated[list[number_field(ge=-1e6, le=1e6)], Field(min_length=3, max_length=3)]
+
+
+class Node3D(Section):
+    name: NodeName
+    x: Coordinate
+    y: Coordinate = 0.0
+    z: Coordinate = 0.0
+
+
+class Beam3D(Section):
+    nodes: Annotated[list[NodeName], Field(min_length=2, max_length=2)]
+    E: Modulus
+    G: PositiveModulus | None = None
+    nu: Poisson | None = None
+    A: Area
+    Iy: SecondMoment
+    Iz: SecondMoment
+    J: SecondMoment
+    vecxz: Vector3
+    kappa_y: ShearFactor = 5.0 / 6.0
+    kappa_z: ShearFactor = 5.0 / 6.0
+    rho: Density = 0.0
+    mass_per_length: MassPerLength = 0.0
+    Ip: SecondMoment | None = None
+    rotary_inertia: bool = True
+    name: text_field(64, 1) | None = None
+
+
+class Mass3D(Section):
+    node: NodeName
+    m: NodalMass = 0.0
+    Jx: RotaryInertia = 0.0
+    Jy: RotaryInertia = 0.0
+    Jz: RotaryInertia = 0.0
+
+
+class Spring3D(Section):
+    node: NodeName
+    dof: Dof3D
+    k: Stiffness
+
+
+class Support3D(Section):
+    node: NodeName
+    dofs: Annotated[list[Dof3D], Field(min_length=1, max_length=6)] | None = None
+
+
+class Diaphragm(Section):
+    master: NodeName
+    nodes: Annotated[list[NodeName], Field(min_length=1, max_length=100_000)]
+
+
+class Rayleigh3D(Section):
+    alpha: RayleighAlpha = 0.0
+    beta: RayleighBeta = 0.0
+
+
+class Frame3DSection(Section):
+    nodes: Annotated[list[Node3D], Field(min_length=2, max_length=100_000)]
+    beams: Annotated[list[Beam3D], Field(min_length=1, max_length=100_000)]
+    masses: list[Mass3D] = Field(default_factory=list)
+    springs: list[Spring3D] = Field(default_factory=list)
+    supports: Annotated[list[Support3D], Field(min_length=1, max_length=100_000)]
+    diaphragms: list[Diaphragm] = Field(default_factory=list)
+    rayleigh: Rayleigh3D | None = None
+
+
+class GroundMotion(Section):
+    file: text_field(4096, 1)
+    dt: number_field("s", gt=0.0, le=10.0)
+    column: integer_field(ge=0, le=10_000) = 0
+    scale: number_field(gt=0.0, le=1e6) = 1.0
+    dofs: Annotated[list[text_field(200, 3)], Field(min_length=1, max_length=100_000)]
+
+
+class Frame3DCase(Section):
+    """A 3-D frame case: the frame, parameter values and the ground motions."""
+
+    frame3d: Frame3DSection
+    values: dict[str, ParameterValue] = Field(default_factory=dict)
+    ground_motion: Annotated[list[GroundMotion], Field(min_length=1, max_length=10_000)]
+
+    def build(self) -> Frame3D:
+        """The :class:`Frame3D` described."""
+        f = Frame3D()
+        s = self.frame3d
+        for n in s.nodes:
+            f.add_node(n.name, n.x, n.y, n.z)
+        for b in s.beams:
+            props: dict[str, Any] = b.model_dump(exclude={"nodes", "vecxz", "G", "nu"})
+            shear = {"G": b.G} if b.G is not None else {"nu": b.nu}
+            f.add_beam(b.nodes[0], b.nodes[1], vecxz=b.vecxz, **shear, **props)
+        for m in s.masses:
+            f.add_mass(m.node, m.m, Jx=m.Jx, Jy=m.Jy, Jz=m.Jz)
+        for k in s.springs:
+            f.add_spring(k.node, k.dof, k.k)
+        for sup in s.supports:
+            f.fix(sup.node, *(sup.dofs or ()))
+        for d in s.diaphragms:
+            f.add_diaphragm(d.master, d.nodes)
+        if s.rayleigh is not None:
+            f.set_rayleigh(s.rayleigh.alpha, s.rayleigh.beta)
+        return f
+
+
+def _read_record(path: Path, column: int, where: str) -> np.ndarray:
+    try:
+        data = np.loadtxt(path, delimiter="," if path.suffix == ".csv" else None, ndmin=2)
+    except FileNotFoundError:
+        raise DataError(f"{where}: file not found: {path}") from None
+    except (OSError, ValueError) as exc:
+        raise DataError(f"{where}: cannot read {path}: {str(exc).splitlines()[0]}") from None
+    if column >= data.shape[1]:
+        raise DataError(f"{where}: column = {column} but {path} has {data.shape[1]} column(s); "
+                        f"allowed 0 to {data.shape[1] - 1}")
+    return data[:, column]
+
+
+def load_frame3d_case(path: str | os.PathLike[str]
+                      ) -> tuple[Frame3DCase, Frame3D, Frame3DModel, list[list[str]],
+                                 np.ndarray, float]:
+    """Read a 3-D frame case file: the case, frame, assembled model, groups, records and dt.
+
+    Returns
+    -------
+    case, frame, model, groups, acceleration (n_samples, n_records), dt
+
+    Raises
+    ------
+    ConfigError
+        Unreadable TOML or invalid fields (one line per problem: ``file: field: what``).
+    ModelError
+        A frame that cannot be assembled (e.g. a mechanism), prefixed with the file name.
+    DataError
+        Records that cannot be read, differ in length or rate, or hold NaN.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"case file not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        case = Frame3DCase.model_validate(data)
+    except ValidationError as exc:
+        lines = [f"{path}: {'.'.join(map(str, e['loc'])) or '(top level)'}: {e['msg']}"
+                 for e in exc.errors(include_url=False)]
+        raise ConfigError("\n".join(lines)) from None
+    try:
+        frame = case.build()
+        model = frame.assemble(case.values)
+    except ModelError as exc:
+        raise ModelError(f"{path}: frame3d: {exc}") from None
+    records: dict[str, tuple[np.ndarray, float]] = {}
+    groups: list[list[str]] = []
+    seen: dict[str, int] = {}
+    for i, gm in enumerate(case.ground_motion):
+        where = f"{path}: ground_motion[{i}]"
+        for lab in gm.dofs:
+            if lab not in model.support_labels:
+                raise ConfigError(f"{where}.dofs: {lab!r} is not a support DOF (allowed: "
+                                  f"{', '.join(model.support_labels)})")
+            if lab in seen:
+                raise ConfigError(f"{where}.dofs: {lab!r} already follows ground_motion"
+                                  f"[{seen[lab]}]; a support DOF takes one record")
+            seen[lab] = i
+        records[f"ground_motion[{i}] ({gm.file})"] = (
+            gm.scale * _read_record(path.parent / gm.file, gm.column, where), gm.dt)
+        groups.append(list(gm.dofs))
+    try:
+        acc, dt = check_records(records)
+    except DataError as exc:
+        raise DataError(f"{path}: {exc}") from None
+    return case, frame, model, groups, acc, dt
+
+
+def run_frame3d_case(path: str | os.PathLike[str], out: str | os.PathLike[str] | None = None,
+                     *, method: str = "exact") -> list[str]:
+    """Simulate a 3-D frame case; write the responses as CSV; return summary lines.
+
+    Writes ``<out>/total_displacement.csv``, ``dynamic_displacement.csv`` and
+    ``absolute_acceleration.csv`` (a column per free DOF after the time) when ``out`` is given.
+    """
+    from femupdate.simulate.multisupport import multi_support_response
+
+    _, _, model, groups, acc, dt = load_frame3d_case(path)
+    resp = multi_support_response(model, groups, acc, dt, method=method)
+    labels = model.system.dof_labels
+    lines = [f"{model.system.n_dof} free DOFs, {len(model.support_labels)} support DOFs, "
+             f"{len(groups)} record(s) of {acc.shape[0]} samples at dt = {dt:g} s ({method})"]
+    peak = np.abs(resp.total).max(axis=0)
+    j = int(np.argmax(peak))
+    lines.append(f"largest total displacement {peak[j]:.4g} at {labels[j]}; pseudo-static part "
+                 f"up to {np.abs(resp.pseudo_static).max():.4g}")
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        header = "t," + ",".join(labels)
+        for name, arr in (("total_displacement", resp.total),
+                          ("dynamic_displacement", resp.dynamic),
+                          ("absolute_acceleration", resp.acceleration)):
+            np.savetxt(folder / f"{name}.csv", np.column_stack([resp.t, arr]), delimiter=",",
+                       header=header, comments="")
+        lines.append(f"wrote total_displacement.csv, dynamic_displacement.csv, "
+                     f"absolute_acceleration.csv in {folder}")
+    return lines

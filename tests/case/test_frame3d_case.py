@@ -1,0 +1,117 @@
+"""3-D frame case files: the two-span beam with a record per support, and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femupdate.bench.frame3d_check import SUPPORT_GROUPS, support_records, two_span_beam
+from femupdate.case.frame3d_case import load_frame3d_case
+from femupdate.errors import ConfigError, DataError, ModelError
+from femupdate.simulate.multisupport import multi_support_response
+
+DT = 0.01
+
+
+def _case_text(n_elements: int = 8, beam_extra: str = "", motions: str | None = None) -> str:
+    nodes = "\n".join(f'[[frame3d.nodes]]\nname = "P{i}"\nx = {40.0 * i / (2 * n_elements)}'
+                      for i in range(2 * n_elements + 1))
+    beams = "\n".join(
+        f'[[frame3d.beams]]\nnodes = ["P{i}", "P{i + 1}"]\nE = "E"\nnu = 0.2\nA = 0.5\n'
+        f"Iy = 0.02\nIz = 0.04\nJ = 0.03\nrho = 2500.0\nvecxz = [0.0, 0.0, 1.0]\n{beam_extra}"
+        for i in range(2 * n_elements))
+    supports = (f'[[frame3d.supports]]\nnode = "P0"\n'
+                f'[[frame3d.supports]]\nnode = "P{n_elements}"\ndofs = ["uy", "uz", "rx"]\n'
+                f'[[frame3d.supports]]\nnode = "P{2 * n_elements}"\ndofs = ["uy", "uz", "rx"]\n')
+    if motions is None:
+        motions = "".join(
+            f'[[ground_motion]]\nfile = "r{g}.csv"\ndt = {DT}\ncolumn = {g}\n'
+            f'dofs = ["{dof}"]\n' for g, (dof,) in enumerate(SUPPORT_GROUPS))
+    return (f"[values]\nE = 3e10\n{nodes}\n{beams}\n{supports}"
+            f"[frame3d.rayleigh]\nalpha = 0.2\nbeta = 2e-4\n{motions}")
+
+
+@pytest.fixture
+def folder(tmp_path):
+    acc = support_records(120, DT)
+    for g in range(3):
+        np.savetxt(tmp_path / f"r{g}.csv", acc, delimiter=",")
+    np.savetxt(tmp_path / "short.csv", acc[:100], delimiter=",")
+    return tmp_path
+
+
+def test_case_gives_the_frame_and_records(folder):
+    (folder / "case.toml").write_text(_case_text())
+    _, _, model, groups, acc, dt = load_frame3d_case(folder / "case.toml")
+    assert dt == DT and acc.shape == (120, 3)
+    assert groups == [list(g) for g in SUPPORT_GROUPS]
+    direct = two_span_beam().assemble()
+    np.testing.assert_allclose(model.system.K, direct.system.K, rtol=1e-14, atol=1e-6)
+    np.testing.assert_allclose(model.system.M, direct.system.M, rtol=1e-14, atol=1e-12)
+    ours = multi_support_response(model, groups, acc, dt, method="newmark")
+    theirs = multi_support_response(direct, SUPPORT_GROUPS, support_records(120, DT), DT,
+                                    method="newmark")
+    np.testing.assert_allclose(ours.total, theirs.total, atol=1e-12 * np.abs(theirs.total).max())
+
+
+@pytest.mark.parametrize(
+    ("motions", "error", "match"),
+    [
+        ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndofs = ["P0.uz"]\n'
+         '[[ground_motion]]\nfile = "short.csv"\ndt = 0.01\ndofs = ["P8.uz"]\n',
+         DataError, "differ in length"),
+        ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndofs = ["P0.uz"]\n'
+         '[[ground_motion]]\nfile = "r1.csv"\ndt = 0.02\ndofs = ["P8.uz"]\n',
+         DataError, "differ in rate"),
+        ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndofs = ["P3.uz"]\n',
+         ConfigError, r"ground_motion\[0\]\.dofs: 'P3\.uz' is not a support DOF"),
+        ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndofs = ["P0.uz"]\n'
+         '[[ground_motion]]\nfile = "r1.csv"\ndt = 0.01\ndofs = ["P0.uz"]\n',
+         ConfigError, "already follows"),
+        ('[[ground_motion]]\nfile = "none.csv"\ndt = 0.01\ndofs = ["P0.uz"]\n',
+         DataError, "file not found"),
+        ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ncolumn = 7\ndofs = ["P0.uz"]\n',
+         DataError, "column = 7"),
+    ],
+)
+def test_bad_ground_motions_are_one_line(folder, motions, error, match):
+    (folder / "case.toml").write_text(_case_text(motions=motions))
+    with pytest.raises(error, match=match) as err:
+        load_frame3d_case(folder / "case.toml")
+    assert "\n" not in str(err.value)
+    assert "case.toml" in str(err.value)
+
+
+def test_bad_field_names_file_and_field(folder):
+    (folder / "case.toml").write_text(_case_text(beam_extra="kappa_y = -1.0\n"))
+    with pytest.raises(ConfigError, match=r"case\.toml: frame3d\.beams\.0\.kappa_y") as err:
+        load_frame3d_case(folder / "case.toml")
+    assert len(str(err.value).splitlines()) == 16  # one line per beam
+
+
+def test_mechanism_in_a_case_names_the_file_and_dofs(folder):
+    text = _case_text().replace('[[frame3d.supports]]\nnode = "P0"\n',
+                                '[[frame3d.supports]]\nnode = "P0"\ndofs = ["uy", "uz", "rx"]\n')
+    (folder / "case.toml").write_text(text)
+    match = r"case\.toml: frame3d: .*mechanism.*P0\.ux.*P16\.ux"
+    with pytest.raises(ModelError, match=match) as err:
+        load_frame3d_case(folder / "case.toml")
+    assert "\n" not in str(err.value)
+
+
+def test_cli_simulates_and_writes(folder):
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    (folder / "case.toml").write_text(_case_text())
+    result = CliRunner().invoke(app, ["frame3d", str(folder / "case.toml"), "--out",
+                                      str(folder / "out"), "--method", "newmark"])
+    assert result.exit_code == 0, result.output
+    assert "3 record(s) of 120 samples" in result.output
+    total = np.loadtxt(folder / "out" / "total_displacement.csv", delimiter=",", skiprows=1)
+    assert total.shape == (120, 1 + 90)  # 17 nodes × 6 - 12 support DOFs
+    _, _, model, groups, acc, dt = load_frame3d_case(folder / "case.toml")
+    expected = multi_support_response(model, groups, acc, dt, method="newmark").total
+    np.testing.assert_allclose(total[:, 1:], expected, rtol=1e-15,
+                               atol=1e-15 * np.abs(expected).max())
