@@ -62,6 +62,7 @@ QUICK = {
     "evaluation_cost.py": ("3-DOF shear building", lambda: None),
     "external_parallel.py": ("results identical across the three: True",
                              lambda: _module_missing("dask.distributed") or _opensees_missing()),
+    "frame3d_opensees.py": ("worst ", _opensees_missing),
     "hysteresis.py": ("4. Three storeys, a slider per storey", lambda: None),
     "jacobian_cost.py": ("fd err", lambda: None),
     "jenkins_reliability.py": ("verdict: ", _shared_data_missing),
