@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import norm
 
-from femupdate.errors import DataError
+from femupdate.errors import DataError, FemupdateError
+from femupdate.posterior.jacobian import residual_jacobian
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
 
@@ -186,18 +187,15 @@ def sentences(prior: Prior, quantiles: np.ndarray, spread: np.ndarray) -> list[s
 
 def jacobian_unit(residuals_batch: Callable[[np.ndarray], np.ndarray], best_unit: np.ndarray,
                   prior: Prior, step: float = 1e-4) -> np.ndarray:
-    """∂r/∂ξ (m, n) at ``best_unit`` by central differences in the unit cube (one-sided at a
-    bound), all 2n points in one call of ``residuals_batch`` (search-space rows -> (k, m)),
-    e.g. an UpdateProblem's ``residuals_batch``."""
-    xi = np.asarray(best_unit, dtype=float).reshape(-1)
-    n = xi.size
-    up = np.minimum(xi + step, 1.0)
-    down = np.maximum(xi - step, 0.0)
-    points = np.repeat(xi[None, :], 2 * n, axis=0)
-    points[np.arange(n), np.arange(n)] = up
-    points[n + np.arange(n), np.arange(n)] = down
-    rows = np.asarray(residuals_batch(prior.to_search(points)), dtype=float)
-    if not np.all(np.isfinite(rows)):
-        raise DataError("Laplace: a finite-difference point near the best fit failed to "
-                        "evaluate: no Jacobian")
-    return ((rows[:n] - rows[n:]) / (up - down)[:, None]).T
+    """∂r/∂ξ (m, n) at ``best_unit``, in the prior's unit cube: the differences of
+    :func:`~femupdate.posterior.jacobian.residual_jacobian` (second order, one-sided at a
+    bound, one call of ``residuals_batch``: search-space rows -> (k, m)) on the prior's box."""
+    bounds = list(zip(prior.to_search(np.zeros(prior.dim)), prior.to_search(np.ones(prior.dim)),
+                      strict=True))
+    try:
+        _, jac = residual_jacobian(residuals_batch, bounds, prior.to_search(best_unit),
+                                   step=step)
+    except FemupdateError as exc:
+        raise DataError(f"Laplace: a finite-difference point near the best fit failed to "
+                        f"evaluate ({exc})") from None
+    return jac
