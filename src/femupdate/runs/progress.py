@@ -112,7 +112,8 @@ class RunProgress:
             if by_evals:
                 # Compact, to fit 80 columns: the label goes on its own line above the bar, and
                 # the pace shows as the time left (the rate is in the log).
-                console.print(Text(f"{self.label}: {self.total_runs} runs of at most "
+                runs = "1 run" if self.total_runs == 1 else f"{self.total_runs} runs"
+                console.print(Text(f"{self.label}: {runs} of at most "
                                    f"{self.max_evals:,} evaluations"))
                 columns: tuple[ProgressColumn, ...] = (
                     BarColumn(bar_width=10),
