@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from femupdate.report.canvas import new_figure
 from femupdate.report.figures import MAX_FIT_CHANNELS
@@ -81,6 +82,9 @@ def plot_frequency_posteriors(freqs: np.ndarray, truth_hz: Sequence[float] | Non
             ax.axvline(truth_hz[i], color="#1b5e20", lw=1.2, label="truth")
         ax.set_xlabel(f"f{i + 1} [Hz]", fontsize=8)
         ax.tick_params(labelsize=7)
+        # a narrow posterior (22.020 … 22.035 Hz) wants few ticks, else their labels run
+        # into each other
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=3))
         ax.set_yticks([])
     fig.suptitle("natural frequencies over the posterior samples", fontsize=9)
     return fig
