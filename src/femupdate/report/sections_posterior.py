@@ -72,7 +72,9 @@ def section_posterior(ctx: Context, page: Page) -> str:
                         "last tempered stage.", "not-reached"))
     out.append(pairs([
         ("sampler", esc(f"{record.method}, {record.samples:,} samples, error model "
-                        f"{record.error_model!r}, seed {record.seed}")),
+                        f"{record.error_model!r}, "
+                        + (f"seed {record.seed}" if record.seed is not None
+                           else "no seed given (fresh entropy)"))),
         ("evaluations", esc(f"{record.nfev:,} ({record.failed_evaluations:,} failed) in "
                             f"{record.wall_s:.1f} s")),
         ("log-evidence", num(record.log_evidence, 8) if record.log_evidence is not None
