@@ -49,6 +49,7 @@ OPTIONS = ("population", "cov_target", "steps", "proposal", "reference", "inflat
            "max_stages", "final_steps")
 PROPOSALS = ("rw", "independent")
 TARGET_ACCEPTANCE = 0.25
+FINAL_STEPS = 12  # default moves at β = 1: they decorrelate the final resampled copies
 
 
 @dataclass
@@ -191,10 +192,13 @@ class TMCMC:
         Coefficient of variation of the weights that sets each β (Ching & Chen: 1.0).
     steps : int
         Metropolis–Hastings steps per particle and stage.
-    final_steps : int
-        Steps per particle at β = 1 (at least ``steps``): the last stage's moves, which
-        decorrelate the resampled copies (:func:`ess_of_population`).
-    proposal : {"rw", "independent"}
+    final_steps : int, optional
+        Steps per particle at β = 1 (at least ``steps``; default the larger of ``steps`` and
+        12): the last stage's moves, which decorrelate the resampled copies.
+    proposal : {"independent", "rw"}
+        Independent draws from the weighted population's Gaussian (inflated), the default:
+        fewer evaluations per effective sample than the random walk on the bridge and the
+        analytic case (docs/posterior.md, "Speed").
     reference : (mean, cov) in the unit cube, optional
         A Gaussian approximation of the posterior (the Laplace one): the start q.
     inflate : float
@@ -206,7 +210,8 @@ class TMCMC:
 
     def __init__(self, n: int, rng: np.random.Generator, *, error_model: ErrorModel,
                  prior: Prior, population: int = 1000, cov_target: float = 1.0,
-                 steps: int = 3, final_steps: int | None = None, proposal: str = "rw",
+                 steps: int = 3, final_steps: int | None = None,
+                 proposal: str = "independent",
                  reference: tuple[np.ndarray, np.ndarray] | None = None,
                  inflate: float = 1.5, max_stages: int = 100) -> None:
         method = "tmcmc"
@@ -224,7 +229,7 @@ class TMCMC:
         self.cov_target = float(real_option(method, "cov_target", cov_target, 0.0, 10.0,
                                             low_open=True))
         self.steps = int_option(method, "steps", steps, 1, 1000)
-        self.final_steps = (self.steps if final_steps is None
+        self.final_steps = (max(self.steps, FINAL_STEPS) if final_steps is None
                             else int_option(method, "final_steps", final_steps, self.steps,
                                             10_000))
         if proposal not in PROPOSALS:
@@ -260,6 +265,7 @@ class TMCMC:
         self._final_start: np.ndarray | None = None  # the population entering β = 1
         self._final_copies: np.ndarray | None = None  # copies of each parent in it
         self._move: tuple[np.ndarray, np.ndarray] | None = None  # proposal mean, Cholesky
+        self._eve = np.arange(self.population)  # each particle's ancestor in the first stage
 
     # -- the reference density ----------------------------------------------------------------
 
@@ -427,6 +433,7 @@ class TMCMC:
         if beta >= 1.0:
             self._final_start = self.x[idx].copy()
             self._final_copies = np.bincount(idx, minlength=idx.size).astype(float)
+        self._eve = self._eve[idx]
         self.x, self.ll, self.lp, self.lq = (self.x[idx].copy(), self.ll[idx].copy(),
                                              self.lp[idx].copy(), self.lq[idx].copy())
         self.beta = beta
