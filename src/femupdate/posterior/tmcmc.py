@@ -70,8 +70,9 @@ class TMCMCPosterior:
     stages : list of dict
         Per stage: beta, acceptance, weights_ess, scale, evaluations, failures.
     ess : float
-        Effective sample size of the final population (min over parameters; NaN if not
-        reached).
+        Effective sample size of the final population for the posterior mean: the minimum
+        over the parameters of the smaller of :func:`ess_by_ancestry` and
+        :func:`ess_of_population` (NaN if not reached).
     evaluations : int
     failures : int
     """
@@ -154,8 +155,34 @@ def ess_of_weights(weights: np.ndarray) -> float:
     return float(1.0 / np.sum(weights ** 2))
 
 
+def ess_by_ancestry(samples: np.ndarray, ancestors: np.ndarray) -> np.ndarray:
+    """Effective sample size of the mean of each parameter of a final population, from its
+    genealogy (per parameter, at most N).
+
+    Particles that descend from the same particle of the first stage (``ancestors``, its index)
+    are correlated through every resampling and Markov move since; descendants of different
+    first-stage particles are taken independent. The variance of the population mean is then
+    estimated by the sum over the ancestors' families of their squared summed deviations,
+    V = Σ_a (Σ_{i: a_i = a} (x_i − x̄))² / N² (the cluster estimator of SMC's variance by
+    ancestry), and ESS = s²/V with s² the population's variance. It needs many families:
+    with few of them V is noisy, which is why :meth:`TMCMC.posterior` takes the smaller of
+    this and :func:`ess_of_population`.
+    """
+    n = samples.shape[0]
+    d = samples - samples.mean(axis=0)
+    _, family = np.unique(ancestors, return_inverse=True)
+    sums = np.zeros((int(family.max()) + 1, samples.shape[1]))
+    np.add.at(sums, family, d)
+    v = np.sum(sums ** 2, axis=0) / n ** 2
+    s2 = np.sum(d ** 2, axis=0) / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ess = s2 / v
+    return np.minimum(np.where(np.isfinite(ess), ess, float(n)), float(n))
+
+
 def ess_of_population(start: np.ndarray, end: np.ndarray, copies: np.ndarray) -> float:
-    """Effective sample size of a final population, the minimum over the parameters.
+    """Effective sample size of a final population, the minimum over the parameters, from
+    the last resampling alone (a model of the correlation it leaves).
 
     The N particles at the end of the last stage descend from the resampled population
     ``start`` (N, n), in which parent k appears ``copies[k]`` times. Two particles of the same
@@ -469,7 +496,8 @@ class TMCMC:
         if self.phase != "done":
             return TMCMCPosterior(False, self.beta, None, None, math.nan, stages,
                                   evaluations=self.evaluations, failures=self.failures)
-        ess = ess_of_population(self._final_start, self.x, self._final_copies)
+        ess = min(ess_of_population(self._final_start, self.x, self._final_copies),
+                  float(np.min(ess_by_ancestry(self.x, self._eve))))
         return TMCMCPosterior(True, 1.0, self.x.copy(), self.ll.copy(), self.log_evidence,
                               stages, ess=ess, evaluations=self.evaluations,
                               failures=self.failures)
