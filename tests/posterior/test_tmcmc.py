@@ -63,6 +63,20 @@ def test_pickled_mid_run_and_continued_gives_identical_samples() -> None:
     assert resumed.log_evidence == reference.log_evidence
 
 
+def test_a_checkpoint_without_ancestry_resumes() -> None:
+    """A state pickled before the ancestry was kept (no ``_eve``) resumes to a posterior."""
+    fun = Residuals(CASE).residuals
+    state, sampler = _state(3)
+    for _ in range(7):
+        state.step(fun)
+    del sampler._eve
+    state = pickle.loads(pickle.dumps(state))
+    while not state.done:
+        state.step(fun)
+    post = state.optimizer.posterior()
+    assert post.reached and 0 < post.ess <= 200
+
+
 def test_a_failed_evaluation_in_a_stage_is_recorded_and_not_fatal() -> None:
     fun = Residuals(CASE, fail_at=450)  # in the second stage's moves
     post, state = run_tmcmc(fun.residuals, CASE.prior, CASE.model, seed=2, population=200)

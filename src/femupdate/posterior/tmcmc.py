@@ -294,6 +294,11 @@ class TMCMC:
         self._move: tuple[np.ndarray, np.ndarray] | None = None  # proposal mean, Cholesky
         self._eve = np.arange(self.population)  # each particle's ancestor in the first stage
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # a checkpoint written before the ancestry was kept: ancestry from the resume on
+        state.setdefault("_eve", np.arange(state["population"]))
+        self.__dict__.update(state)
+
     # -- the reference density ----------------------------------------------------------------
 
     def _reference(self, reference: tuple[np.ndarray, np.ndarray]
