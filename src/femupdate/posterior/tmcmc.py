@@ -15,10 +15,11 @@ few stages. Each stage:
    size of about half the population), or 1 if it is reached;
 2. accumulate the log-evidence, log Z += log mean(w) (exact in expectation: q is normalised);
 3. resample the population by the weights (systematic resampling);
-4. move every particle by ``steps`` Metropolis–Hastings steps targeting p_{j+1}: a random
-   walk with the weighted population's covariance scaled by c (adapted from stage to stage
-   toward an acceptance of 0.25), or, with ``proposal = "independent"``, draws from the
-   Gaussian of the weighted population's mean and covariance (inflated).
+4. move every particle by ``steps`` Metropolis–Hastings steps targeting p_{j+1}
+   (``final_steps`` at β = 1): by default draws from the Gaussian of the weighted
+   population's mean and covariance (inflated), or, with ``proposal = "rw"``, a random walk
+   with the weighted population's covariance scaled by c (adapted from stage to stage toward
+   an acceptance of 0.25).
 
 Every step's candidates are one population (``ask`` → (k, n)), evaluated by the loop's
 batches, workers or Dask; proposals outside the cube are rejected without evaluation. A
@@ -27,8 +28,9 @@ counted per stage. All randomness comes from the Generator passed in; the state 
 (the checkpoint of a long run).
 
 After the last stage the result is the population (equally weighted samples), their
-log-likelihoods, the log-evidence and the stage table. If the run ends (its budget) before
-β = 1, :meth:`TMCMC.posterior` says so and gives no posterior.
+log-likelihoods, the log-evidence, the stage table and an effective sample size that counts
+the correlation of particles sharing an ancestor (:func:`ess_by_ancestry`). If the run ends
+(its budget) before β = 1, :meth:`TMCMC.posterior` says so and gives no posterior.
 """
 
 from __future__ import annotations
