@@ -14,6 +14,7 @@ from femupdate.optimize.minimize import MinimizeState
 from femupdate.posterior.analytic import Residuals, linear_gaussian
 from femupdate.posterior.tmcmc import (
     TMCMC,
+    ess_by_ancestry,
     ess_of_population,
     make_tmcmc,
     next_beta,
@@ -60,6 +61,20 @@ def test_pickled_mid_run_and_continued_gives_identical_samples() -> None:
     resumed = state.optimizer.posterior()
     assert resumed.samples.tobytes() == reference.samples.tobytes()
     assert resumed.log_evidence == reference.log_evidence
+
+
+def test_a_checkpoint_without_ancestry_resumes() -> None:
+    """A state pickled before the ancestry was kept (no ``_eve``) resumes to a posterior."""
+    fun = Residuals(CASE).residuals
+    state, sampler = _state(3)
+    for _ in range(7):
+        state.step(fun)
+    del sampler._eve
+    state = pickle.loads(pickle.dumps(state))
+    while not state.done:
+        state.step(fun)
+    post = state.optimizer.posterior()
+    assert post.reached and 0 < post.ess <= 200
 
 
 def test_a_failed_evaluation_in_a_stage_is_recorded_and_not_fatal() -> None:
@@ -109,6 +124,35 @@ def test_ess_of_a_population() -> None:
     copies[:10] = 10.0
     # unmoved copies of 10 parents: 10 independent values (ρ = 1)
     assert ess_of_population(start, start, copies) == pytest.approx(10.0)
+
+
+def test_ess_by_ancestry_of_known_families() -> None:
+    rng = np.random.default_rng(1)
+    values = rng.standard_normal((4000, 2))
+    # every particle its own family: the variance of the mean is s²/N exactly
+    assert np.allclose(ess_by_ancestry(values, np.arange(4000)), 4000.0)
+    # 1000 independent values, each copied 4 times: 1000 effective samples (the estimator's
+    # own noise, about 1/sqrt(1000), well inside 10 %)
+    copies = np.repeat(values[:1000], 4, axis=0)
+    ancestors = np.repeat(rng.permutation(1000) * 7, 4)  # any labels
+    assert np.allclose(ess_by_ancestry(copies, ancestors), 1000.0, rtol=0.1)
+
+
+def test_reported_ess_matches_the_variance_of_the_mean_across_seeds() -> None:
+    """σ²/ESS ≈ the variance of the posterior mean across independent runs, on the analytic
+    case from the prior (several stages). Measured: reported ESS (mean over seeds) 420 against
+    559 measured across 40 seeds (worst parameter); the random-walk's old estimate (420 against
+    163) would fail the lower bound of the ratio."""
+    means, variances, ess = [], [], []
+    for child in np.random.SeedSequence(5).spawn(40):
+        post, _ = run_tmcmc(Residuals(CASE).residuals, CASE.prior, CASE.model, seed=child,
+                            population=500)
+        means.append(post.samples.mean(axis=0))
+        variances.append(post.samples.var(axis=0))
+        ess.append(post.ess)
+    across = np.mean(variances, axis=0) / np.var(means, axis=0, ddof=1)
+    ratio = float(np.min(across) / np.mean(ess))  # < 1: the reported ESS overstates
+    assert 0.6 <= ratio <= 4.0
 
 
 @pytest.mark.parametrize("options, match", [

@@ -15,10 +15,11 @@ few stages. Each stage:
    size of about half the population), or 1 if it is reached;
 2. accumulate the log-evidence, log Z += log mean(w) (exact in expectation: q is normalised);
 3. resample the population by the weights (systematic resampling);
-4. move every particle by ``steps`` Metropolis–Hastings steps targeting p_{j+1}: a random
-   walk with the weighted population's covariance scaled by c (adapted from stage to stage
-   toward an acceptance of 0.25), or, with ``proposal = "independent"``, draws from the
-   Gaussian of the weighted population's mean and covariance (inflated).
+4. move every particle by ``steps`` Metropolis–Hastings steps targeting p_{j+1}
+   (``final_steps`` at β = 1): by default draws from the Gaussian of the weighted
+   population's mean and covariance (inflated), or, with ``proposal = "rw"``, a random walk
+   with the weighted population's covariance scaled by c (adapted from stage to stage toward
+   an acceptance of 0.25).
 
 Every step's candidates are one population (``ask`` → (k, n)), evaluated by the loop's
 batches, workers or Dask; proposals outside the cube are rejected without evaluation. A
@@ -27,8 +28,9 @@ counted per stage. All randomness comes from the Generator passed in; the state 
 (the checkpoint of a long run).
 
 After the last stage the result is the population (equally weighted samples), their
-log-likelihoods, the log-evidence and the stage table. If the run ends (its budget) before
-β = 1, :meth:`TMCMC.posterior` says so and gives no posterior.
+log-likelihoods, the log-evidence, the stage table and an effective sample size that counts
+the correlation of particles sharing an ancestor (:func:`ess_by_ancestry`). If the run ends
+(its budget) before β = 1, :meth:`TMCMC.posterior` says so and gives no posterior.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ OPTIONS = ("population", "cov_target", "steps", "proposal", "reference", "inflat
            "max_stages", "final_steps")
 PROPOSALS = ("rw", "independent")
 TARGET_ACCEPTANCE = 0.25
+FINAL_STEPS = 12  # default moves at β = 1: they decorrelate the final resampled copies
 
 
 @dataclass
@@ -69,8 +72,9 @@ class TMCMCPosterior:
     stages : list of dict
         Per stage: beta, acceptance, weights_ess, scale, evaluations, failures.
     ess : float
-        Effective sample size of the final population (min over parameters; NaN if not
-        reached).
+        Effective sample size of the final population for the posterior mean: the minimum
+        over the parameters of the smaller of :func:`ess_by_ancestry` and
+        :func:`ess_of_population` (NaN if not reached).
     evaluations : int
     failures : int
     """
@@ -153,8 +157,34 @@ def ess_of_weights(weights: np.ndarray) -> float:
     return float(1.0 / np.sum(weights ** 2))
 
 
+def ess_by_ancestry(samples: np.ndarray, ancestors: np.ndarray) -> np.ndarray:
+    """Effective sample size of the mean of each parameter of a final population, from its
+    genealogy (per parameter, at most N).
+
+    Particles that descend from the same particle of the first stage (``ancestors``, its index)
+    are correlated through every resampling and Markov move since; descendants of different
+    first-stage particles are taken independent. The variance of the population mean is then
+    estimated by the sum over the ancestors' families of their squared summed deviations,
+    V = Σ_a (Σ_{i: a_i = a} (x_i − x̄))² / N² (the cluster estimator of SMC's variance by
+    ancestry), and ESS = s²/V with s² the population's variance. It needs many families:
+    with few of them V is noisy, which is why :meth:`TMCMC.posterior` takes the smaller of
+    this and :func:`ess_of_population`.
+    """
+    n = samples.shape[0]
+    d = samples - samples.mean(axis=0)
+    _, family = np.unique(ancestors, return_inverse=True)
+    sums = np.zeros((int(family.max()) + 1, samples.shape[1]))
+    np.add.at(sums, family, d)
+    v = np.sum(sums ** 2, axis=0) / n ** 2
+    s2 = np.sum(d ** 2, axis=0) / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ess = s2 / v
+    return np.minimum(np.where(np.isfinite(ess), ess, float(n)), float(n))
+
+
 def ess_of_population(start: np.ndarray, end: np.ndarray, copies: np.ndarray) -> float:
-    """Effective sample size of a final population, the minimum over the parameters.
+    """Effective sample size of a final population, the minimum over the parameters, from
+    the last resampling alone (a model of the correlation it leaves).
 
     The N particles at the end of the last stage descend from the resampled population
     ``start`` (N, n), in which parent k appears ``copies[k]`` times. Two particles of the same
@@ -191,10 +221,13 @@ class TMCMC:
         Coefficient of variation of the weights that sets each β (Ching & Chen: 1.0).
     steps : int
         Metropolis–Hastings steps per particle and stage.
-    final_steps : int
-        Steps per particle at β = 1 (at least ``steps``): the last stage's moves, which
-        decorrelate the resampled copies (:func:`ess_of_population`).
-    proposal : {"rw", "independent"}
+    final_steps : int, optional
+        Steps per particle at β = 1 (at least ``steps``; default the larger of ``steps`` and
+        12): the last stage's moves, which decorrelate the resampled copies.
+    proposal : {"independent", "rw"}
+        Independent draws from the weighted population's Gaussian (inflated), the default:
+        fewer evaluations per effective sample than the random walk on the bridge and the
+        analytic case (docs/posterior.md, "Speed").
     reference : (mean, cov) in the unit cube, optional
         A Gaussian approximation of the posterior (the Laplace one): the start q.
     inflate : float
@@ -206,7 +239,8 @@ class TMCMC:
 
     def __init__(self, n: int, rng: np.random.Generator, *, error_model: ErrorModel,
                  prior: Prior, population: int = 1000, cov_target: float = 1.0,
-                 steps: int = 3, final_steps: int | None = None, proposal: str = "rw",
+                 steps: int = 3, final_steps: int | None = None,
+                 proposal: str = "independent",
                  reference: tuple[np.ndarray, np.ndarray] | None = None,
                  inflate: float = 1.5, max_stages: int = 100) -> None:
         method = "tmcmc"
@@ -224,7 +258,7 @@ class TMCMC:
         self.cov_target = float(real_option(method, "cov_target", cov_target, 0.0, 10.0,
                                             low_open=True))
         self.steps = int_option(method, "steps", steps, 1, 1000)
-        self.final_steps = (self.steps if final_steps is None
+        self.final_steps = (max(self.steps, FINAL_STEPS) if final_steps is None
                             else int_option(method, "final_steps", final_steps, self.steps,
                                             10_000))
         if proposal not in PROPOSALS:
@@ -260,6 +294,12 @@ class TMCMC:
         self._final_start: np.ndarray | None = None  # the population entering β = 1
         self._final_copies: np.ndarray | None = None  # copies of each parent in it
         self._move: tuple[np.ndarray, np.ndarray] | None = None  # proposal mean, Cholesky
+        self._eve = np.arange(self.population)  # each particle's ancestor in the first stage
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # a checkpoint written before the ancestry was kept: ancestry from the resume on
+        state.setdefault("_eve", np.arange(state["population"]))
+        self.__dict__.update(state)
 
     # -- the reference density ----------------------------------------------------------------
 
@@ -427,6 +467,7 @@ class TMCMC:
         if beta >= 1.0:
             self._final_start = self.x[idx].copy()
             self._final_copies = np.bincount(idx, minlength=idx.size).astype(float)
+        self._eve = self._eve[idx]
         self.x, self.ll, self.lp, self.lq = (self.x[idx].copy(), self.ll[idx].copy(),
                                              self.lp[idx].copy(), self.lq[idx].copy())
         self.beta = beta
@@ -462,7 +503,8 @@ class TMCMC:
         if self.phase != "done":
             return TMCMCPosterior(False, self.beta, None, None, math.nan, stages,
                                   evaluations=self.evaluations, failures=self.failures)
-        ess = ess_of_population(self._final_start, self.x, self._final_copies)
+        ess = min(ess_of_population(self._final_start, self.x, self._final_copies),
+                  float(np.min(ess_by_ancestry(self.x, self._eve))))
         return TMCMCPosterior(True, 1.0, self.x.copy(), self.ll.copy(), self.log_evidence,
                               stages, ess=ess, evaluations=self.evaluations,
                               failures=self.failures)
