@@ -73,10 +73,10 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
     record with its spikes interpolated when ``repair_defects`` holds ``"spike"``."""
     n, rate = merged.n_samples, merged.rate
     found = defects.check_length_and_rate(n, rate, f1, files["input"], time_unit=time_unit)
+    clean = dict(merged.channels)
     if n >= defects.MIN_SAMPLES:
         # the other checks see the channels without their spikes: one 1e308 sample would
         # otherwise make every statistic of its channel say something
-        clean = {}
         for name in merged.names:
             found += defects.check_spikes(name, merged[name], merged.t, files[name])
             clean[name] = defects.interpolate_samples(merged[name],
@@ -92,10 +92,7 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
             found += defects.check_units(x, outputs, rate, units, files, first_mode_hz=f1)
     found = settle(found, data, trial)
     if any(f.kind == "spike" and f.status == "repaired" for f in found):
-        channels = {name: defects.interpolate_samples(y, defects.spike_samples(y))
-                    for name, y in merged.channels.items()}
-        merged = Measurement(merged.t, channels, merged.units, merged.source,
-                             merged.time_rtol)
+        merged = Measurement(merged.t, clean, merged.units, merged.source, merged.time_rtol)
     return merged, found
 
 

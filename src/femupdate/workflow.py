@@ -45,8 +45,8 @@ from femupdate.runs.verdict import run_verdict, success_rule, successes
 from femupdate.trial_checks import open_defects
 from femupdate.update import TrialProblem, UpdateProblem
 
-#: Without a target φ_s, a run counts as successful when its φ is within this factor of the
-#: best run's: it reached the same minimum rather than an improper one at a bound.
+#: The success rule of summaries written before the verdict (docs/verdicts.md): without a
+#: target φ_s, a run within this factor of the best run's φ; the console's words for them.
 NEAR_BEST = 1.05
 N_FREQUENCIES = 6
 
@@ -97,7 +97,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
               f_target: float | None, settings: dict[str, Any] | None = None,
               sensitivities: bool = False) -> Summary:
     """Every run, the best, the spread over successful runs, and the Laplace approximation of
-    the posterior at the best run (2n + 1 more evaluations).
+    the posterior at the best run (4n + 1 more evaluations).
 
     The case is saved with its data directory made absolute, so that the results can be
     traced back to their records from anywhere. ``sensitivities``: add the identifiability
