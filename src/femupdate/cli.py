@@ -53,22 +53,24 @@ bench_app = typer.Typer(help="Benchmarks of the paper and of speed.", no_args_is
 app.add_typer(bench_app, name="bench")
 console = Console(markup=False)
 
-def _output_file(flag: str) -> Any:
-    """A typer callback checking an output file before any work (see femupdate.inputs)."""
+def _path_check(check_path: Any, flag: str) -> Any:
+    """A typer callback running ``check_path(flag, value)`` on a path given, before any work
+    (femupdate.inputs' checks)."""
     def check(value: Path | None) -> Path | None:
         if value is not None:
-            check_output_file(flag, value)
+            check_path(flag, value)
         return value
     return check
+
+
+def _output_file(flag: str) -> Any:
+    """A typer callback checking an output file before any work."""
+    return _path_check(check_output_file, flag)
 
 
 def _output_dir(flag: str) -> Any:
     """A typer callback checking an output folder before any work."""
-    def check(value: Path | None) -> Path | None:
-        if value is not None:
-            check_output_dir(flag, value)
-        return value
-    return check
+    return _path_check(check_output_dir, flag)
 
 
 def _input_dir(flag: str) -> Any:
