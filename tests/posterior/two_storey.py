@@ -1,5 +1,6 @@
 """A small case for the posterior's wiring tests: the two-storey shear building of
-tests/test_workflow.py, a noisy virtual experiment, and a [posterior] section."""
+tests/two_storey_case.py (as tests/test_workflow.py), a noisy virtual experiment, and a
+[posterior] section."""
 
 from __future__ import annotations
 
@@ -7,57 +8,9 @@ from pathlib import Path
 
 from femupdate.case import load_case
 from femupdate.virtual import virtual_experiment
+from two_storey_case import MODEL_AND_DATA, TRUTH
 
-TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
-
-CASE = """\
-[case]
-name = "two-storey"
-
-[model.shear_building]
-masses = [1.0, 0.8]
-stiffnesses = ["k1", "k2"]
-dampers = ["c1", "c2"]
-
-[[parameters]]
-name = "k1"
-lower = 1000.0
-upper = 10000.0
-scale = "log"
-[[parameters]]
-name = "k2"
-lower = 1000.0
-upper = 10000.0
-scale = "log"
-[[parameters]]
-name = "c1"
-lower = 0.0
-upper = 5.0
-[[parameters]]
-name = "c2"
-lower = 0.0
-upper = 5.0
-
-[data]
-format = "csv"
-directory = "data"
-time_column = "t"
-
-[data.input]
-file = "table.csv"
-column = "table"
-
-[[data.outputs]]
-file = "floors.csv"
-column = "a1"
-node = "F1"
-dof = "ux"
-[[data.outputs]]
-file = "floors.csv"
-column = "a2"
-node = "F2"
-dof = "ux"
-
+CASE = MODEL_AND_DATA + """\
 [objective]
 quantity = "acceleration"
 experimental_parameters = false
