@@ -26,10 +26,13 @@ __all__ = ["channel_findings", "clock_findings", "first_mode_hz", "open_defects"
 
 
 def first_mode_hz(case: Case) -> float | None:
-    """The model's first natural frequency at the nominal parameters (None: not available)."""
+    """The model's first natural frequency at the nominal parameters (None: not available,
+    as for an external model, which is not built here: it may load a script)."""
     from femupdate.case import CaseModel
     from femupdate.model.modes import natural_frequencies
 
+    if case.model.external is not None:
+        return None
     try:
         freqs = natural_frequencies(CaseModel(case).system(case.nominal())).freqs_hz
     except (FemupdateError, ValueError, np.linalg.LinAlgError):
