@@ -39,6 +39,8 @@ class Page(HTMLParser):
         self.links: list[str] = []
         self.tables: dict[str, list[list[tuple[str, str]]]] = {}
         self.ids: set[str] = set()
+        #: Ids given more than once (none on a valid page).
+        self.repeated_ids: list[str] = []
         self._table: str | None = None
         self._cell: list[str] | None = None
         self._cls = ""
@@ -47,6 +49,8 @@ class Page(HTMLParser):
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = dict(attrs)
         if a.get("id"):
+            if a["id"] in self.ids:
+                self.repeated_ids.append(a["id"] or "")
             self.ids.add(a["id"] or "")
         self.links += [v or "" for k, v in attrs if k in ("src", "href")]
         if tag == "figure":
@@ -168,6 +172,7 @@ def assert_self_contained(page: Page, text: str) -> None:
         assert link.startswith(("data:", "#")), link[:60]
         if link.startswith("#"):
             assert link[1:] in page.ids, link
+    assert not page.repeated_ids, f"ids given more than once: {page.repeated_ids}"
     for tag in ("<link", "<script", "<iframe", "<object", "<embed", "url(", "@import"):
         assert tag not in text.lower(), tag
 

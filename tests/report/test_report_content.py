@@ -216,7 +216,7 @@ def test_validation_section() -> None:
 
 def test_a_report_of_one_trial_has_no_validation_section(report: Path) -> None:
     page, text = parse(report)
-    assert "validation" not in page.ids and "8. Validation" not in text  # one trial: none
+    assert "section-validation" not in page.ids and "8. Validation" not in text  # one trial: none
 
 
 def test_one_channel_draws_one_bar_per_trial(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -115,7 +115,8 @@ def _render(res: Results) -> str:
     if defects:  # shown only when the checks found something, first
         sections.insert(0, ("defects", "Defects in the records", defects))
     sections = [(key, title, content) for key, title, content in sections if content]
-    toc = " · ".join(f'<a href="#{key}">{esc(title)}</a>' for key, title, _ in sections)
+    # sections are "section-KEY": a table may carry the section's name as its own id
+    toc = " · ".join(f'<a href="#section-{key}">{esc(title)}</a>' for key, title, _ in sections)
     missing = ""
     if page.missing:
         lis = "".join(f"<li>{esc(m)}</li>" for m in page.missing)
@@ -125,7 +126,7 @@ def _render(res: Results) -> str:
     lead = (f"{len(summary.runs)} runs of {summary.method}; best run {res.best_index}, NMSE "
             f"{format_number(summary.best.nmse_percent)} %."
             + (" Compared with the truth of a virtual experiment." if ctx.truth.values else ""))
-    body = "\n".join(f'<section id="{key}"><h2>{esc(title)}</h2>\n{content}\n</section>'
+    body = "\n".join(f'<section id="section-{key}"><h2>{esc(title)}</h2>\n{content}\n</section>'
                      for key, title, content in sections)
     return (
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
