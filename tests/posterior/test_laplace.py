@@ -55,3 +55,22 @@ def test_a_failed_jacobian_point_is_an_error() -> None:
         jacobian_unit(failing, np.full(3, 0.5), case.prior)
     with pytest.raises(DataError, match="allowed: J of shape"):
         laplace(np.ones((5, 3)), np.ones(4), np.full(3, 0.5), case.model, case.prior)
+
+
+def test_a_parameter_whose_interval_widens_with_the_step_is_not_called_gaussian() -> None:
+    from femupdate.posterior.best_fit import NOT_QUADRATIC_RATIO, two_scale_record
+
+    prior = Prior(["E", "kp1", "kp2"], [1e11, 1e7, 1e7], [3e11, 5e8, 5e8])
+    mean = np.array([0.55, 0.5, 0.5])
+    local = summarize_gaussian(mean, np.diag([0.005, 0.002, 0.01]) ** 2, prior)
+    # over 1 % steps: E the same, kp1 20× wider (the friction bridge's ripple), kp2 2× wider
+    coarse = summarize_gaussian(mean, np.diag([0.005, 0.04, 0.02]) ** 2, prior)
+    assert coarse.spread[1] / local.spread[1] >= NOT_QUADRATIC_RATIO
+    assert coarse.spread[2] / local.spread[2] < NOT_QUADRATIC_RATIO
+    record = two_scale_record(local, coarse, prior, "neff", 13)
+    assert record.not_quadratic == ["kp1"] and record.undetermined == []
+    assert record.params["kp1"].sd == pytest.approx(0.04 * 4.9e8, rel=1e-9)  # the coarse one
+    assert record.params["kp2"].sd == pytest.approx(0.01 * 4.9e8, rel=1e-9)  # the local one
+    said = record.flagged_sentences()
+    assert len(said) == 1 and said[0].startswith("kp1: the Gaussian at the best fit does not "
+                                                 "describe it (its 90 % interval is 20× wider")

@@ -36,8 +36,9 @@ class LaplaceRecord(_Record):
     ``params``: each parameter's marginal (a log-scale parameter's is lognormal: Gaussian in
     log10); ``correlations``: of the search-space coordinates, in ``names`` order (None where
     a parameter has no variance the data fix); ``undetermined``: the parameters whose 90 %
-    interval covers most of their bounds (``sentences`` says so in words); ``note``: why it is
-    missing, if it is.
+    interval covers most of their bounds (``sentences`` says so in words); ``not_quadratic``:
+    the determined ones whose φ is far from quadratic over their interval, for which the
+    Gaussian is not to be trusted (said in words too); ``note``: why it is missing, if it is.
     """
 
     error_model: str = ""
@@ -45,9 +46,17 @@ class LaplaceRecord(_Record):
     params: dict[str, Marginal] = Field(default_factory=dict)
     correlations: list[list[float | None]] = Field(default_factory=list)
     undetermined: list[str] = Field(default_factory=list)
+    not_quadratic: list[str] = Field(default_factory=list)
     sentences: list[str] = Field(default_factory=list)
     nfev: int = 0
     note: str | None = None
+
+    def flagged_sentences(self) -> list[str]:
+        """The sentences worth saying: of the parameters the data do not determine, and of
+        those the Gaussian at the best fit does not describe."""
+        flagged = [*self.undetermined, *self.not_quadratic]
+        return [s for s in self.sentences
+                if any(s.startswith((f"{n} ", f"{n}:")) for n in flagged)]
 
 
 class StageRecord(_Record):

@@ -17,16 +17,21 @@ from femupdate.results import POSTERIOR_FILE
 MAX_BAND_FIGURES = 6
 
 
-def _marginal_rows(items: list[tuple[str, Marginal]], undetermined: set[str]) -> list[list[str]]:
+def _marginal_rows(items: list[tuple[str, Marginal]], undetermined: set[str],
+                   not_gaussian: frozenset[str] = frozenset()) -> list[list[str]]:
+    def determined(name: str) -> str:
+        if name in undetermined:
+            return td("no", "fail")
+        return td("not Gaussian", "fail") if name in not_gaussian else td("yes", "ok")
+
     return [[td(esc(name)), td(num(m.mean), "num"), td(num(m.sd, 3), "num"),
              td(num(m.q05), "num"), td(num(m.q50), "num"), td(num(m.q95), "num"),
-             td("no" if name in undetermined else "yes",
-                "fail" if name in undetermined else "ok")]
+             determined(name)]
             for name, m in items]
 
 
-def _sentences(sentences: list[str], undetermined: list[str], ident: str) -> str:
-    said = [s for s in sentences if any(s.startswith(f"{n} ") for n in undetermined)]
+def _sentences(sentences: list[str], flagged: list[str], ident: str) -> str:
+    said = [s for s in sentences if any(s.startswith((f"{n} ", f"{n}:")) for n in flagged)]
     if not said:
         return f'<p id="{ident}">The data determine every parameter (each 90 % interval ' \
                "spans less than half of its prior's).</p>"
@@ -41,12 +46,14 @@ def section_laplace(record: LaplaceRecord | None) -> str:
         return note(record.note)
     header = ["parameter", "mean", "sd", "5 %", "50 %", "95 %", "determined"]
     return "\n".join([
-        table(header, _marginal_rows(list(record.params.items()), set(record.undetermined)),
+        table(header, _marginal_rows(list(record.params.items()), set(record.undetermined),
+                                     frozenset(record.not_quadratic)),
               table_id="laplace",
               caption=f"Laplace approximation at the best fit (error model "
                       f"{record.error_model!r}; lognormal on a log scale; quantiles clipped "
                       f"to the bounds; {record.nfev} evaluations)"),
-        _sentences(record.sentences, record.undetermined, "laplace-undetermined"),
+        _sentences(record.sentences, [*record.undetermined, *record.not_quadratic],
+                   "laplace-undetermined"),
     ])
 
 

@@ -28,12 +28,13 @@ def print_laplace(record: LaplaceRecord | None, best: dict[str, float], out: Con
     for col in ("parameter", "best", "sd", "90 % interval", "determined"):
         table.add_column(col, justify="right")
     for name, m in record.params.items():
+        determined = ("no" if name in record.undetermined
+                      else "not Gaussian" if name in record.not_quadratic else "yes")
         table.add_row(name, f"{best.get(name, float('nan')):.4g}", f"{m.sd:.2g}",
-                      _interval(m), "no" if name in record.undetermined else "yes")
+                      _interval(m), determined)
     out.print(table)
-    for sentence in record.sentences:
-        if any(sentence.startswith(f"{n} ") for n in record.undetermined):
-            out.print(Text(sentence + "."))
+    for sentence in record.flagged_sentences():
+        out.print(Text(sentence + "."))
 
 
 def print_posterior(record: PosteriorRecord, out: Console) -> None:
