@@ -153,3 +153,32 @@ def test_mechanism_named(tmp_path: Path) -> None:
     fixed = _load(tmp_path, NODES + BEAM + 'nu = 0.3\nIy = 1e-6\nIz = 1e-6\nJ = 1e-6\n'
                   'vecxz = [1.0, 0.0, 0.0]\n')
     assert mechanism_dofs(CaseModel(fixed).structure, {}, "x") == []
+
+
+def test_links_on_any_of_six_dofs(tmp_path: Path) -> None:
+    """Springs and dampers on rotations and uz, partial supports and parameters in 3-D fields
+    reach the Structure as `Structure.add_*` would put them."""
+    from femupdate.model.structure import Structure
+
+    beam = ('nu = 0.3\nIy = "Iy"\nIz = 1e-6\nJ = 1e-6\nvecxz = [1.0, 0.0, 0.0]\n'
+            '[[model.springs]]\nnode = "B"\ndof = "rz"\nk = "kt"\n'
+            '[[model.dampers]]\nnode = "B"\ndof = "uz"\nc = 7.0\n'
+            '[[parameters]]\nname = "Iy"\nlower = 1e-7\nupper = 1e-5\n'
+            '[[parameters]]\nname = "kt"\nlower = 0.0\nupper = 1e6\n')
+    case = _load(tmp_path, NODES + BEAM + beam)
+    values = {"Iy": 2e-6, "kt": 3e5}
+    got = CaseModel(case).system(values)
+    s = Structure(dofs_per_node=6)
+    s.add_node("A", 0.0)
+    s.add_node("B", 0.0, z=3.0)
+    s.add_beam("A", "B", E=2e11, A=1e-3, rho=7850.0, nu=0.3, Iy=2e-6, Iz=1e-6, J=1e-6,
+               vecxz=(1.0, 0.0, 0.0))
+    s.add_spring("B", "rz", 3e5)
+    s.add_damper("B", "uz", 7.0)
+    s.add_mass("B", m=100.0, J=1.0)
+    s.fix("A")
+    expected = s.assemble(direction="x")
+    assert got.dof_labels == expected.dof_labels
+    for name in ("M", "C", "K"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+    assert got.C[got.dof_labels.index("B.uz"), got.dof_labels.index("B.uz")] == 7.0
