@@ -119,7 +119,7 @@ def mechanism_dofs(structure: Structure, values: Mapping[str, float],
 #: Free DOFs up to which a 3-D frame's stiffness is checked for a mechanism by a dense
 #: eigendecomposition when its case is built (larger frames: the sparse factorisation of the
 #: reduced path reports a singular stiffness itself).
-MECHANISM_CHECK_MAX_DOFS = 2000
+MECHANISM_CHECK_MAX_DOFS = 1000
 
 
 def check_not_mechanism(structure: Structure, values: Mapping[str, float], direction: str,

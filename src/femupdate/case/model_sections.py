@@ -378,8 +378,8 @@ class Model(Section):
 
     @property
     def excitation_direction(self) -> str:
-        """Direction of the base motion: ``direction``, or "x" for a shear building and a
-        plane frame, "y" (transverse) for a 2-DOF/node model."""
+        """Direction of the base motion: ``direction``, or "x" for a shear building, a plane
+        frame and a 3-D frame, "y" (transverse) for a 2-DOF/node model."""
         if self.direction is not None:
             return self.direction
         return "y" if self.shear_building is None and self.dofs_per_node == 2 else "x"
