@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import json
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from femupdate._parallel import single_blas_thread
 from femupdate.case import CaseModel, load_case
 from femupdate.case.model3d import mechanism_dofs
 from femupdate.cli import app
@@ -26,6 +28,15 @@ from femupdate.workflow import run_case
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "frame3d"
 CASE = EXAMPLE / "frame.toml"
 TRUTH = json.loads((EXAMPLE / "truth.json").read_text())
+
+
+@pytest.fixture(autouse=True)
+def _one_blas_thread() -> Iterator[None]:
+    """One BLAS thread, as runs have: the 48-DOF eigenproblems of the step-by-step path (and
+    of a run's summary, evaluated in this process) are several times slower with more threads
+    on a loaded machine."""
+    with single_blas_thread():
+        yield
 
 
 def _frame3d(values: dict[str, float]) -> Frame3D:
