@@ -391,8 +391,12 @@ def test_dof_not_allowed_for_dofs_per_node(tmp_path: Path) -> None:
 
 
 def test_dof_name_that_does_not_exist(tmp_path: Path) -> None:
+    message = problems(tmp_path, edit('dof = "uy"\nc = 20.0', 'dof = "uw"\nc = 20.0'))
+    assert_names(message, tmp_path / "case.toml", "model.dampers[0].dof", "'uw'", "'ux'", "'rz'")
+    # a DOF of 3-D frames only: the model's own DOFs are named
     message = problems(tmp_path, edit('dof = "uy"\nc = 20.0', 'dof = "uz"\nc = 20.0'))
-    assert_names(message, tmp_path / "case.toml", "model.dampers[0].dof", "'uz'", "'ux'", "'rz'")
+    assert_names(message, tmp_path / "case.toml", "model.dampers[0].dof", "'uz'",
+                 "dofs_per_node = 2", "'uy', 'rz'")
 
 
 def test_duplicate_names(tmp_path: Path) -> None:

@@ -380,10 +380,14 @@ def process(
     highpass_order: int = 4,
     zero_phase: bool = False,
     delays: Mapping[str, float] | None = None,
+    influence: np.ndarray | None = None,
 ) -> Experiment:
     """Filter and (for displacements) integrate the measured accelerations.
 
     ``delays`` (those `apply_delays` removed) are only recorded in the `Experiment`.
+    ``influence`` (one per channel, default all 1): how far a unit table displacement moves
+    each channel; a channel across the shaking (a 3-D frame's ``uy`` under motion along ``x``)
+    has 0, and its relative displacement is its own.
     """
     rate = measurement.rate
     acc = measurement.array(("input", *channels))
@@ -394,7 +398,9 @@ def process(
                               zero_phase=zero_phase)
     ag, outputs = acc[:, 0], acc[:, 1:]
     if quantity == "displacement":
-        target = signal.integrate_twice(signal.relative(outputs, ag), measurement.dt)
+        relative = (signal.relative(outputs, ag) if influence is None
+                    else outputs - np.outer(ag, influence))
+        target = signal.integrate_twice(relative, measurement.dt)
     else:
         target = outputs
     t = measurement.t - measurement.t[0]
@@ -471,6 +477,7 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
         measurement, labels, np.array([c.weight for c in data.outputs]),
         quantity=case.objective.quantity, highpass_hz=pre.highpass_hz,
         highpass_order=pre.highpass_order, zero_phase=pre.zero_phase, delays=delays,
+        influence=_channel_influence(case, data),
     )
     # apply_delays trims samples at both ends and restarts the time at 0: the record time of
     # the first sample kept
@@ -479,6 +486,16 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
     score = _score_slice(case, spec, experiment.t + start_s)
     return replace(experiment, name=spec.name, role=spec.role, weight=spec.weight,
                    start_s=start_s, score=score, notes=tuple(notes))
+
+
+def _channel_influence(case: Case, data: Data) -> np.ndarray | None:
+    """Per output channel of femupdate's own model, 1 along the shaking and 0 across it (the
+    rigid translation ``Structure.influence_vector`` gives); None (all 1) otherwise."""
+    model = case.model
+    if model.external is not None or any(c.dof is None for c in data.outputs):
+        return None
+    along = "u" + model.excitation_direction
+    return np.array([1.0 if c.dof == along else 0.0 for c in data.outputs])
 
 
 def _channel_checks(case: Case, data: Data, trial: str, merged: io.Measurement

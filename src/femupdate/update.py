@@ -90,6 +90,9 @@ class TrialProblem:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         whole = experiment.score.indices(experiment.t.size) == (0, experiment.t.size, 1)
         self.compiled = bool(compiled) and self._runner is None and whole
+        # The compiled assembly is planar: a 3-D frame (6 DOFs per node) is evaluated step
+        # by step, assembled by Structure.assemble (femupdate.case.model3d).
+        self.compiled = self.compiled and self.model.structure.dofs_per_node != 6
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(

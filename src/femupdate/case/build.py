@@ -57,12 +57,13 @@ def build_structure(model: Model) -> Structure:
     else:
         structure = Structure(dofs_per_node=model.dofs_per_node)
         for node in model.nodes:
-            structure.add_node(node.name, x=node.x, y=node.y)
+            structure.add_node(node.name, x=node.x, y=node.y, z=node.z)
         for i, beam in enumerate(model.beams):
             structure.add_beam(
                 beam.nodes[0], beam.nodes[1], E=beam.E, A=beam.A, I=beam.I, rho=beam.rho,
                 G=beam.G, nu=beam.nu, kappa=beam.kappa, mass_per_length=beam.mass_per_length,
-                rotary_inertia=beam.rotary_inertia, name=beam.name or f"model.beams[{i}]")
+                rotary_inertia=beam.rotary_inertia, name=beam.name or f"model.beams[{i}]",
+                Iy=beam.Iy, Iz=beam.Iz, J=beam.J, vecxz=beam.vecxz)
         for i, spring in enumerate(model.springs):
             structure.add_spring(spring.node, spring.dof, spring.k, node2=spring.node2,
                                  dof2=spring.dof2, name=spring.name or f"model.springs[{i}]")
@@ -128,6 +129,11 @@ class CaseModel:
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
+        if case.model.dofs_per_node == 6:
+            from femupdate.case.model3d import check_not_mechanism
+
+            check_not_mechanism(self.structure, {p.name: p.nominal_value for p in
+                                                 case.parameters}, self.direction, case.label)
 
     def _builtin(self, what: str) -> Structure:
         if self.structure is None:

@@ -15,6 +15,7 @@ from pydantic import BaseModel, ValidationError
 
 from femupdate.case.fields import DOF_NAMES, Range, field_range, find_range, format_value
 from femupdate.case.issues import Issue, did_you_mean, duplicates, join_path
+from femupdate.case.model3d import beam_issues, node_issues
 
 if typing.TYPE_CHECKING:
     from femupdate.case.model_sections import Model
@@ -63,7 +64,7 @@ def model_issues(model: Model) -> list[Issue]:
              for i, e in enumerate(getattr(model, key)) if e.name is not None]
     issues += duplicates(named, "element name", "model")
 
-    coordinates = {n.name: (n.x, n.y) for n in model.nodes}
+    coordinates = {n.name: (n.x, n.y, n.z) for n in model.nodes}
     defined = ", ".join(repr(n) for n in coordinates) or "none"
     dofs = DOF_NAMES[model.dofs_per_node]
 
@@ -91,6 +92,7 @@ def model_issues(model: Model) -> list[Issue]:
             issues.append((f"beams[{i}].nodes", "with dofs_per_node = 2 beams lie along x; "
                            f"nodes {beam.nodes[0]!r} and {beam.nodes[1]!r} have different y",
                            "nodes with equal y, or dofs_per_node = 3 for a plane frame"))
+    issues += node_issues(model) + beam_issues(model, coordinates)
     for key in ("springs", "dampers", "frictions", "bouc_wen"):
         for i, link in enumerate(getattr(model, key)):
             node_issue(f"{key}[{i}].node", link.node)
@@ -286,10 +288,10 @@ def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
             issues.append((f"{path}.dof", f"{out.node}.{out.dof} is fixed by "
                            f"{fixed[out.node, out.dof]}: it moves with the table",
                            "a free DOF of the model"))
-        elif out.dof == "rz":
+        elif out.dof.startswith("r"):
             unit = out.unit or data.unit
-            translations = ", ".join(repr(d) for d in dofs if d != "rz")
-            issues.append((f"{path}.dof", f"got 'rz', a rotation: its acceleration is in "
+            translations = ", ".join(repr(d) for d in dofs if d.startswith("u"))
+            issues.append((f"{path}.dof", f"got {out.dof!r}, a rotation: its acceleration is in "
                            f"rad/s², but the records are linear accelerations (unit = "
                            f"{unit!r}, in m/s² once read)",
                            f"a translation DOF: {translations}; femupdate reads no angular "

@@ -22,7 +22,8 @@ from pydantic_core import PydanticCustomError
 from femupdate.errors import ConfigError
 
 #: DOF names of a node, by ``model.dofs_per_node``.
-DOF_NAMES: dict[int, tuple[str, ...]] = {2: ("uy", "rz"), 3: ("ux", "uy", "rz")}
+DOF_NAMES: dict[int, tuple[str, ...]] = {2: ("uy", "rz"), 3: ("ux", "uy", "rz"),
+                                         6: ("ux", "uy", "uz", "rx", "ry", "rz")}
 
 PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_\-]*")
@@ -31,7 +32,7 @@ _MAX_NAME = 64
 _RESERVED = frozenset({"inf", "nan", "infinity", "true", "false"})  # read as values elsewhere
 SIGMA_MAX = math.sqrt(1.0 / 12.0)  # standard deviation of the uniform law on [0, 1]
 
-DofName = Literal["ux", "uy", "rz"]
+DofName = Literal["ux", "uy", "uz", "rx", "ry", "rz"]
 AccelerationUnit = Literal["m/s2", "g", "cm/s2", "mm/s2"]
 
 # ----------------------------------------------------------------------------- values

@@ -47,27 +47,35 @@ from femupdate.case.fields import (
     text_field,
 )
 from femupdate.case.issues import Issue, raise_issues
+from femupdate.case.model3d import Vector3
 
 # ----------------------------------------------------------------------------- [model]
 
 
 class Node(Section):
-    """``[[model.nodes]]``: a node in the plane of the model."""
+    """``[[model.nodes]]``: a node in the plane of the model (in space, with ``z`` vertical,
+    for ``dofs_per_node = 6``)."""
 
     name: NodeName
     x: Coordinate
     y: Coordinate = 0.0
+    z: Coordinate = 0.0
 
 
 class Beam(Section):
-    """``[[model.beams]]``: a Timoshenko beam between two nodes (bending and shear)."""
+    """``[[model.beams]]``: a Timoshenko beam between two nodes (bending and shear); ``I`` for
+    planar models, ``Iy``, ``Iz``, ``J`` and ``vecxz`` for 3-D frames (``model3d``)."""
 
     nodes: Annotated[list[NodeName], Field(min_length=2, max_length=2)]
     E: Modulus
     G: PositiveModulus | None = None
     nu: Poisson | None = None
     A: Area
-    I: SecondMoment  # noqa: E741 (the usual symbol of the second moment of area)
+    I: SecondMoment | None = None  # noqa: E741 (the usual symbol of the second moment of area)
+    Iy: SecondMoment | None = None
+    Iz: SecondMoment | None = None
+    J: SecondMoment | None = None
+    vecxz: Vector3 | None = None
     rho: Density = 0.0
     kappa: ShearFactor = 5.0 / 6.0
     mass_per_length: MassPerLength = 0.0
@@ -161,7 +169,8 @@ class BoucWen(_Link):
 
 
 class Mass(Section):
-    """``[[model.masses]]``: a lumped mass on the node's translations and a rotary inertia."""
+    """``[[model.masses]]``: a lumped mass on the node's translations and a rotary inertia
+    ``J`` (on ``rz``; on each of ``rx``, ``ry``, ``rz`` of a 3-D frame)."""
 
     node: NodeName
     m: NodalMass
@@ -172,7 +181,7 @@ class Support(Section):
     """``[[model.supports]]``: DOFs fixed to the base (they move with the table)."""
 
     node: NodeName
-    dofs: Annotated[list[DofName], Field(min_length=1, max_length=3)]
+    dofs: Annotated[list[DofName], Field(min_length=1, max_length=6)]
 
     @model_validator(mode="after")
     def _check(self) -> Support:
@@ -331,7 +340,7 @@ class Model(Section):
     """``[model]``: the finite element model, or an external one (``[model.python]``,
     ``[model.opensees]``)."""
 
-    dofs_per_node: Literal[2, 3] = 2
+    dofs_per_node: Literal[2, 3, 6] = 2
     direction: Literal["x", "y"] | None = None
     rayleigh: Rayleigh | None = None
     nodes: list[Node] = Field(default_factory=list)
@@ -369,8 +378,8 @@ class Model(Section):
 
     @property
     def excitation_direction(self) -> str:
-        """Direction of the base motion: ``direction``, or "x" for a shear building and a
-        plane frame, "y" (transverse) for a 2-DOF/node model."""
+        """Direction of the base motion: ``direction``, or "x" for a shear building, a plane
+        frame and a 3-D frame, "y" (transverse) for a 2-DOF/node model."""
         if self.direction is not None:
             return self.direction
         return "y" if self.shear_building is None and self.dofs_per_node == 2 else "x"
