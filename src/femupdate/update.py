@@ -90,6 +90,8 @@ class TrialProblem:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         whole = experiment.score.indices(experiment.t.size) == (0, experiment.t.size, 1)
         self.compiled = bool(compiled) and self._runner is None and whole
+        if self._runner is None and self.model.reduced is not None:
+            self.compiled = False  # the reduced path runs step by step (sparse, few modes)
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -208,6 +210,8 @@ class TrialProblem:
     def frequencies(self, values: Mapping[str, float]) -> np.ndarray:
         """Undamped natural frequencies (Hz) of the model at ``values`` (friction elements
         stuck); an external model's own, or none."""
+        if self._runner is None and self.model.reduced is not None:  # no dense eigenproblem
+            return self.model.reduced.frequencies(values, self.experiment.dt)
         if self._runner is None:
             return natural_frequencies(self.model.system(values)).freqs_hz
         freqs = self._runner.frequencies(values)
