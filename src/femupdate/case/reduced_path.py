@@ -51,12 +51,13 @@ __all__ = [
 ]
 
 #: Without ``[simulation] method``, a linear model of at least this many DOFs takes the reduced
-#: path. Measured through a case (``UpdateProblem`` φ of a uniform shear building, 5,000
-#: samples at 200 Hz, 3 acceleration sensors, modes kept to 200 Hz: benchmarks/reduced_case.py):
-#: compiled full exact against reduced (medians; load average 4–5 on 2 cores) 2.0 against
-#: 7.3 ms at 50 DOFs, 6.5 against 8.8 ms at 100, 30 against 12 ms at 200, 170 against 14 ms at
-#: 400.
-REDUCED_MIN_DOF = 150
+#: path. Measured through a case (``UpdateProblem`` φ of the shear building of
+#: examples/large/make_case.py, 5,000 samples at 100 Hz, 3 acceleration sensors, 25–29 modes
+#: kept: ``python benchmarks/reduced_case.py``, two runs, one BLAS thread, load average 8–10
+#: on 2 cores), compiled full exact against reduced, medians of 7 points: 3.7 / 3.5 ms against
+#: 3.8 / 7.5 ms at 50 DOFs, 23 / 22 against 4.3 / 4.1 ms at 100, 117 / 115 against 11 / 11 ms
+#: at 200, 521 / 344 against 12 / 12 ms at 400. The paths cross between 50 and 100 DOFs.
+REDUCED_MIN_DOF = 100
 #: Up to this many DOFs the truncation error is measured against the full exact model (its
 #: dense 2n × 2n eigen-decomposition: seconds at 1,000 DOFs); above, against the reduced model
 #: with four times the cut-off (or the modes).
