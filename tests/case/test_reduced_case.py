@@ -272,3 +272,15 @@ def test_the_summary_holds_the_truncation_error(one_worker) -> None:
     assert 0.0 < record["truncation_error"] < TRUNCATION_WARN
     assert record["trials"][0]["n_modes"] == record["n_modes"]
     assert record["cutoff_hz"] == pytest.approx(100.0)
+
+
+def test_the_report_modes_of_a_reduced_case_are_the_full_models(data_dir: Path) -> None:
+    from femupdate.report.facts import modes_at
+
+    values = _case(data_dir).nominal()
+    got = modes_at(CaseModel(_case(data_dir)), values, 4)
+    ref = modes_at(CaseModel(_case(data_dir, "exact")), values, 4)
+    for a, b in zip((got.undamped_hz, got.pole_hz, got.damping_ratios),
+                    (ref.undamped_hz, ref.pole_hz, ref.damping_ratios), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-10)
+    assert got.proportional and ref.proportional  # Rayleigh damping

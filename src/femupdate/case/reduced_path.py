@@ -171,6 +171,10 @@ class ReducedPath:
                 self._starts[key] = modes
         return modes
 
+    def system(self, values: Mapping[str, float]) -> Any:
+        """The sparse system (CSR ``M``, ``C``, ``K``) at ``values``."""
+        return self._structure.assemble(values, direction=self._direction, sparse=True)
+
     def simulator(self, values: Mapping[str, float], dt: float, outputs: np.ndarray, *,
                   factor: float = 1.0) -> ReducedSimulator:
         """The reduced simulator of the sparse system at ``values``; ``factor`` multiplies the
@@ -289,7 +293,7 @@ def lowest_case_modes(path: ReducedPath, values: Mapping[str, float],
     from femupdate.model.sparse import lowest_modes
     from femupdate.model.system import System
 
-    system = path._structure.assemble(values, direction=path._direction, sparse=True)
+    system = path.system(values)
     modes = lowest_modes(system.K, system.M, n_modes=min(count, system.n_dof))
     phi = modes.shapes
     c_red = phi.T @ np.asarray(system.C @ phi)
@@ -297,3 +301,13 @@ def lowest_case_modes(path: ReducedPath, values: Mapping[str, float],
     projected = System(M=np.eye(m), C=0.5 * (c_red + c_red.T),
                        K=np.diag((2.0 * np.pi * modes.freqs_hz) ** 2), r=np.zeros(m))
     return modes, damped_modes(projected), tuple(system.dof_labels)
+
+
+def lowest_frequencies(model: Any, values: Mapping[str, float],
+                       count: int = MODES_SHOWN) -> np.ndarray | None:
+    """The lowest ``count`` natural frequencies (Hz) of a case's model on the reduced path by
+    the sparse eigensolver; None for a model on another path (its callers' dense one)."""
+    path = getattr(model, "reduced", None)
+    if path is None:
+        return None
+    return lowest_case_modes(path, values, count)[0].freqs_hz
