@@ -284,3 +284,26 @@ def test_the_report_modes_of_a_reduced_case_are_the_full_models(data_dir: Path) 
                     (ref.undamped_hz, ref.pole_hz, ref.damping_ratios), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-10)
     assert got.proportional and ref.proportional  # Rayleigh damping
+
+
+def test_above_the_full_check_size_the_reference_has_four_times_the_cutoff(
+        reduced: UpdateProblem, monkeypatch: pytest.MonkeyPatch) -> None:
+    import femupdate.case.reduced_path as rp
+
+    monkeypatch.setattr(rp, "FULL_CHECK_MAX_DOF", STOREYS - 1)
+    record = simulation_record(reduced)
+    assert record["against"].startswith("the reduced model with 4× the cut-off")
+    assert 0.0 <= record["truncation_error"] < TRUNCATION_WARN
+
+
+def test_a_large_truncation_error_is_warned_about(data_dir: Path) -> None:
+    from femupdate.errors import FemupdateWarning
+
+    case = _case(data_dir)
+    case = parse_case({**case.to_dict(), "simulation": {"method": "reduced", "n_modes": 2}},
+                      source=case.source)
+    problem = UpdateProblem(case, load_experiments(case))
+    with pytest.warns(FemupdateWarning, match=r"truncation error is .* above 1e-06.*raise "
+                                              r"\[simulation\] cutoff_factor"):
+        record = simulation_record(problem)
+    assert record["truncation_error"] > TRUNCATION_WARN and record["n_modes"] == 2
