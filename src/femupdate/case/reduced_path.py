@@ -36,7 +36,6 @@ if TYPE_CHECKING:
     from femupdate.model.modes import NaturalModes
     from femupdate.model.structure import Structure
     from femupdate.simulate.reduced import ReducedSimulator
-    from femupdate.update import TrialProblem, UpdateProblem
 
 __all__ = [
     "FULL_CHECK_MAX_DOF",
@@ -211,8 +210,9 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sum((a - b) ** 2) / np.sum(b**2))
 
 
-def trial_truncation(trial: TrialProblem, values: Mapping[str, float]) -> dict[str, Any]:
-    """The reduced prediction of one trial at ``values`` against the full model's (or, above
+def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
+    """The reduced prediction of one trial (a ``femupdate.update.TrialProblem``, a layer
+    above this module) at ``values`` against the full model's (or, above
     :data:`FULL_CHECK_MAX_DOF` DOFs, against the reduced model with four times the cut-off)."""
     from femupdate.simulate.exact import ExactSimulator
 
@@ -237,8 +237,9 @@ def trial_truncation(trial: TrialProblem, values: Mapping[str, float]) -> dict[s
             "phi_reduced": phi_reduced, "phi_full": phi_full}
 
 
-def simulation_record(problem: UpdateProblem) -> dict[str, Any] | None:
-    """Which path simulated the case's model, and on the reduced path its truncation error at
+def simulation_record(problem: Any) -> dict[str, Any] | None:
+    """Which path simulated the case's model (``problem``: a
+    ``femupdate.update.UpdateProblem``), and on the reduced path its truncation error at
     the nominal point for every fitted trial (warned about above :data:`TRUNCATION_WARN`).
     None for an external model."""
     case = problem.case
