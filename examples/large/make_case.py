@@ -89,8 +89,7 @@ quantity = "acceleration"
 {simulation}[search]
 method = "multistart-lm"
 runs = 2
-max_evals = 1500
-f_target = 1e-10
+max_evals = 1000
 seed = 22
 """
 
