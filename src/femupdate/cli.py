@@ -579,6 +579,7 @@ def run(
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
     so an interrupted or killed run continues with --resume; --restart starts over.
     """
+    from femupdate.case.reduced_path import describe_simulation
     from femupdate.optimize.minimize import METHODS
     from femupdate.report.figures import write_run_plots
     from femupdate.runs import Execution
@@ -612,6 +613,8 @@ def run(
         raise SystemExit(130) from None
     write_run_plots(result, out)
     print_update_summary(result.summary)
+    if result.summary.simulation is not None:  # which path ran (reduced: modes, truncation)
+        say(describe_simulation(result.summary.simulation))
     say(f"results in {out.resolve()}")
     _write_json(json_path, result.summary.model_dump())
 
@@ -774,12 +777,22 @@ def modes(
     case = _load(case_file)
     values = case.nominal() if params is None else _read_params("--params", params, case)
     _warn_outside_bounds("--params", case, values)
-    system = CaseModel(case).system(values)
-    freqs, shapes = natural_frequencies(system)
-    damped = damped_modes(system)
-    table = Table(title=f"{case.label}: natural frequencies"
-                        + (" (friction elements stuck)" if system.n_friction else "")
-                        + (" (Bouc–Wen initial tangent)" if system.n_bouc_wen else ""))
+    model = CaseModel(case)
+    if model.reduced is not None:  # a large model: its lowest modes, sparse (no dense n × n)
+        from femupdate.case.reduced_path import lowest_case_modes
+
+        (freqs, shapes), damped, dof_labels = lowest_case_modes(model.reduced, values)
+        title = (f"{case.label}: the lowest {freqs.size} natural frequencies of "
+                 f"{len(dof_labels)} DOFs (sparse eigensolver; damped: C projected on them)")
+    else:
+        system = model.system(values)
+        freqs, shapes = natural_frequencies(system)
+        damped = damped_modes(system)
+        dof_labels = system.dof_labels
+        title = (f"{case.label}: natural frequencies"
+                 + (" (friction elements stuck)" if system.n_friction else "")
+                 + (" (Bouc–Wen initial tangent)" if system.n_bouc_wen else ""))
+    table = Table(title=title)
     for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
         table.add_column(col, justify="right")
     above = False
@@ -794,7 +807,7 @@ def modes(
             "Its damping is not proportional (C is not a combination of M and K that the "
             "undamped modes diagonalise), so the damped modes are not the undamped ones with "
             "damping added: a damped frequency can exceed its undamped one.")
-    labels = list(system.dof_labels)
+    labels = list(dof_labels)
     console.print(_shapes_table(labels, np.asarray(shapes), np.asarray(freqs)))
     if shapes.shape[1] > SHAPES_SHOWN:
         say(f"{shapes.shape[1] - SHAPES_SHOWN} more mode shapes with --json")

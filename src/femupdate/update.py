@@ -89,10 +89,12 @@ class TrialProblem:
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         whole = experiment.score.indices(experiment.t.size) == (0, experiment.t.size, 1)
-        self.compiled = bool(compiled) and self._runner is None and whole
-        # The compiled assembly is planar: a 3-D frame (6 DOFs per node) is evaluated step
-        # by step, assembled by Structure.assemble (femupdate.case.model3d).
-        self.compiled = self.compiled and self.model.structure.dofs_per_node != 6
+        # The compiled evaluator covers femupdate's planar models on the full path; a 3-D
+        # frame (6 DOFs per node, femupdate.case.model3d: its compiled assembly would be
+        # planar) and the reduced path (sparse, few modes) are evaluated step by step.
+        self.compiled = (bool(compiled) and self._runner is None and whole
+                         and self.model.structure.dofs_per_node != 6
+                         and self.model.reduced is None)
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -211,6 +213,8 @@ class TrialProblem:
     def frequencies(self, values: Mapping[str, float]) -> np.ndarray:
         """Undamped natural frequencies (Hz) of the model at ``values`` (friction elements
         stuck); an external model's own, or none."""
+        if self._runner is None and self.model.reduced is not None:  # no dense eigenproblem
+            return self.model.reduced.frequencies(values, self.experiment.dt)
         if self._runner is None:
             return natural_frequencies(self.model.system(values)).freqs_hz
         freqs = self._runner.frequencies(values)

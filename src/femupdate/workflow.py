@@ -20,6 +20,7 @@ import numpy as np
 
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
+from femupdate.case.reduced_path import simulation_record
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
@@ -375,6 +376,7 @@ def run_case(
         out_dir.mkdir(parents=True, exist_ok=True)
         if restart:
             start_over(out_dir)
+    simulation = simulation_record(problem)  # on the reduced path: its truncation error
     fun, residuals = objective_for(problem, search.method)
     outcomes = run_all(
         fun, problem.bounds, search.method,
@@ -399,6 +401,7 @@ def run_case(
     with single_blas_thread():
         summary = summarize(problem, outcomes, wall, search.f_target, settings,
                             sensitivities=sensitivities)
+        summary.simulation = simulation
         fits = trial_fits(problem, summary.best.params)
     if out_dir is not None:
         write_summary(summary, out_dir)

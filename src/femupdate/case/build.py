@@ -16,6 +16,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from femupdate.case.model_sections import Model, storey_values
+from femupdate.case.reduced_path import ReducedPath
 from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError
 
@@ -116,6 +117,7 @@ class CaseModel:
         if channels is None:
             channels = case.data.outputs if case.data is not None else []
         self._label = case.label
+        self.reduced: ReducedPath | None = None
         self.external = external_model(case, channels)
         if self.external is not None:
             self.structure = None
@@ -125,7 +127,10 @@ class CaseModel:
         self.structure = build_structure(case.model)
         self.direction = case.model.excitation_direction
         self.method = case.simulation_method
-        self.substeps = 1 if self.method == "exact" else case.preprocess.substeps
+        self.substeps = 1 if self.method in ("exact", "reduced") else case.preprocess.substeps
+        #: The reduced path's settings and warm start (None on the other paths).
+        self.reduced = (ReducedPath(case, self.structure, self.direction)
+                        if self.method == "reduced" else None)
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
@@ -154,6 +159,8 @@ class CaseModel:
         if self.outputs.size == 0:
             raise ConfigError(f"{self._label}: the case has no [data] outputs: nothing to "
                               "simulate at")
+        if self.reduced is not None:  # sparse, on the lowest modes
+            return self.reduced.simulator(values, dt, self.outputs)
         return prepare(self.system(values), dt, method=self.method, outputs=self.outputs,
                        substeps=self.substeps)
 

@@ -46,6 +46,7 @@ from femupdate.case.model_sections import (
     Model,
 )
 from femupdate.case.posterior_section import PosteriorSection, posterior_issues
+from femupdate.case.reduced_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.errors import ConfigError
 
@@ -310,7 +311,12 @@ class ObjectiveOptions(Section):
 class Simulation(Section):
     """``[simulation]``: the integrator (None: exact for linear models, nonlinear if friction)."""
 
-    method: Literal["exact", "central_difference", "newmark", "nonlinear"] | None = None
+    method: Literal["exact", "central_difference", "newmark", "nonlinear",
+                    "reduced"] | None = None
+    # the reduced path's (femupdate.case.reduced_path): modes kept up to cutoff_factor × the
+    # fitted band, or the lowest n_modes
+    cutoff_factor: number_field(ge=1.0, le=1e3) | None = None
+    n_modes: integer_field(ge=1, le=10**7) | None = None
 
 
 class Search(Section):
@@ -349,7 +355,7 @@ class Case(Section):
 
     @model_validator(mode="after")
     def _check(self) -> Case:
-        raise_issues(case_issues(self) + posterior_issues(self))
+        raise_issues(case_issues(self) + posterior_issues(self) + simulation_issues(self))
         return self
 
     # -- where it came from
@@ -416,9 +422,13 @@ class Case(Section):
 
     @property
     def simulation_method(self) -> str:
-        """``simulation.method``, or its default: ``"nonlinear"`` with frictions, else exact."""
+        """``simulation.method``, or its default: ``"nonlinear"`` with frictions, ``"reduced"``
+        for a linear model of ``REDUCED_MIN_DOF`` DOFs or more
+        (:mod:`femupdate.case.reduced_path`), else exact."""
         if self.simulation.method is not None:
             return self.simulation.method
+        if reduced_by_default(self.model):  # a large linear model: its lowest modes
+            return "reduced"
         return "nonlinear" if self.model.has_nonlinear else "exact"
 
     # -- trials and data files
@@ -461,6 +471,9 @@ class Case(Section):
         data = self.model_dump(mode="json")
         if data.get("posterior") is None:
             data.pop("posterior", None)
+        for key in ("cutoff_factor", "n_modes"):  # nor the reduced path's when not given
+            if data["simulation"].get(key) is None:
+                data["simulation"].pop(key, None)
         return data
 
     def fingerprint(self) -> str:

@@ -16,6 +16,7 @@ import numpy as np
 
 from femupdate.case import Case, CaseModel
 from femupdate.case.build import check_parameter_values
+from femupdate.case.reduced_path import lowest_frequencies
 from femupdate.errors import FemupdateError
 from femupdate.model.modes import damped_modes, initial_stiffness, natural_frequencies
 from femupdate.model.system import System
@@ -121,6 +122,17 @@ class Modes:
 
 def modes_at(model: CaseModel, values: Mapping[str, float], n: int = N_MODES) -> Modes:
     """The first ``n`` undamped and complex modes of the case's model at ``values``."""
+    if model.reduced is not None:  # a large model: sparse, its lowest modes only
+        from femupdate.case.reduced_path import lowest_case_modes
+
+        (undamped, phi), poles, _ = lowest_case_modes(model.reduced, values, n)
+        f, zeta = poles.freqs_hz[:n], poles.damping_ratios[:n]
+        damped = f * np.sqrt(np.clip(1.0 - zeta**2, 0.0, None))
+        # classical damping: the kept modes diagonalise C (K M⁻¹ C = C M⁻¹ K in their span)
+        c_modal = phi.T @ np.asarray(model.reduced.system(values).C @ phi)
+        off = c_modal - np.diag(np.diag(c_modal))
+        return Modes(undamped.tolist(), f.tolist(), zeta.tolist(), damped.tolist(),
+                     bool(np.linalg.norm(off) <= PROPORTIONAL_TOL * np.linalg.norm(c_modal)))
     system = model.system(values)
     undamped = natural_frequencies(system).freqs_hz[:n]
     poles = damped_modes(system)
@@ -196,7 +208,9 @@ def find_truth(res: Results, model: CaseModel | None) -> Truth:
     freqs: list[float] = []
     if model is not None:
         try:
-            freqs = natural_frequencies(model.system(values)).freqs_hz[:N_MODES].tolist()
+            sparse = lowest_frequencies(model, values, N_MODES)  # a large model's, sparse
+            freqs = (natural_frequencies(model.system(values)).freqs_hz[:N_MODES].tolist()
+                     if sparse is None else sparse.tolist())
         except FemupdateError:
             freqs = []
     return Truth(values, freqs, f"{path} (a virtual experiment)",

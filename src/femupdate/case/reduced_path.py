@@ -1,0 +1,315 @@
+"""The reduced (large-model) path of a case: ``[simulation] method = "reduced"``.
+
+A linear model of femupdate's own is simulated on its lowest modes with a static correction
+(:class:`femupdate.simulate.reduced.ReducedSimulator`), assembled sparse (no dense n × n matrix)
+and with the eigensolver warm-started. What this module decides for a case:
+
+- **The path.** ``method = "reduced"`` asks for it; without a ``method`` a linear model of at
+  least :data:`REDUCED_MIN_DOF` DOFs takes it (below, nothing changes: the full exact path).
+- **The band.** The case's preprocessing has no low-pass (only a high-pass, resampling and the
+  delay band), so the fitted band reaches the Nyquist frequency of the trial's samples (after
+  ``resample_hz``): modes are kept up to ``cutoff_factor × fs / 2``.
+- **The warm start.** Every evaluation starts the Lanczos iteration from the modes of the
+  case's nominal point (computed once per process, deterministically), never from those of
+  the previous evaluation: the previous point depends on which worker or thread evaluated
+  what, and a start changes φ in its last bits; the nominal modes give the same φ for the same
+  point in every process.
+- **The truncation error**, once per ``femupdate run``: the reduced prediction against the full
+  model's at the nominal point (relative, as φ is), in the console and ``summary.json``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import warnings
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from femupdate.errors import ConfigError, FemupdateWarning
+
+if TYPE_CHECKING:
+    from femupdate.case.model_sections import Model
+    from femupdate.case.schema import Case
+    from femupdate.model.modes import NaturalModes
+    from femupdate.model.structure import Structure
+    from femupdate.simulate.reduced import ReducedSimulator
+
+__all__ = [
+    "FULL_CHECK_MAX_DOF",
+    "REDUCED_MIN_DOF",
+    "TRUNCATION_WARN",
+    "ReducedPath",
+    "describe_simulation",
+    "model_dof_count",
+    "reduced_by_default",
+    "simulation_issues",
+    "simulation_record",
+]
+
+#: Without ``[simulation] method``, a linear model of at least this many DOFs takes the reduced
+#: path. Measured through a case (``UpdateProblem`` φ of the shear building of
+#: examples/large/make_case.py, 5,000 samples at 100 Hz, 3 acceleration sensors, 25–29 modes
+#: kept: ``python benchmarks/reduced_case.py``, two runs, one BLAS thread, load average 8–10
+#: on 2 cores), compiled full exact against reduced, medians of 7 points: 3.7 / 3.5 ms against
+#: 3.8 / 7.5 ms at 50 DOFs, 23 / 22 against 4.3 / 4.1 ms at 100, 117 / 115 against 11 / 11 ms
+#: at 200, 521 / 344 against 12 / 12 ms at 400. The paths cross between 50 and 100 DOFs.
+REDUCED_MIN_DOF = 100
+#: Up to this many DOFs the truncation error is measured against the full exact model; above,
+#: against the reduced model with four times the cut-off (or the modes). The full model's
+#: dense 2n × 2n eigen-decomposition at 1,000 DOFs took 11 s and 390 MB of peak memory (load
+#: average 10 on 2 cores): growing like n³ and n², it would dominate the run above that.
+FULL_CHECK_MAX_DOF = 1000
+#: A truncation error above this is warned about (raise ``cutoff_factor``).
+TRUNCATION_WARN = 1e-6
+
+
+def model_dof_count(model: Model) -> int | None:
+    """The free DOFs of ``[model]`` without building it (None for an external model): a shear
+    building's floors, else nodes × DOFs per node less the fixed ones."""
+    if model.external is not None:
+        return None
+    if model.shear_building is not None:
+        return len(model.shear_building.masses)
+    return len(model.nodes) * model.dofs_per_node - len(model.fixed_dofs())
+
+
+def reduced_by_default(model: Model) -> bool:
+    """Whether a case without ``[simulation] method`` takes the reduced path: a linear model
+    of femupdate's own with at least :data:`REDUCED_MIN_DOF` DOFs."""
+    if model.has_nonlinear:
+        return False
+    n = model_dof_count(model)
+    return n is not None and n >= REDUCED_MIN_DOF
+
+
+def simulation_issues(case: Case) -> list[tuple[str, str, str]]:
+    """``[simulation] cutoff_factor`` and ``n_modes``: only with the reduced path, one of them,
+    and no more modes than the model has DOFs."""
+    sim = case.simulation
+    method = case.simulation_method
+    issues = []
+    for name in ("cutoff_factor", "n_modes"):
+        if getattr(sim, name) is not None and method != "reduced":
+            issues.append((f"simulation.{name}", f"got {getattr(sim, name)!r} but the "
+                           f"simulation method is {method!r}",
+                           "only with method = \"reduced\" (or leave it out)"))
+    if sim.cutoff_factor is not None and sim.n_modes is not None:
+        issues.append(("simulation.n_modes", "given with cutoff_factor: the modes are either "
+                       "counted or cut at a frequency", "one of n_modes and cutoff_factor"))
+    n = model_dof_count(case.model)
+    if sim.n_modes is not None and n is not None and sim.n_modes > n:
+        issues.append(("simulation.n_modes", f"got {sim.n_modes} but the model has {n} DOFs",
+                       f"1 to {n}"))
+    return issues
+
+
+class ReducedPath:
+    """How a case's model is simulated on the reduced path (picklable).
+
+    Parameters
+    ----------
+    case : Case
+        The validated case (method ``"reduced"``).
+    structure : Structure
+        Its structure (``CaseModel.structure``).
+    direction : str
+        The base motion's direction.
+    """
+
+    def __init__(self, case: Case, structure: Structure, direction: str) -> None:
+        from femupdate.simulate.reduced import DEFAULT_CUTOFF_FACTOR
+
+        sim = case.simulation
+        self.cutoff_factor = (DEFAULT_CUTOFF_FACTOR if sim.cutoff_factor is None
+                              else float(sim.cutoff_factor))
+        self.n_modes = sim.n_modes
+        if self.n_modes is not None and self.n_modes > structure.n_dof:
+            raise ConfigError(f"{case.label}: simulation.n_modes: got {self.n_modes} but the "
+                              f"model has {structure.n_dof} DOFs (allowed: 1 to "
+                              f"{structure.n_dof})")
+        self._structure = structure
+        self._direction = direction
+        self._nominal = case.nominal()
+        self._starts: dict[float, NaturalModes] = {}
+        self._lock = threading.Lock()
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_lock": None}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
+    def band_hz(self, dt: float) -> float:
+        """The fitted band's upper end: the Nyquist frequency of samples ``dt`` apart."""
+        return 0.5 / float(dt)
+
+    def cutoff_hz(self, dt: float) -> float | None:
+        """Modes are kept up to this frequency (None when ``n_modes`` counts them)."""
+        if self.n_modes is not None:
+            return None
+        from femupdate.simulate.reduced import cutoff_from_band
+
+        return cutoff_from_band(self.band_hz(dt), self.cutoff_factor)
+
+    def start_modes(self, dt: float) -> NaturalModes:
+        """The modes at the case's nominal point that start every eigensolution (computed once
+        per process and cut-off, without a start of their own: the same in every process)."""
+        from femupdate.model.sparse import lowest_modes
+
+        key = float(dt)
+        with self._lock:
+            modes = self._starts.get(key)
+            if modes is None:
+                system = self._structure.assemble(self._nominal, direction=self._direction,
+                                                  sparse=True)
+                modes = lowest_modes(system.K, system.M, n_modes=self.n_modes,
+                                     cutoff_hz=self.cutoff_hz(dt))
+                self._starts[key] = modes
+        return modes
+
+    def system(self, values: Mapping[str, float]) -> Any:
+        """The sparse system (CSR ``M``, ``C``, ``K``) at ``values``."""
+        return self._structure.assemble(values, direction=self._direction, sparse=True)
+
+    def simulator(self, values: Mapping[str, float], dt: float, outputs: np.ndarray, *,
+                  factor: float = 1.0) -> ReducedSimulator:
+        """The reduced simulator of the sparse system at ``values``; ``factor`` multiplies the
+        cut-off (or the modes) for a reference of more modes."""
+        from femupdate.simulate.reduced import ReducedSimulator
+
+        system = self._structure.assemble(values, direction=self._direction, sparse=True)
+        n_modes = self.n_modes
+        if n_modes is not None and factor != 1.0:
+            n_modes = min(round(n_modes * factor), system.n_dof)
+        start = self.start_modes(dt) if factor == 1.0 else None
+        return ReducedSimulator(system, dt, outputs, band_hz=self.band_hz(dt),
+                                cutoff_factor=self.cutoff_factor * factor, n_modes=n_modes,
+                                previous=start)
+
+    def frequencies(self, values: Mapping[str, float], dt: float | None = None,
+                    count: int = 12) -> np.ndarray:
+        """The lowest natural frequencies (Hz) at ``values``, by the sparse eigensolver: those
+        kept for samples ``dt`` apart, or the lowest ``count`` (never a dense eigenproblem)."""
+        from femupdate.model.sparse import lowest_modes
+
+        system = self._structure.assemble(values, direction=self._direction, sparse=True)
+        if dt is None:
+            modes = lowest_modes(system.K, system.M, n_modes=min(count, system.n_dof))
+        else:
+            modes = lowest_modes(system.K, system.M, n_modes=self.n_modes,
+                                 cutoff_hz=self.cutoff_hz(dt), previous=self.start_modes(dt))
+        return modes.freqs_hz
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> float:
+    """‖a − b‖² / ‖b‖² (the NMSE that φ is made of)."""
+    return float(np.sum((a - b) ** 2) / np.sum(b**2))
+
+
+def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
+    """The reduced prediction of one trial (a ``femupdate.update.TrialProblem``, a layer
+    above this module) at ``values`` against the full model's (or, above
+    :data:`FULL_CHECK_MAX_DOF` DOFs, against the reduced model with four times the cut-off)."""
+    from femupdate.simulate.exact import ExactSimulator
+
+    model = trial.model
+    path = model.reduced
+    dt = trial.experiment.dt
+    reduced = path.simulator(values, dt, model.outputs)
+    n = model.structure.n_dof
+    if n <= FULL_CHECK_MAX_DOF:
+        full = ExactSimulator(model.system(values), dt, model.outputs)
+        against = f"the full model (exact, {n} DOFs)"
+    else:
+        full = path.simulator(values, dt, model.outputs, factor=4.0)
+        against = f"the reduced model with 4× the cut-off ({full.n_modes} modes)"
+    ag = trial._ag
+    got = trial.scored(trial.prediction(reduced.run(ag)))
+    ref = trial.scored(trial.prediction(full.run(ag)))
+    phi_reduced, phi_full = trial.objective(got), trial.objective(ref)
+    return {"trial": trial.name, "n_dof": n, "n_modes": reduced.n_modes,
+            "cutoff_hz": reduced.cutoff_hz, "band_hz": path.band_hz(dt),
+            "truncation_error": _relative(got, ref), "against": against,
+            "phi_reduced": phi_reduced, "phi_full": phi_full}
+
+
+def simulation_record(problem: Any) -> dict[str, Any] | None:
+    """Which path simulated the case's model (``problem``: a
+    ``femupdate.update.UpdateProblem``), and on the reduced path its truncation error at
+    the nominal point for every fitted trial (warned about above :data:`TRUNCATION_WARN`).
+    None for an external model."""
+    case = problem.case
+    model = problem.model
+    if model.structure is None:
+        return None
+    method = case.simulation_method
+    record: dict[str, Any] = {"method": method, "n_dof": model.structure.n_dof}
+    if method != "reduced":
+        return record
+    from femupdate._parallel import single_blas_thread
+
+    values = case.nominal()
+    with single_blas_thread():  # as the runs have: the dense full model is many times faster
+        trials = [trial_truncation(t, values) for t in problem.fitted]
+    worst = max(trials, key=lambda t: t["truncation_error"])
+    record.update(n_modes=worst["n_modes"], cutoff_hz=worst["cutoff_hz"],
+                  band_hz=worst["band_hz"], cutoff_factor=model.reduced.cutoff_factor,
+                  truncation_error=worst["truncation_error"], against=worst["against"],
+                  at="the nominal point", trials=trials)
+    if not worst["truncation_error"] <= TRUNCATION_WARN:
+        warnings.warn(f"{case.label}: simulation: the reduced model's truncation error is "
+                      f"{worst['truncation_error']:.2g} (trial {worst['trial']!r}, against "
+                      f"{worst['against']}), above {TRUNCATION_WARN:g}: φ cannot be trusted "
+                      "below it; raise [simulation] cutoff_factor (or n_modes)",
+                      FemupdateWarning, stacklevel=2)
+    return record
+
+
+def describe_simulation(record: Mapping[str, Any]) -> str:
+    """One line: which path ran (``"reduced: 25 modes ≤ 200 Hz of 1000 DOFs; …"``)."""
+    method, n = record["method"], record["n_dof"]
+    if method != "reduced":
+        return f"simulation: {method} (full model, {n} DOFs)"
+    cut = record.get("cutoff_hz")
+    where = f" ≤ {cut:.4g} Hz" if cut is not None else ""
+    err = record.get("truncation_error")
+    tail = "" if err is None or not math.isfinite(err) else (
+        f"; truncation error {err:.2g} against {record['against']} at {record['at']}")
+    return f"simulation: reduced: {record['n_modes']} modes{where} of {n} DOFs{tail}"
+
+
+#: `femupdate modes` of a model on the reduced path: this many lowest modes.
+MODES_SHOWN = 12
+
+
+def lowest_case_modes(path: ReducedPath, values: Mapping[str, float],
+                      count: int = MODES_SHOWN) -> tuple[NaturalModes, Any, tuple[str, ...]]:
+    """The lowest ``count`` undamped modes of the model at ``values`` by the sparse
+    eigensolver, the damped modes of its damping projected on them (``Φᵀ C Φ``: exact for
+    damping that does not couple modes), and the DOF labels; never a dense n × n matrix."""
+    from femupdate.model.modes import damped_modes
+    from femupdate.model.sparse import lowest_modes
+    from femupdate.model.system import System
+
+    system = path.system(values)
+    modes = lowest_modes(system.K, system.M, n_modes=min(count, system.n_dof))
+    phi = modes.shapes
+    c_red = phi.T @ np.asarray(system.C @ phi)
+    m = phi.shape[1]
+    projected = System(M=np.eye(m), C=0.5 * (c_red + c_red.T),
+                       K=np.diag((2.0 * np.pi * modes.freqs_hz) ** 2), r=np.zeros(m))
+    return modes, damped_modes(projected), tuple(system.dof_labels)
+
+
+def lowest_frequencies(model: Any, values: Mapping[str, float],
+                       count: int = MODES_SHOWN) -> np.ndarray | None:
+    """The lowest ``count`` natural frequencies (Hz) of a case's model on the reduced path by
+    the sparse eigensolver; None for a model on another path (its callers' dense one)."""
+    path = getattr(model, "reduced", None)
+    if path is None:
+        return None
+    return lowest_case_modes(path, values, count)[0].freqs_hz
