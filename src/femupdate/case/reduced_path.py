@@ -60,8 +60,9 @@ REDUCED_MIN_DOF = 100
 #: Up to this many DOFs the truncation error is measured against the full exact model; above,
 #: against the reduced model with four times the cut-off (or the modes). The full model's
 #: dense 2n × 2n eigen-decomposition at 1,000 DOFs took 11 s and 390 MB of peak memory (load
-#: average 10 on 2 cores): growing like n³ and n², it would dominate the run above that.
-FULL_CHECK_MAX_DOF = 1000
+#: average 10 on 2 cores), more than the run itself (a 1,000-DOF update stays under 500 MB
+#: without it); growing like n³ and n², it is kept to half that size.
+FULL_CHECK_MAX_DOF = 500
 #: A truncation error above this is warned about (raise ``cutoff_factor``).
 TRUNCATION_WARN = 1e-6
 
