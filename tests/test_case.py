@@ -557,6 +557,18 @@ def test_to_dict_and_fingerprint_round_trip(tmp_path: Path) -> None:
     assert re.fullmatch(r"[0-9a-f]{64}", case.fingerprint())
 
 
+@pytest.mark.parametrize("change", [('time_column = "t"', "rate = 100.0"),
+                                    ('format = "csv"\ntime_column = "t"', 'format = "npz"')],
+                         ids=["rate", "npz"])
+def test_a_saved_case_reads_back_whatever_its_time_axis(tmp_path: Path,
+                                                         change: tuple[str, str]) -> None:
+    # the saved case holds every default (time_unit, the CSV options): reading it back (a
+    # report, --data) must not take them for fields given where they mean nothing
+    case = load_case(write(tmp_path, BASE.replace(*change)))
+    again = parse_case(json.loads(json.dumps(case.to_dict())))
+    assert again.fingerprint() == case.fingerprint()
+
+
 def test_fingerprint_ignores_layout_but_not_content(tmp_path: Path) -> None:
     reference = load_case(write(tmp_path, BASE)).fingerprint()
     # the same case: [data] written first, an integer for a float, comments, another file name

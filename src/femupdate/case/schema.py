@@ -180,6 +180,13 @@ class Data(Section):
     input: Channel
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)]
 
+    def _given(self, key: str) -> bool:
+        """Whether ``key`` was given a value other than its default (a saved case, which
+        holds every default, reads back as the case it was)."""
+        return (key in self.model_fields_set
+                and getattr(self, key) != type(self).model_fields[key].get_default(
+                    call_default_factory=True))
+
     @model_validator(mode="after")
     def _check(self) -> Data:
         issues: list[Issue] = []
@@ -190,14 +197,14 @@ class Data(Section):
                                    "nothing: NPZ files hold their times in the array 't', "
                                    "UFF58 files carry their own time axis"))
             for key in ("skip_lines", "header", "delimiter", "repair"):
-                if key in self.model_fields_set:
+                if self._given(key):
                     issues.append((key, f"given for format = {self.format!r}",
                                    "nothing: a CSV option"))
         elif (self.time_column is None) == (self.rate is None):
             what = "both given" if self.rate is not None else "neither given"
             issues.append(("rate", f"time_column and rate: {what}",
                            "either time_column (a column of times) or rate (Hz)"))
-        elif self.rate is not None and "time_unit" in self.model_fields_set:
+        elif self.rate is not None and self._given("time_unit"):
             issues.append(("time_unit", "given with rate and no time_column: the times come "
                            "from the rate, this unit would change nothing",
                            "time_unit with time_column only"))
