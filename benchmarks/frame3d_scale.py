@@ -316,6 +316,8 @@ def multistart(dofs: int, runs: int, max_evals: int) -> dict:
         found += res.fun < 1e-6
         evals.append(int(res.nfev))
         best.append(float(res.fun))
+        print(f"  run {len(evals)}: φ {res.fun:.2e} after {res.nfev} evaluations, "
+              f"{time.perf_counter() - t0:.0f} s so far ({load()})", flush=True)
     return {"dofs": problem.structure.n_dof, "parameters": len(spec.names), "runs": runs,
             "reached_1e-6": int(found), "nfev": evals, "best_phi": best,
             "seconds": time.perf_counter() - t0, "load": os.getloadavg()[0]}
