@@ -56,8 +56,9 @@ class TrialProblem:
         Evaluate φ at search points with the compiled evaluator (:mod:`femupdate.evaluation`:
         equal to the step-by-step path to rounding, several times faster) or step by step;
         None: compiled unless ``FEMUPDATE_EVALUATOR=reference``. The compiled path covers
-        femupdate's own models scored over the whole trial; the rest (an external model, a
-        score window) is evaluated step by step.
+        femupdate's own models, scored over the whole trial or its ``score_window`` (the
+        prediction processed from the record's start, as step by step); an external model is
+        evaluated step by step.
     """
 
     def __init__(self, case: Case, experiment: Experiment, *,
@@ -88,8 +89,7 @@ class TrialProblem:
         self.last_failure: str | None = None
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
-        whole = experiment.score.indices(experiment.t.size) == (0, experiment.t.size, 1)
-        self.compiled = bool(compiled) and self._runner is None and whole
+        self.compiled = bool(compiled) and self._runner is None
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -310,6 +310,13 @@ class UpdateProblem:
                               "\"validate\") (allowed: at least one trial with role = \"fit\")")
         total = sum(t.experiment.weight for t in self.fitted)
         self._shares = [t.experiment.weight / total for t in self.fitted]
+        #: Fitted trials (indices into ``fitted``) simulated once per point: windows of one
+        #: record (:mod:`femupdate.evaluation.shared`); each other trial a group of its own.
+        self.shared_records = [[i] for i in range(len(self.fitted))]
+        if sum(t.compiled for t in self.fitted) > 1:
+            from femupdate.evaluation import shared
+
+            self.shared_records = shared.shared_groups(self.fitted)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -357,6 +364,8 @@ class UpdateProblem:
             values = self._physical(x)
             return self._combined([t.phi(values) for t in self.fitted])
         x = np.asarray(x, dtype=float)
+        if len(self.shared_records) < len(self.fitted):
+            return self._combined(list(self._trial_phis(x[None, :])[:, 0]))
         return self._combined([t.phi_at(x) for t in self.fitted])
 
     def _combined(self, phis: Sequence[float]) -> float:
@@ -375,8 +384,38 @@ class UpdateProblem:
 
     def _phi_rows(self, X: np.ndarray) -> np.ndarray:
         """φ of the rows of X in this thread (what a pool thread runs: never the pool again)."""
-        phis = np.array([t.phi_batch(X) for t in self.fitted])
+        phis = self._trial_phis(X)
         return np.array([self._combined(phis[:, i]) for i in range(X.shape[0])])
+
+    def _trial_phis(self, X: np.ndarray) -> np.ndarray:
+        """φ of each fitted trial at the rows of X (n_fitted, k): a shared record simulated
+        once per row (:mod:`femupdate.evaluation.shared`)."""
+        out = np.empty((len(self.fitted), X.shape[0]))
+        for group in self.shared_records:
+            trials = [self.fitted[i] for i in group]
+            if len(trials) == 1:
+                out[group[0]] = trials[0].phi_batch(X)
+            else:
+                from femupdate.evaluation import shared
+
+                out[group] = shared.phi_rows(trials, X)
+        return out
+
+    def _trial_residual_rows(self, X: np.ndarray) -> list[list[np.ndarray]]:
+        """Each fitted trial's residual vectors at the rows of X (``out[t][i]``), a shared
+        record simulated once per row."""
+        out: list[list[np.ndarray]] = [[] for _ in self.fitted]
+        for group in self.shared_records:
+            trials = [self.fitted[i] for i in group]
+            if len(trials) == 1:
+                rows = [trials[0].residuals_rows(X)]
+            else:
+                from femupdate.evaluation import shared
+
+                rows = shared.residual_rows(trials, X)
+            for i, trial_rows in zip(group, rows, strict=True):
+                out[i] = trial_rows
+        return out
 
     def residuals_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """The residual vectors of every row of ``X`` (k, n) as the rows of a (k, m) array,
@@ -393,7 +432,7 @@ class UpdateProblem:
 
     def _residual_rows(self, X: np.ndarray) -> np.ndarray:
         """The residual vectors of the rows of X in this thread (a pool thread's task)."""
-        parts = [t.residuals_rows(X) for t in self.fitted]
+        parts = self._trial_residual_rows(X)
         return _rows_into(parts, self._shares if len(parts) > 1 else None)
 
     def phi_reference(self, x: np.ndarray) -> float:
@@ -448,7 +487,7 @@ class UpdateProblem:
             parts = [t.residuals(x) for t in self.fitted]
         else:
             x = np.asarray(x, dtype=float)
-            parts = [t.residuals_at(x) for t in self.fitted]
+            parts = [rows[0] for rows in self._trial_residual_rows(x[None, :])]
         return self._joined(parts)
 
     def _joined(self, parts: Sequence[np.ndarray]) -> np.ndarray:

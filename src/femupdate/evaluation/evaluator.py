@@ -235,7 +235,7 @@ class Evaluator:
         # and the comparison, which then has no filter of its own.
         self.zero_phase = bool(problem.filter and pre.zero_phase)
         self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
-                          problem.integrate, self.dt)
+                          problem.integrate, self.dt, exp.score, self.ag.size)
         self.supported = self.method in ("exact", "nonlinear", "central_difference")
         self.bouc_wen: Any = None  # (BoucWenPlan, PhysicalWork) of a Bouc–Wen model
         n_out = self.outputs.size
@@ -375,6 +375,40 @@ class Evaluator:
                 out.append(scaled_residuals(self.post, lanes.y[lane_of[i]]) if ok else None)
         return out
 
+    def simulated(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """The outputs at ``x`` as the comparison takes them, before it: ``(y, nan)``, with
+        ``y`` (n_channels, n_samples) this evaluator's buffer (after a zero-phase filter, a
+        new array), overwritten by the next call; ``(None, inf)`` for a failed evaluation,
+        ``(None, nan)`` where the compiled path does not reach. Trials that share the record
+        (:mod:`femupdate.evaluation.shared`) compare their windows with it
+        (:meth:`compare_with`)."""
+        if not self.supported:
+            return None, np.nan
+        one, phi, status = self._single
+        one[0] = x
+        self._run(one, True, phi, status)
+        if status[0] == REFERENCE:
+            return None, np.nan
+        if not np.isnan(phi[0]):  # diverged or an unstable step: inf
+            return None, float(phi[0])
+        if self.zero_phase:
+            import scipy.signal
+
+            return np.ascontiguousarray(scipy.signal.sosfiltfilt(self._sos, self.y, axis=1)), \
+                np.nan
+        return self.y, np.nan
+
+    def compare_with(self, y: np.ndarray, residuals: bool = False
+                     ) -> float | np.ndarray | None:
+        """φ of outputs from :meth:`simulated` (this trial's or another's of the same record
+        and processing), as this evaluator compares them; with ``residuals``, its residual
+        vector (None for a non-finite φ). ``y`` is copied, not changed."""
+        np.copyto(self.y, y)
+        phi = float(process_and_compare(self.post, self.y, self.per_channel, self.zi))
+        if not residuals:
+            return phi
+        return scaled_residuals(self.post, self.y) if np.isfinite(phi) else None
+
     def _run(self, X: np.ndarray, raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
         """The compiled batch over the rows of X (C-contiguous float64)."""
         args = (X, *self._static, raw, phi, status)
@@ -456,7 +490,9 @@ def scaled_residuals(post: Post, d: np.ndarray) -> np.ndarray:
     """r from the differences ``d`` = ŷ − y (n_channels, n_samples) that
     :func:`process_and_compare` leaves: with experimental parameters the part of each channel
     the constants cannot explain, each channel scaled by √(w_c / (Σw · E_c)); channel after
-    channel, as ``ErrorFunction.residuals``."""
+    channel, as ``ErrorFunction.residuals``. Only the scored samples are read: the first
+    ``stop - start`` of each row."""
+    d = d[:, :post.stop - post.start]
     energy = post.energy
     if post.projected:
         c = d @ post.q.T  # (n_channels, 2): Qᵀd of each channel
@@ -477,10 +513,16 @@ def _entry_point(dispatcher: Any, args: tuple) -> Callable[..., None]:
     return dispatcher if entry is None else entry
 
 
-def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float) -> Post:
-    """The processing and comparison of an ``Objective``'s target, as the kernels use them."""
+def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float, score: slice,
+          n_samples: int) -> Post:
+    """The processing and comparison of an ``Objective``'s target, as the kernels use them:
+    the target holds the samples ``score`` of a record of ``n_samples``."""
     projected = bool(obj.with_experimental_parameters)
     n, nc = obj.target.shape
+    start, stop, step = score.indices(n_samples)
+    if step != 1 or stop - start != n:
+        raise ValueError(f"the target's {n} samples are not the scored samples {score} of "
+                         f"a record of {n_samples}")
     return Post(
         sos=np.ascontiguousarray(sos, dtype=float), integrate=bool(integrate), dt=float(dt),
         target=np.ascontiguousarray(obj.target.T, dtype=float),
@@ -489,6 +531,7 @@ def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float) -> Post:
         energy=np.ascontiguousarray(obj._perp_energy if projected else obj._energy,
                                     dtype=float),
         weights=np.ascontiguousarray(obj.weights, dtype=float), projected=projected,
+        start=int(start), stop=int(stop),
     )
 
 
