@@ -73,6 +73,7 @@ QUICK = {
     "report_speed.py": ("10 parameters: report in", lambda: None),
     "scale.py": ("peak memory of a 48-parameter multistart-lm run", _opensees_missing),
     "simulate_kernels.py": ("friction", lambda: None),
+    "shared_record.py": ("3. multistart-lm on a 48-storey building", lambda: None),
 }
 
 
