@@ -72,8 +72,8 @@ QUICK = {
                      lambda: _module_missing("emcee", "arviz")),
     "report_speed.py": ("10 parameters: report in", lambda: None),
     "scale.py": ("peak memory of a 48-parameter multistart-lm run", _opensees_missing),
-    "simulate_kernels.py": ("friction", lambda: None),
     "shared_record.py": ("3. multistart-lm on a 48-storey building", lambda: None),
+    "simulate_kernels.py": ("friction", lambda: None),
 }
 
 

@@ -22,7 +22,7 @@ and the compiled comparison.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -352,19 +352,22 @@ class Evaluator:
             return None
         return scaled_residuals(self.post, self.y)
 
-    def residuals_batch(self, X: np.ndarray) -> list[np.ndarray | None]:
+    def residuals_batch(self, X: np.ndarray) -> Iterator[np.ndarray | None]:
         """:meth:`residuals` of every row of ``X`` (k, n_params), each bit for bit its single
-        call; with the friction kernel in SIMD lanes, ``LANES`` rows per compiled call (each
-        lane's differences read out before the next group overwrites them)."""
+        call, one after another as the caller takes them (so that they can be written where
+        they go, with no list of k vectors held); with the friction kernel in SIMD lanes,
+        ``LANES`` rows per compiled call (each lane's differences read out before the next
+        group overwrites them)."""
         X = np.ascontiguousarray(X, dtype=float)
         lanes = self.lanes
         if lanes is None or not self.supported or self.zero_phase:
-            return [self.residuals(x) for x in X]
-        out: list[np.ndarray | None] = []
+            for x in X:
+                yield self.residuals(x)
+            return
         for start in range(0, X.shape[0], LANES):
             group = X[start:start + LANES]
             if group.shape[0] == 1:
-                out.append(self.residuals(group[0]))
+                yield self.residuals(group[0])
                 continue
             phi = np.empty(group.shape[0])
             status = np.full(group.shape[0], REFERENCE, dtype=np.int64)
@@ -372,8 +375,7 @@ class Evaluator:
             lane_of = {int(row): q for q, row in enumerate(lanes.rows) if row >= 0}
             for i in range(group.shape[0]):
                 ok = status[i] == DONE and np.isfinite(phi[i]) and i in lane_of
-                out.append(scaled_residuals(self.post, lanes.y[lane_of[i]]) if ok else None)
-        return out
+                yield scaled_residuals(self.post, lanes.y[lane_of[i]]) if ok else None
 
     def simulated(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
         """The outputs at ``x`` as the comparison takes them, before it: ``(y, nan)``, with

@@ -88,15 +88,17 @@ def phi_rows(trials: Sequence[Any], X: np.ndarray) -> np.ndarray:
     return out
 
 
-def residual_rows(trials: Sequence[Any], X: np.ndarray) -> list[list[np.ndarray]]:
+def residual_rows(trials: Sequence[Any], X: np.ndarray,
+                  out: Sequence[np.ndarray] | None = None) -> list[list[np.ndarray]]:
     """The residual vectors of each trial of one group at every row of ``X``
-    (``out[t][i]``), as :meth:`femupdate.update.TrialProblem.residuals_rows` gives them, from
-    one simulation per row."""
+    (``rows[t][i]``), as :meth:`femupdate.update.TrialProblem.residuals_rows` gives them, from
+    one simulation per row; with ``out`` (one (k, m_t) array per trial), each written into its
+    row as it comes (the lists then hold those rows)."""
     X = np.ascontiguousarray(X, dtype=float)
-    out: list[list[np.ndarray]] = [[] for _ in trials]
+    rows: list[list[np.ndarray]] = [[] for _ in trials]
     simulating = trials[0].evaluator
     last_first = range(len(trials) - 1, -1, -1)
-    for x in X:
+    for i, x in enumerate(X):
         # a zero-phase filter's residuals are the step-by-step path's, as trial by trial
         y = None if simulating.zero_phase else simulating.simulated(x)[0]
         for t in last_first:
@@ -106,5 +108,8 @@ def residual_rows(trials: Sequence[Any], X: np.ndarray) -> list[list[np.ndarray]
                 r = trial.residuals(trial.case.to_physical(x))
             else:
                 trial.last_failure = None
-            out[t].append(r)
-    return out
+            if out is not None:
+                out[t][i] = r
+                r = out[t][i]
+            rows[t].append(r)
+    return rows
