@@ -2,6 +2,7 @@
 
     python benchmarks/shared_record.py [--data DIR] [--repeat N] [--json PATH]
     python benchmarks/shared_record.py --quick   # few calls, a short run, 2 memory sizes (CI)
+    python benchmarks/shared_record.py --only-memory   # part 3 alone (e.g. on an older checkout)
 
 1. φ per evaluation of the real one-storey shake-table test
    (``examples/minishake-1story/elcentro.toml``, El Centro trial 1, 2,546 samples at 120 Hz,
@@ -18,9 +19,10 @@
 2. ``femupdate run`` of that three-window case end to end (multistart-lm, one worker), with
    ``FEMUPDATE_EVALUATOR=reference`` and without: wall time of the command, evaluations, φ.
 3. Peak memory of multistart-lm on a 48-storey shear building (virtual experiment, 6,000
-   samples, 3 channels) with 12, 24 and 48 stiffness parameters, each in a fresh process:
-   the resident set's peak (``ru_maxrss``, imports and compiled code included) and the peak of
-   the memory numpy and Python allocate during the run (``tracemalloc``).
+   samples, 3 channels) with 12, 24 and 48 stiffness parameters, each in a fresh process, with
+   a budget of the pool (20 n points) and 400 evaluations more (so that each run reaches its
+   Jacobians): the resident set's peak (``ru_maxrss``, imports and compiled code included) and
+   the peak of the memory numpy and Python allocate during the run (``tracemalloc``).
 
 The load average is printed at the start and the end: on a machine shared with other jobs the
 wall times are inflated (the CPU times less so).
@@ -181,8 +183,9 @@ def building_spec(n_params: int, directory: Path) -> dict[str, Any]:
     }
 
 
-def memory_child(n_params: int, max_evals: int) -> dict[str, Any]:
-    """Part 3, in this (fresh) process: the peaks of one multistart-lm run."""
+def memory_child(n_params: int, extra: int) -> dict[str, Any]:
+    """Part 3, in this (fresh) process: the peaks of one multistart-lm run of the pool and
+    ``extra`` evaluations."""
     import tracemalloc
 
     from femupdate import minimize
@@ -205,7 +208,8 @@ def memory_child(n_params: int, max_evals: int) -> dict[str, Any]:
         tracemalloc.start()
         start = time.perf_counter()
         res = minimize(problem.residuals, problem.bounds, method="multistart-lm",
-                       seed=np.random.SeedSequence(SEED), max_evals=max_evals, residuals=True)
+                       seed=np.random.SeedSequence(SEED), max_evals=20 * n_params + extra,
+                       residuals=True)
         seconds = time.perf_counter() - start
         _, traced = tracemalloc.get_traced_memory()
         tracemalloc.stop()
@@ -217,12 +221,12 @@ def memory_child(n_params: int, max_evals: int) -> dict[str, Any]:
             "jacobian_batch_mb": (n_params + 1) * m * 8 / 2**20}
 
 
-def memory_rows(sizes: list[int], max_evals: int) -> list[dict[str, Any]]:
+def memory_rows(sizes: list[int], extra: int) -> list[dict[str, Any]]:
     rows = []
     for n_params in sizes:
         code = (f"import sys, json; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
                 "import shared_record; "
-                f"print(json.dumps(shared_record.memory_child({n_params}, {max_evals})))")
+                f"print(json.dumps(shared_record.memory_child({n_params}, {extra})))")
         env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                               env=env)
@@ -243,6 +247,7 @@ def main() -> None:
                         help="shared data directory (holding minishake_1story/)")
     parser.add_argument("--repeat", type=int, default=200, help="calls per median")
     parser.add_argument("--json", type=Path, default=None, help="write the figures here")
+    parser.add_argument("--only-memory", action="store_true", help="part 3 alone")
     args = parser.parse_args()
     repeat = 10 if args.quick else args.repeat
     report: dict[str, Any] = {"load_start": os.getloadavg()}
@@ -251,7 +256,9 @@ def main() -> None:
                            or str(REPO.parent / "shared" / "data"))
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        if isinstance(records, str):
+        if args.only_memory:
+            pass
+        elif isinstance(records, str):
             print(f"1-2. three windows of the one-storey record: {records}")
         else:
             case_file = three_window_case(records, work)
@@ -279,16 +286,17 @@ def main() -> None:
                       f"best φ {r['best_phi']:.6g}  (load {r['load']:.2f})")
             print(f"   step by step ÷ compiled: "
                   f"{run['step by step']['seconds'] / run['compiled']['seconds']:.2f}×")
-    sizes, evals = ([12, 24], 60) if args.quick else ([12, 24, 48], 400)
-    mem = memory_rows(sizes, evals)
+    sizes, extra = ([12, 24], 60) if args.quick else ([12, 24, 48], 400)
+    mem = memory_rows(sizes, extra)
     report["memory"] = mem
     print(f"\n3. multistart-lm on a {STOREYS}-storey building, {MEMORY_SAMPLES} samples × 3 "
-          f"channels, {evals} evaluations, each in a fresh process")
-    print(f"   {'parameters':>10} {'peak RSS MB':>12} {'RSS before run':>15} "
+          f"channels, the pool (20 n) and {extra} evaluations, each in a fresh process")
+    print(f"   {'parameters':>10} {'evaluations':>12} {'peak RSS MB':>12} {'RSS before run':>15} "
           f"{'traced peak MB':>15} {'Jacobian batch MB':>18} {'φ':>10}")
     for r in mem:
-        print(f"   {r['parameters']:>10} {r['maxrss_mb']:>12.1f} {r['maxrss_before_run_mb']:>15.1f}"
-              f" {r['traced_peak_mb']:>15.1f} {r['jacobian_batch_mb']:>18.1f} {r['phi']:>10.3g}")
+        print(f"   {r['parameters']:>10} {r['nfev']:>12} {r['maxrss_mb']:>12.1f} "
+              f"{r['maxrss_before_run_mb']:>15.1f} {r['traced_peak_mb']:>15.1f} "
+              f"{r['jacobian_batch_mb']:>18.1f} {r['phi']:>10.3g}")
     report["load_end"] = os.getloadavg()
     print(f"\nshared_record.py: {load()}")
     if args.json is not None:
