@@ -171,3 +171,19 @@ def test_which_trials_share_a_record(specs: dict[str, dict[str, Any]]) -> None:
                    "outputs": spec["data"]["outputs"][:1]}])
     problem = UpdateProblem(case, load_experiments(case))
     assert shared_groups(problem.fitted) == [[0], [1]]
+
+
+def test_a_shared_record_on_threads_and_pickled(specs: dict[str, dict[str, Any]]) -> None:
+    # femupdate run spreads a batch over threads (each with its own evaluators) or ships the
+    # problem to worker processes: the same values either way.
+    import pickle
+
+    case = _case(specs["viscous"], "displacement")
+    problem = UpdateProblem(case, load_experiments(case))
+    X = _points(problem, 6)
+    phi, rows = problem.evaluate_batch(X), problem.residuals_batch(X)
+    np.testing.assert_array_equal(problem.evaluate_batch(X, threads=2), phi)
+    np.testing.assert_array_equal(problem.residuals_batch(X, threads=2), rows)
+    copy_ = pickle.loads(pickle.dumps(problem))
+    assert copy_.shared_records == [[0, 1, 2]]
+    np.testing.assert_array_equal(copy_.evaluate_batch(X), phi)
