@@ -124,7 +124,9 @@ def test_windows_of_one_record_simulated_once_give_the_one_by_one_bits(
     assert shared.shared_records == [[0, 1, 2]]
     apart = UpdateProblem(case, experiments)
     apart.shared_records = [[0], [1], [2]]  # each window simulated by its own trial
-    X = _points(shared, 5)
+    X = _points(shared, 5)  # with friction: four points in the SIMD lanes, one alone
+    if model == "friction":
+        assert shared.fitted[0].evaluator.lanes is not None
     np.testing.assert_array_equal(shared.evaluate_batch(X), apart.evaluate_batch(X))
     np.testing.assert_array_equal(shared.residuals_batch(X), apart.residuals_batch(X))
     assert shared(X[1]) == apart(X[1])

@@ -400,6 +400,34 @@ class Evaluator:
                 np.nan
         return self.y, np.nan
 
+    def simulated_rows(self, X: np.ndarray) -> Iterator[tuple[np.ndarray | None, float]]:
+        """:meth:`simulated` of every row of ``X`` (k, n_params), one after another as the
+        caller takes them, each bit for bit its single call; with the friction kernel in SIMD
+        lanes ``LANES`` rows per compiled call, each row's outputs read from its lane (valid
+        until the caller takes the row after the group's last)."""
+        X = np.ascontiguousarray(X, dtype=float)
+        lanes = self.lanes
+        if lanes is None or not self.supported or self.zero_phase:
+            for x in X:
+                yield self.simulated(x)
+            return
+        for start in range(0, X.shape[0], LANES):
+            group = X[start:start + LANES]
+            if group.shape[0] == 1:
+                yield self.simulated(group[0])
+                continue
+            phi = np.empty(group.shape[0])
+            status = np.full(group.shape[0], REFERENCE, dtype=np.int64)
+            self._run(group, True, phi, status)  # raw: each lane's outputs left in place
+            lane_of = {int(row): q for q, row in enumerate(lanes.rows) if row >= 0}
+            for i in range(group.shape[0]):
+                if status[i] != DONE or i not in lane_of:
+                    yield None, np.nan
+                elif not np.isnan(phi[i]):  # diverged: inf
+                    yield None, float(phi[i])
+                else:
+                    yield lanes.y[lane_of[i]], np.nan
+
     def compare_with(self, y: np.ndarray, residuals: bool = False
                      ) -> float | np.ndarray | None:
         """φ of outputs from :meth:`simulated` (this trial's or another's of the same record

@@ -8,8 +8,9 @@ the model's input record byte for byte (after every preprocessing step, so the s
 with a different window, delay or filter are different records), its sample interval, the
 integrator (method, direction, substeps), the output DOFs and their influence, and the
 processing of the prediction (integration, high-pass of the prediction, compared quantity).
-Such a group is simulated once per point by its first trial's evaluator, and each trial compares
-its own window with that one set of outputs, by the same compiled comparison its own evaluation
+Such a group is simulated once per point by its first trial's evaluator (with the friction
+kernel in SIMD lanes, four points per run, as a batch of one trial), and each trial compares its
+own window with that one set of outputs, by the same compiled comparison its own evaluation
 uses: the values are those of evaluating the trials one by one, bit for bit (tested).
 
 Points the compiled path does not reach, and failed evaluations, go to each trial's step-by-step
@@ -75,8 +76,7 @@ def phi_rows(trials: Sequence[Any], X: np.ndarray) -> np.ndarray:
     out = np.empty((len(trials), X.shape[0]))
     simulating = trials[0].evaluator
     last_first = range(len(trials) - 1, -1, -1)
-    for i, x in enumerate(X):
-        y, phi = simulating.simulated(x)
+    for i, (x, (y, phi)) in enumerate(zip(X, simulating.simulated_rows(X), strict=True)):
         for t in last_first:
             trial = trials[t]
             value = phi if y is None else trial.evaluator.compare_with(y)
@@ -98,9 +98,10 @@ def residual_rows(trials: Sequence[Any], X: np.ndarray,
     rows: list[list[np.ndarray]] = [[] for _ in trials]
     simulating = trials[0].evaluator
     last_first = range(len(trials) - 1, -1, -1)
-    for i, x in enumerate(X):
-        # a zero-phase filter's residuals are the step-by-step path's, as trial by trial
-        y = None if simulating.zero_phase else simulating.simulated(x)[0]
+    # a zero-phase filter's residuals are the step-by-step path's, as trial by trial
+    simulated = ((None, np.nan) for _ in X) if simulating.zero_phase else \
+        simulating.simulated_rows(X)
+    for i, (x, (y, _)) in enumerate(zip(X, simulated, strict=True)):
         for t in last_first:
             trial = trials[t]
             r = None if y is None else trial.evaluator.compare_with(y, residuals=True)
