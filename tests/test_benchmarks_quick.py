@@ -74,6 +74,7 @@ QUICK = {
     "report_speed.py": ("10 parameters: report in", lambda: None),
     "scale.py": ("peak memory of a 48-parameter multistart-lm run", _opensees_missing),
     "frame3d_scale.py": ('"reached_1e-6": 2', _opensees_missing),
+    "shared_record.py": ("3. multistart-lm on a 48-storey building", lambda: None),
     "simulate_kernels.py": ("friction", lambda: None),
 }
 

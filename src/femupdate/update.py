@@ -10,6 +10,7 @@ residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, s
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import threading
@@ -56,8 +57,9 @@ class TrialProblem:
         Evaluate φ at search points with the compiled evaluator (:mod:`femupdate.evaluation`:
         equal to the step-by-step path to rounding, several times faster) or step by step;
         None: compiled unless ``FEMUPDATE_EVALUATOR=reference``. The compiled path covers
-        femupdate's own models scored over the whole trial; the rest (an external model, a
-        score window) is evaluated step by step.
+        femupdate's own models, scored over the whole trial or its ``score_window`` (the
+        prediction processed from the record's start, as step by step); an external model is
+        evaluated step by step.
     """
 
     def __init__(self, case: Case, experiment: Experiment, *,
@@ -88,11 +90,11 @@ class TrialProblem:
         self.last_failure: str | None = None
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
-        whole = experiment.score.indices(experiment.t.size) == (0, experiment.t.size, 1)
-        # The compiled evaluator covers femupdate's planar models on the full path; a 3-D
-        # frame (6 DOFs per node, femupdate.case.model3d: its compiled assembly would be
-        # planar) and the reduced path (sparse, few modes) are evaluated step by step.
-        self.compiled = (bool(compiled) and self._runner is None and whole
+        # The compiled evaluator covers femupdate's planar models on the full path (a score
+        # window too); a 3-D frame (6 DOFs per node, femupdate.case.model3d: its compiled
+        # assembly would be planar) and the reduced path (sparse, few modes) are evaluated
+        # step by step.
+        self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
                          and self.model.reduced is None)
         self._evaluators: dict[int, Evaluator] = {}
@@ -176,19 +178,25 @@ class TrialProblem:
         a failed evaluation, which then says why) step by step."""
         return self.residuals_rows(np.asarray(x, dtype=float)[None, :])[0]
 
-    def residuals_rows(self, X: np.ndarray) -> list[np.ndarray]:
+    def residuals_rows(self, X: np.ndarray, out: np.ndarray | None = None
+                       ) -> list[np.ndarray]:
         """:meth:`residuals_at` of every row of ``X``, in order, each bit for bit its single
-        call (the compiled evaluator runs several rows per call where it can)."""
+        call (the compiled evaluator runs several rows per call where it can). With ``out``
+        (k, m), each vector is written into its row as it comes (the list then holds the rows
+        of ``out``: no k vectors held besides)."""
         rows = (self.evaluator.residuals_batch(X) if self.compiled
                 else [None] * X.shape[0])
-        out = []
-        for x, r in zip(X, rows, strict=True):
+        result = []
+        for i, (x, r) in enumerate(zip(X, rows, strict=True)):
             if r is None:  # step by step, which also says why a failed evaluation failed
                 r = self.residuals(self.case.to_physical(x))
             else:
                 self.last_failure = None
-            out.append(r)
-        return out
+            if out is not None:
+                out[i] = r
+                r = out[i]
+            result.append(r)
+        return result
 
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x`` through the simulator, the prediction and the error
@@ -317,6 +325,13 @@ class UpdateProblem:
                               "\"validate\") (allowed: at least one trial with role = \"fit\")")
         total = sum(t.experiment.weight for t in self.fitted)
         self._shares = [t.experiment.weight / total for t in self.fitted]
+        #: Fitted trials (indices into ``fitted``) simulated once per point: windows of one
+        #: record (:mod:`femupdate.evaluation.shared`); each other trial a group of its own.
+        self.shared_records = [[i] for i in range(len(self.fitted))]
+        if sum(t.compiled for t in self.fitted) > 1:
+            from femupdate.evaluation import shared
+
+            self.shared_records = shared.shared_groups(self.fitted)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -364,6 +379,8 @@ class UpdateProblem:
             values = self._physical(x)
             return self._combined([t.phi(values) for t in self.fitted])
         x = np.asarray(x, dtype=float)
+        if len(self.shared_records) < len(self.fitted):
+            return self._combined(list(self._trial_phis(x[None, :])[:, 0]))
         return self._combined([t.phi_at(x) for t in self.fitted])
 
     def _combined(self, phis: Sequence[float]) -> float:
@@ -382,8 +399,41 @@ class UpdateProblem:
 
     def _phi_rows(self, X: np.ndarray) -> np.ndarray:
         """φ of the rows of X in this thread (what a pool thread runs: never the pool again)."""
-        phis = np.array([t.phi_batch(X) for t in self.fitted])
+        phis = self._trial_phis(X)
         return np.array([self._combined(phis[:, i]) for i in range(X.shape[0])])
+
+    def _trial_phis(self, X: np.ndarray) -> np.ndarray:
+        """φ of each fitted trial at the rows of X (n_fitted, k): a shared record simulated
+        once per row (:mod:`femupdate.evaluation.shared`)."""
+        out = np.empty((len(self.fitted), X.shape[0]))
+        for group in self.shared_records:
+            trials = [self.fitted[i] for i in group]
+            if len(trials) == 1:
+                out[group[0]] = trials[0].phi_batch(X)
+            else:
+                from femupdate.evaluation import shared
+
+                out[group] = shared.phi_rows(trials, X)
+        return out
+
+    def _trial_residual_rows(self, X: np.ndarray, blocks: Sequence[np.ndarray] | None = None
+                             ) -> list[list[np.ndarray]]:
+        """Each fitted trial's residual vectors at the rows of X (``out[t][i]``), a shared
+        record simulated once per row; with ``blocks`` (one (k, m_t) array per trial), written
+        into their rows as they come."""
+        out: list[list[np.ndarray]] = [[] for _ in self.fitted]
+        for group in self.shared_records:
+            trials = [self.fitted[i] for i in group]
+            into = None if blocks is None else [blocks[i] for i in group]
+            if len(trials) == 1:
+                rows = [trials[0].residuals_rows(X, None if into is None else into[0])]
+            else:
+                from femupdate.evaluation import shared
+
+                rows = shared.residual_rows(trials, X, into)
+            for i, trial_rows in zip(group, rows, strict=True):
+                out[i] = trial_rows
+        return out
 
     def residuals_batch(self, X: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """The residual vectors of every row of ``X`` (k, n) as the rows of a (k, m) array,
@@ -392,16 +442,26 @@ class UpdateProblem:
         the next overwrite them). ``threads`` as in :meth:`evaluate_batch`: the columns of a
         finite-difference Jacobian on several cores of one process."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        rows = _over_threads(self._residual_rows, X, threads)
+        rows = np.empty((X.shape[0], sum(t.objective.target.size for t in self.fitted)))
+        if threads <= 1 or X.shape[0] <= 1:
+            self._residual_rows(X, rows)
+        else:  # each thread writes its rows' slice (no stacking of the parts)
+            parts = np.array_split(np.arange(X.shape[0]), min(threads, X.shape[0]))
+            list(thread_pool(threads).map(
+                lambda i: self._residual_rows(X[i[0]:i[-1] + 1], rows[i[0]:i[-1] + 1]), parts))
         failed = np.flatnonzero(~np.all(np.isfinite(rows), axis=1))
         if failed.size and (failed[-1] != len(X) - 1 or threads > 1):
             self.residuals(X[failed[-1]])  # so that last_failure says why (a later row cleared it)
         return rows
 
-    def _residual_rows(self, X: np.ndarray) -> np.ndarray:
-        """The residual vectors of the rows of X in this thread (a pool thread's task)."""
-        parts = [t.residuals_rows(X) for t in self.fitted]
-        return _rows_into(parts, self._shares if len(parts) > 1 else None)
+    def _residual_rows(self, X: np.ndarray, out: np.ndarray) -> None:
+        """The residual vectors of the rows of X into the rows of ``out``, in this thread (a
+        pool thread's task): each trial's written straight into its columns, then scaled in
+        place as :meth:`_joined` scales them (no per-row concatenation, no stacking copy)."""
+        blocks = _column_blocks(out, [t.objective.target.size for t in self.fitted])
+        self._trial_residual_rows(X, blocks)
+        if len(blocks) > 1:
+            _scale_blocks(blocks, self._shares)
 
     def phi_reference(self, x: np.ndarray) -> float:
         """φ at search point ``x``, step by step (the compiled evaluator's reference)."""
@@ -455,7 +515,7 @@ class UpdateProblem:
             parts = [t.residuals(x) for t in self.fitted]
         else:
             x = np.asarray(x, dtype=float)
-            parts = [t.residuals_at(x) for t in self.fitted]
+            parts = [rows[0] for rows in self._trial_residual_rows(x[None, :])]
         return self._joined(parts)
 
     def _joined(self, parts: Sequence[np.ndarray]) -> np.ndarray:
@@ -467,24 +527,19 @@ class UpdateProblem:
                                for share, r in zip(self._shares, parts, strict=True)])
 
 
-def _rows_into(parts: Sequence[Sequence[np.ndarray]], shares: Sequence[float] | None
-               ) -> np.ndarray:
-    """The residual rows of the trials (``parts[t][i]``: trial t's vector at point i) joined as
-    :meth:`UpdateProblem._joined` joins them, written straight into one preallocated (k, m)
-    array (no per-row concatenation, no stacking copy)."""
-    widths = [p[0].size for p in parts]
-    out = np.empty((len(parts[0]), sum(widths)))
-    start = 0
-    for t, (rows, width) in enumerate(zip(parts, widths, strict=True)):
-        block = out[:, start:start + width]
-        scale = None if shares is None else math.sqrt(shares[t])
-        for i, r in enumerate(rows):
-            if scale is None:
-                block[i] = r
-            else:
-                np.multiply(scale, r, out=block[i])
-        start += width
-    return out
+def _column_blocks(out: np.ndarray, widths: Sequence[int]) -> list[np.ndarray]:
+    """Views of consecutive column blocks of ``out`` (k, Σ widths), one per trial."""
+    edges = np.cumsum([0, *widths])
+    if edges[-1] != out.shape[1]:
+        raise ValueError(f"{out.shape[1]} columns for trials of {list(widths)} residuals")
+    return [out[:, a:b] for a, b in itertools.pairwise(edges)]
+
+
+def _scale_blocks(blocks: Sequence[np.ndarray], shares: Sequence[float]) -> None:
+    """Each trial's rows times the square root of its share of φ, in place: the bits of
+    :meth:`UpdateProblem._joined`'s ``sqrt(share) * r``."""
+    for block, share in zip(blocks, shares, strict=True):
+        np.multiply(block, math.sqrt(share), out=block)
 
 
 def _over_threads(rows_of: Callable[[np.ndarray], np.ndarray], X: np.ndarray,

@@ -445,3 +445,31 @@ def test_residuals_mode_for_a_scalar_method_and_bad_residuals() -> None:
                  residuals=True)
     with pytest.raises(ConfigError, match="residuals must be True or False"):
         minimize(p.residuals, p.bounds, "ab", residuals="yes")
+
+
+def test_the_pool_asked_in_batches_gives_the_one_batch_run(monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    # 20 n = 120 pool points: asked 64 at a time (so that their residual vectors are not all
+    # held at once), the run is the one that asks them in one batch, to the bit.
+    from femupdate.optimize import multistart
+
+    centre = np.linspace(0.2, 0.8, 6)
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        return np.concatenate([x - centre, 0.3 * np.sin(3.0 * (x - centre))])
+
+    asked: list[int] = []
+    runs = []
+    for batch in (multistart.POOL_BATCH, 10_000):
+        monkeypatch.setattr(multistart, "POOL_BATCH", batch)
+        state = start(residuals, [(0.0, 1.0)] * 6, method="multistart-lm", seed=4,
+                      max_evals=400, residuals=True)
+        ask = state.optimizer.ask
+        state.optimizer.ask = lambda ask=ask: asked.append(ask().shape[0]) or ask()
+        while not state.done:
+            state.step(residuals)
+        runs.append(state.result())
+    assert asked[:2] == [64, 56] and 120 in asked[2:]
+    a, b = runs
+    assert (a.fun, a.nfev) == (b.fun, b.nfev) and np.array_equal(a.x, b.x)
+    assert a.nit == b.nit + 1

@@ -22,7 +22,7 @@ and the compiled comparison.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -235,7 +235,7 @@ class Evaluator:
         # and the comparison, which then has no filter of its own.
         self.zero_phase = bool(problem.filter and pre.zero_phase)
         self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
-                          problem.integrate, self.dt)
+                          problem.integrate, self.dt, exp.score, self.ag.size)
         self.supported = self.method in ("exact", "nonlinear", "central_difference")
         self.bouc_wen: Any = None  # (BoucWenPlan, PhysicalWork) of a Bouc–Wen model
         n_out = self.outputs.size
@@ -352,19 +352,22 @@ class Evaluator:
             return None
         return scaled_residuals(self.post, self.y)
 
-    def residuals_batch(self, X: np.ndarray) -> list[np.ndarray | None]:
+    def residuals_batch(self, X: np.ndarray) -> Iterator[np.ndarray | None]:
         """:meth:`residuals` of every row of ``X`` (k, n_params), each bit for bit its single
-        call; with the friction kernel in SIMD lanes, ``LANES`` rows per compiled call (each
-        lane's differences read out before the next group overwrites them)."""
+        call, one after another as the caller takes them (so that they can be written where
+        they go, with no list of k vectors held); with the friction kernel in SIMD lanes,
+        ``LANES`` rows per compiled call (each lane's differences read out before the next
+        group overwrites them)."""
         X = np.ascontiguousarray(X, dtype=float)
         lanes = self.lanes
         if lanes is None or not self.supported or self.zero_phase:
-            return [self.residuals(x) for x in X]
-        out: list[np.ndarray | None] = []
+            for x in X:
+                yield self.residuals(x)
+            return
         for start in range(0, X.shape[0], LANES):
             group = X[start:start + LANES]
             if group.shape[0] == 1:
-                out.append(self.residuals(group[0]))
+                yield self.residuals(group[0])
                 continue
             phi = np.empty(group.shape[0])
             status = np.full(group.shape[0], REFERENCE, dtype=np.int64)
@@ -372,8 +375,69 @@ class Evaluator:
             lane_of = {int(row): q for q, row in enumerate(lanes.rows) if row >= 0}
             for i in range(group.shape[0]):
                 ok = status[i] == DONE and np.isfinite(phi[i]) and i in lane_of
-                out.append(scaled_residuals(self.post, lanes.y[lane_of[i]]) if ok else None)
-        return out
+                yield scaled_residuals(self.post, lanes.y[lane_of[i]]) if ok else None
+
+    def simulated(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """The outputs at ``x`` as the comparison takes them, before it: ``(y, nan)``, with
+        ``y`` (n_channels, n_samples) this evaluator's buffer (after a zero-phase filter, a
+        new array), overwritten by the next call; ``(None, inf)`` for a failed evaluation,
+        ``(None, nan)`` where the compiled path does not reach. Trials that share the record
+        (:mod:`femupdate.evaluation.shared`) compare their windows with it
+        (:meth:`compare_with`)."""
+        if not self.supported:
+            return None, np.nan
+        one, phi, status = self._single
+        one[0] = x
+        self._run(one, True, phi, status)
+        if status[0] == REFERENCE:
+            return None, np.nan
+        if not np.isnan(phi[0]):  # diverged or an unstable step: inf
+            return None, float(phi[0])
+        if self.zero_phase:
+            import scipy.signal
+
+            return np.ascontiguousarray(scipy.signal.sosfiltfilt(self._sos, self.y, axis=1)), \
+                np.nan
+        return self.y, np.nan
+
+    def simulated_rows(self, X: np.ndarray) -> Iterator[tuple[np.ndarray | None, float]]:
+        """:meth:`simulated` of every row of ``X`` (k, n_params), one after another as the
+        caller takes them, each bit for bit its single call; with the friction kernel in SIMD
+        lanes ``LANES`` rows per compiled call, each row's outputs read from its lane (valid
+        until the caller takes the row after the group's last)."""
+        X = np.ascontiguousarray(X, dtype=float)
+        lanes = self.lanes
+        if lanes is None or not self.supported or self.zero_phase:
+            for x in X:
+                yield self.simulated(x)
+            return
+        for start in range(0, X.shape[0], LANES):
+            group = X[start:start + LANES]
+            if group.shape[0] == 1:
+                yield self.simulated(group[0])
+                continue
+            phi = np.empty(group.shape[0])
+            status = np.full(group.shape[0], REFERENCE, dtype=np.int64)
+            self._run(group, True, phi, status)  # raw: each lane's outputs left in place
+            lane_of = {int(row): q for q, row in enumerate(lanes.rows) if row >= 0}
+            for i in range(group.shape[0]):
+                if status[i] != DONE or i not in lane_of:
+                    yield None, np.nan
+                elif not np.isnan(phi[i]):  # diverged: inf
+                    yield None, float(phi[i])
+                else:
+                    yield lanes.y[lane_of[i]], np.nan
+
+    def compare_with(self, y: np.ndarray, residuals: bool = False
+                     ) -> float | np.ndarray | None:
+        """φ of outputs from :meth:`simulated` (this trial's or another's of the same record
+        and processing), as this evaluator compares them; with ``residuals``, its residual
+        vector (None for a non-finite φ). ``y`` is copied, not changed."""
+        np.copyto(self.y, y)
+        phi = float(process_and_compare(self.post, self.y, self.per_channel, self.zi))
+        if not residuals:
+            return phi
+        return scaled_residuals(self.post, self.y) if np.isfinite(phi) else None
 
     def _run(self, X: np.ndarray, raw: bool, phi: np.ndarray, status: np.ndarray) -> None:
         """The compiled batch over the rows of X (C-contiguous float64)."""
@@ -456,7 +520,9 @@ def scaled_residuals(post: Post, d: np.ndarray) -> np.ndarray:
     """r from the differences ``d`` = ŷ − y (n_channels, n_samples) that
     :func:`process_and_compare` leaves: with experimental parameters the part of each channel
     the constants cannot explain, each channel scaled by √(w_c / (Σw · E_c)); channel after
-    channel, as ``ErrorFunction.residuals``."""
+    channel, as ``ErrorFunction.residuals``. Only the scored samples are read: the first
+    ``stop - start`` of each row."""
+    d = d[:, :post.stop - post.start]
     energy = post.energy
     if post.projected:
         c = d @ post.q.T  # (n_channels, 2): Qᵀd of each channel
@@ -477,10 +543,16 @@ def _entry_point(dispatcher: Any, args: tuple) -> Callable[..., None]:
     return dispatcher if entry is None else entry
 
 
-def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float) -> Post:
-    """The processing and comparison of an ``Objective``'s target, as the kernels use them."""
+def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float, score: slice,
+          n_samples: int) -> Post:
+    """The processing and comparison of an ``Objective``'s target, as the kernels use them:
+    the target holds the samples ``score`` of a record of ``n_samples``."""
     projected = bool(obj.with_experimental_parameters)
     n, nc = obj.target.shape
+    start, stop, step = score.indices(n_samples)
+    if step != 1 or stop - start != n:
+        raise ValueError(f"the target's {n} samples are not the scored samples {score} of "
+                         f"a record of {n_samples}")
     return Post(
         sos=np.ascontiguousarray(sos, dtype=float), integrate=bool(integrate), dt=float(dt),
         target=np.ascontiguousarray(obj.target.T, dtype=float),
@@ -489,6 +561,7 @@ def _post(obj: Any, sos: np.ndarray, integrate: bool, dt: float) -> Post:
         energy=np.ascontiguousarray(obj._perp_energy if projected else obj._energy,
                                     dtype=float),
         weights=np.ascontiguousarray(obj.weights, dtype=float), projected=projected,
+        start=int(start), stop=int(stop),
     )
 
 

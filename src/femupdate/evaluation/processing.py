@@ -9,6 +9,12 @@ initial state), two trapezoidal integrations from zero (``cumulative_trapezoid``
 experimental parameters, its projection on span{1, t} — and a second pass sums the squared
 residual (two passes, not ``‖d‖² − ‖Qᵀd‖²``, which would cancel when the fitted constants carry
 most of ``d``). φ is Eq. 1.
+
+A trial scored over a ``score_window`` (samples ``start`` to ``stop`` of the record) is processed
+from the record's first sample, as the step-by-step path processes the whole prediction before
+it slices it, up to the window's last (a causal filter and the integrations never look ahead);
+only the window's samples are compared, their differences written to the front of the channel's
+row (sample ``start + j`` to place ``j``, already read).
 """
 
 from __future__ import annotations
@@ -47,6 +53,8 @@ class Post(NamedTuple):
     weights : ndarray (n_channels,)
     projected : bool
         Fit two integration constants per channel (experimental parameters).
+    start, stop : int
+        The scored samples of the record (``stop - start`` of them: the target's length).
     """
 
     sos: np.ndarray
@@ -58,12 +66,16 @@ class Post(NamedTuple):
     energy: np.ndarray
     weights: np.ndarray
     projected: bool
+    start: int
+    stop: int
 
 
 @njit(cache=True, fastmath=_FASTMATH)
 def _channel(y: np.ndarray, sos: np.ndarray, integrate: bool, dt: float, target: np.ndarray,
-             q: np.ndarray, projected: bool, zi: np.ndarray) -> tuple[float, float, float]:
-    """One channel in place: filter, integrate, ``d = ŷ − y``; returns (Σd², Qᵀd)."""
+             q: np.ndarray, projected: bool, zi: np.ndarray, start: int, stop: int
+             ) -> tuple[float, float, float]:
+    """One channel in place: filter, integrate, ``d = ŷ − y`` over samples ``start:stop``
+    (written to ``y[:stop - start]``); returns (Σd², Qᵀd)."""
     zi[:] = 0.0
     n_sections = sos.shape[0]
     prev = 0.0
@@ -72,7 +84,7 @@ def _channel(y: np.ndarray, sos: np.ndarray, integrate: bool, dt: float, target:
     ss = 0.0
     c0 = 0.0
     c1 = 0.0
-    for k in range(y.shape[0]):
+    for k in range(stop):
         x = y[k]
         for s in range(n_sections):
             x_new = sos[s, 0] * x + zi[2 * s]
@@ -89,11 +101,14 @@ def _channel(y: np.ndarray, sos: np.ndarray, integrate: bool, dt: float, target:
                 vel = v_new
                 prev = x
                 x = disp
-        d = x - target[k]
-        y[k] = d
+        if k < start:
+            continue
+        j = k - start
+        d = x - target[j]
+        y[j] = d
         if projected:
-            c0 += q[0, k] * d
-            c1 += q[1, k] * d
+            c0 += q[0, j] * d
+            c1 += q[1, j] * d
         else:
             ss += d * d
     return ss, c0, c1
@@ -112,19 +127,21 @@ def _projected_residual(d: np.ndarray, q: np.ndarray, c0: float, c1: float) -> f
 @njit(cache=True)
 def process_and_compare(post: Post, y: np.ndarray, per_channel: np.ndarray,
                         zi: np.ndarray) -> float:
-    """φ of the raw outputs ``y`` (n_channels, n_samples; overwritten by ``ŷ − y``).
+    """φ of the raw outputs ``y`` (n_channels, n_samples; the scored samples' ``ŷ − y``
+    written to ``y[:, :stop - start]``).
 
     Also fills each channel's error into ``per_channel``; ``zi`` is scratch (2 n_sections).
     Returns inf when the prediction holds NaN or inf.
     """
     nc = y.shape[0]
+    scored = post.stop - post.start
     num = 0.0
     den = 0.0
     for o in range(nc):
         ss, c0, c1 = _channel(y[o], post.sos, post.integrate, post.dt, post.target[o], post.q,
-                              post.projected, zi)
+                              post.projected, zi, post.start, post.stop)
         if post.projected:
-            ss = _projected_residual(y[o], post.q, c0, c1)
+            ss = _projected_residual(y[o, :scored], post.q, c0, c1)
             e0 = c0 + post.qty[0, o]
             e1 = c1 + post.qty[1, o]
             per_channel[o] = ss / (post.energy[o] + (e0 * e0 + e1 * e1))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -271,3 +271,21 @@ def check_batch(xs: np.ndarray, fs: np.ndarray, n: int) -> tuple[np.ndarray, np.
             f"got {xs.shape} and {fs.shape}"
         )
     return xs, fs
+
+
+def stack_rows(rows: Sequence[np.ndarray]) -> np.ndarray:
+    """The vectors as the rows of one (k, m) array: when they are the rows of one batch's
+    array, in order (a batch of residual vectors that all came back finite), that array
+    itself (no stacking copy of k vectors), else ``np.vstack``."""
+    first = rows[0]
+    base = first.base
+    if (isinstance(base, np.ndarray) and base.ndim == 2 and base.shape == (len(rows), first.size)
+            and base.flags.c_contiguous and base.dtype == np.float64):
+        start = base.__array_interface__["data"][0]
+        step = base.strides[0]
+        if all(r.base is base and r.ndim == 1 and r.size == first.size
+               and r.strides == (base.itemsize,)
+               and r.__array_interface__["data"][0] == start + i * step
+               for i, r in enumerate(rows)):
+            return base
+    return np.vstack(rows)

@@ -22,7 +22,7 @@ from scipy.optimize import Bounds, OptimizeResult
 
 from femupdate._parallel import PoolMap, default_workers
 from femupdate.errors import ConfigError, FemupdateError
-from femupdate.optimize.base import Factory, Optimizer
+from femupdate.optimize.base import Factory, Optimizer, stack_rows
 from femupdate.optimize.beta import make_ab, make_ib
 from femupdate.optimize.cmaes import make_cmaes
 from femupdate.optimize.evolutionary import make_de, make_ga
@@ -243,7 +243,7 @@ class MinimizeState:
                 close()
         if evaluated == k:
             if self.residuals:
-                self.optimizer.tell(xi, fs, np.vstack(rs))
+                self.optimizer.tell(xi, fs, stack_rows(rs))  # a batch: no copy
             else:
                 self.optimizer.tell(xi, fs)
             self.nit += 1

@@ -8,7 +8,9 @@ start in the box a local search often ends in an *improper* minimum (a parameter
 the gradient pointing out) or in a spurious valley. Hence three phases, all in ask/tell on
 the unit cube:
 
-1. **Pool** (global): a Latin hypercube of ``pool`` points, evaluated as one batch. Local
+1. **Pool** (global): a Latin hypercube of ``pool`` points, evaluated in batches of at most
+   POOL_BATCH (with residuals, a batch's vectors are held at once: 20 n of them for the whole
+   pool would make the memory grow with the parameters; the values are the same). Local
    searches start from its best points, best first, skipping points within ``min_distance``
    of an earlier start or end point (they would fall into a basin already searched); when
    none is left, a new pool is drawn.
@@ -92,6 +94,10 @@ LAMBDA_MAX = 1e16
 #: φ by less than the factor EXTEND_SLOW is extended: 2p, 4p, … while φ keeps falling.
 EXTEND_RHO = 0.75
 EXTEND_SLOW = 0.5
+
+#: Pool points asked per batch: the residual vectors of one batch are held at once (64 rows
+#: of 15,000 residuals: 7.7 MB), so the memory does not grow with the pool (20 n points).
+POOL_BATCH = 64
 
 #: With residuals, a run ends when this many searches have ended at the best φ, within the
 #: fraction PATIENCE_TOL (option ``patience``; None: only the budget or the target end it).
@@ -267,8 +273,13 @@ class MultistartLM(KeepsBest):
         self._keep_best(xs, fs)
         phase = self.phase
         if phase == "pool":
-            self.pool_f = fs.copy()
-            self._next_start()
+            done = getattr(self, "pool_done", 0)  # 0 in a checkpoint made before batches
+            self.pool_f[done:done + fs.size] = fs
+            self.pool_done = done + fs.size
+            if self.pool_done < self.pool_size:
+                self.pending = self.pool_x[self.pool_done:self.pool_done + POOL_BATCH].copy()
+            else:
+                self._next_start()
         elif phase == "noise":
             self._tell_noise(fs, rs)
         elif phase == "jacobian":
@@ -342,7 +353,8 @@ class MultistartLM(KeepsBest):
         self.phase = "pool"
         self.pool_x = latin_hypercube(self.rng, self.pool_size, self.n)
         self.pool_f = np.full(self.pool_size, math.inf)
-        self.pending = self.pool_x.copy()
+        self.pool_done = 0  # points of the pool evaluated
+        self.pending = self.pool_x[:POOL_BATCH].copy()
 
     def _next_start(self) -> None:
         """The best pool point away from every start and end so far, or a new pool."""
