@@ -57,9 +57,9 @@ class TrialProblem:
         Evaluate φ at search points with the compiled evaluator (:mod:`femupdate.evaluation`:
         equal to the step-by-step path to rounding, several times faster) or step by step;
         None: compiled unless ``FEMUPDATE_EVALUATOR=reference``. The compiled path covers
-        femupdate's own models, scored over the whole trial or its ``score_window`` (the
-        prediction processed from the record's start, as step by step); an external model is
-        evaluated step by step.
+        femupdate's own planar models, scored over the whole trial or its ``score_window`` (the
+        prediction processed from the record's start, as step by step); an external model, a
+        3-D frame and the reduced path are evaluated step by step.
     """
 
     def __init__(self, case: Case, experiment: Experiment, *,
