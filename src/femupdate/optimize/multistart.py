@@ -30,7 +30,8 @@ the unit cube:
    pool. The run ends when ``patience`` searches have ended at the best φ (with residuals: the
    best has been found again and again, as on noisy or real data, where no target says when
    to stop; off by default when an ``f_target`` is given), or at ``minimize``'s budget or
-   target. A search that ends at the run's best is followed by a few valley hops (HOPS).
+   target. A search that ends at the lowest φ of the search ends, inside the box, is
+   followed by a few valley hops (HOPS).
 
 The result is the best point over all searches. Without residuals (``minimize(...,
 residuals=False)``) the local phase is a bounded quasi-Newton method on φ itself: the same
@@ -110,10 +111,11 @@ PATIENCE_SEARCHES = 2
 #: solvable problem searches end at 1e-31, 1e-30, … around a best of 0 and never "equal" it.
 PATIENCE_FLOOR_NOISE = 10.0
 
-#: Valley hops (residual mode): a search that ends at the run's best is followed by up to HOPS
-#: short searches from the best point moved along the valley, the softest direction of the
-#: coarse stage's Gauss–Newton Hessian H, by s uniform in ±√(2φ/λ_min(H)) (where the valley's
-#: trend would at most double φ), at most HOP_MAX; HOPS more after each new best. Where the
+#: Valley hops (residual mode): a search that ends inside the box at the lowest φ any search
+#: ended at (within PATIENCE_TOL) is followed by up to HOPS short searches from its end point
+#: moved along the valley, the softest direction of the coarse stage's Gauss–Newton Hessian
+#: H, by s uniform in ±√(2φ/λ_min(H)) (where the valley's trend would at most double φ), at
+#: most HOP_MAX; HOPS more after each new best. Where the
 #: data hardly determine a parameter its valley floor is a plateau of local minima (on the
 #: noise-free broad-band bridge, a stiff abutment mode's phase turns with kp1: φ ripples
 #: between 7e-7 and 2e-6 along a valley whose global minimum, 0, has a basin 100 times
@@ -572,10 +574,9 @@ class MultistartLM(KeepsBest):
         its way (a difference stencil's, along a rippled valley) can lie below the point it
         ends at, and then no hop started (bridge, accelerogram seed 5: a search ended at
         φ = 3.62e-6 in the valley, one of its points at 3.56e-6; no hop, and the run took 23
-        more searches, 5,800 evaluations). Inside the
-        box: at an improper minimum (a parameter held by a bound) the fit is that of the
-        bound, not a valley floor of ripple minima (hops there ended where they started, 4 ×
-        95–195 evaluations)."""
+        more searches, 5,800 evaluations). Inside the box: at an improper minimum (a
+        parameter held by a bound) the fit is that of the bound, not a valley floor of ripple
+        minima (hops there ended where they started, 4 × 95–195 evaluations)."""
         if self.mode != "residuals" or self.coarse_step is None:
             return False
         if self.valley is not None and at_best and self._inside():
