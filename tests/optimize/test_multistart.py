@@ -473,3 +473,37 @@ def test_the_pool_asked_in_batches_gives_the_one_batch_run(monkeypatch: pytest.M
     a, b = runs
     assert (a.fun, a.nfev) == (b.fun, b.nfev) and np.array_equal(a.x, b.x)
     assert a.nit == b.nit + 1
+
+
+def _ended_search(x: list[float], phi: float, best_evaluated: float):
+    """An optimizer in residual mode whose search has just finished its last stage at x, φ,
+    after evaluating a point at ``best_evaluated`` on its way."""
+    from femupdate.optimize.multistart import MultistartLM
+
+    opt = MultistartLM(2, np.random.default_rng(0), pool=4)
+    opt._set_mode("residuals")
+    opt.x, opt.phi, opt.stages, opt.stage_phi = np.array(x), phi, 2, phi  # no stage paid
+    opt.valley = np.diag([1.0, 1e-4])  # the last coarse stage's H: a valley along x1
+    opt.best_f = best_evaluated
+    return opt
+
+
+def test_a_hop_follows_the_best_search_end_though_a_point_on_the_way_was_lower() -> None:
+    # Bridge, accelerogram seed 5: a search ended at φ = 3.62e-6 in the valley, one of its
+    # stencil points at 3.56e-6; compared with that point, the search was not "at the best"
+    # and no hop followed.
+    opt = _ended_search([0.5, 0.5], phi=3.62e-6, best_evaluated=3.56e-6)
+    opt._end_stage("converged")
+    assert opt.hopping and opt.hops_left == 3 and opt.best_end == 3.62e-6
+    start = opt.ask()[0]  # the hop's first point, moved along the valley (x1) only
+    assert start[0] == pytest.approx(0.5, abs=1e-6) and start[1] != 0.5
+
+
+def test_no_hop_from_an_improper_minimum_or_a_worse_end() -> None:
+    at_bound = _ended_search([0.0, 0.5], phi=0.0339, best_evaluated=0.0339)
+    at_bound._end_stage("converged")
+    assert not at_bound.hopping and at_bound.best_end == 0.0339
+    worse = _ended_search([0.5, 0.5], phi=2e-6, best_evaluated=1e-6)
+    worse.best_end = 1e-6
+    worse._end_stage("converged")
+    assert not worse.hopping and worse.best_end == 1e-6
