@@ -106,7 +106,8 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                               f", {counts_from.starts.size} blocks) is not of this case's data "
                               f"({model.kind}, {model.starts.size} blocks) (allowed: model "
                               "classes of the same trials, channels and error model)")
-        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho,
+                                    ar=counts_from.ar)
     best_unit = prior.to_unit(x)
     try:
         r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
