@@ -77,3 +77,25 @@ def sandwich_laplace(jac: np.ndarray, residuals: np.ndarray, best_unit: np.ndarr
     the prior enters only through them)."""
     cov = sandwich_covariance(jac, residuals, blocks)
     return summarize_gaussian(np.asarray(best_unit, dtype=float).reshape(-1), cov, prior)
+
+
+def magnitude_adjustment(jac: np.ndarray, residuals: np.ndarray,
+                         blocks: tuple[slice, ...] | list[slice]) -> float:
+    """k = n / tr(H⁻¹ M) of the i.i.d. likelihood with unknown variance per block (weights
+    w_c = N_c/‖r_c‖², H = Σ w_c J_cᵀJ_c, M = Σ w_c² J_cᵀ Γ_c J_c): the power the likelihood
+    is raised to so that its curvature matches, on average over the parameters, the
+    sandwich's (Ribatet, Cooley & Davison 2012, the magnitude adjustment of a composite
+    likelihood). Exact when M ∝ H; the error model with N_c·k independent values per block
+    is that tempered likelihood."""
+    jac = np.asarray(jac, dtype=float)
+    r = np.asarray(residuals, dtype=float).reshape(-1)
+    n = jac.shape[1]
+    sensitivity = np.zeros((n, n))
+    variability = np.zeros((n, n))
+    for block in blocks:
+        rc, jc = r[block], jac[block]
+        w = rc.size / float(rc @ rc)
+        gamma = tapered_autocovariance(rc, andrews_bandwidth(rc))
+        sensitivity += w * jc.T @ jc
+        variability += w ** 2 * jc.T @ matmul_toeplitz(gamma, jc)
+    return float(n / np.trace(np.linalg.pinv(sensitivity, hermitian=True) @ variability))
