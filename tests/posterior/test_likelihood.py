@@ -210,7 +210,7 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
     assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
     tau = problem_error_model(problem, r, "tau")
     assert np.all(tau.counts < (tau.stops - tau.starts))
-    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, arp, known"):
+    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, arp, adjusted, known"):
         error_model([slice(0, 5)], "gaussian")
     with pytest.raises(ConfigError, match="needs the residuals"):
         error_model([slice(0, 5)], "neff")
@@ -218,3 +218,18 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
         error_model([slice(0, 5)], "neff", best_residuals=np.zeros(5))
     with pytest.raises(ConfigError, match="sigma must be > 0"):
         error_model([slice(0, 5)], "known", sigma=0.0)
+
+
+def test_adjusted_error_model_of_a_case_and_its_laplace_record(problem: UpdateProblem) -> None:
+    from femupdate.posterior.best_fit import laplace_record
+    from femupdate.posterior.jacobian import residual_jacobian
+
+    x = problem.case.to_search(TRUTH)
+    r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+    model = problem_error_model(problem, r, "adjusted", jac)
+    iid = problem_error_model(problem, r, "iid")
+    # one power for every block, below 1: the residuals of a time history are correlated
+    ratio = model.counts / iid.counts
+    assert np.all(ratio < 1.0) and np.ptp(ratio) < 1e-12
+    record = laplace_record(problem, x, kind="adjusted")
+    assert record.note is None and record.error_model == "adjusted"

@@ -7,7 +7,8 @@ import pytest
 from scipy.linalg import toeplitz
 from scipy.signal import lfilter
 
-from femupdate.errors import DataError
+from femupdate.errors import ConfigError, DataError
+from femupdate.posterior.likelihood import error_model
 from femupdate.posterior.sandwich import (
     andrews_bandwidth,
     magnitude_adjustment,
@@ -69,3 +70,11 @@ def test_sandwich_of_a_linear_fit_with_ar1_errors_matches_the_closed_form() -> N
     k_exact = 3 / np.trace(np.linalg.inv(sens) @ var)
     assert k == pytest.approx(k_exact, rel=0.4)
     assert k_exact == pytest.approx((1 - rho) / (1 + rho), rel=0.3)
+    # k does not depend on the coordinates of θ; kind "adjusted" is the tempered i.i.d. count
+    mixing = np.array([[2.0, 0.3, 0.0], [0.0, 1.0, -1.0], [0.5, 0.0, 3.0]])
+    assert magnitude_adjustment(design @ mixing, r, blocks) == pytest.approx(k, rel=1e-9)
+    adjusted = error_model(blocks, "adjusted", best_residuals=r, jacobian=design,
+                           dof_removed=[2, 2])
+    assert adjusted.counts == pytest.approx([(n - 2) * k] * 2, rel=1e-12)
+    with pytest.raises(ConfigError, match="'adjusted' needs the Jacobian"):
+        error_model(blocks, "adjusted", best_residuals=r)

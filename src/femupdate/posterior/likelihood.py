@@ -27,7 +27,13 @@ coefficients fitted by least squares to the block's residuals at the best fit an
 fixed, the order p (the same for every block) the largest of the blocks' orders chosen by the
 Bayesian information criterion up to :data:`AR_MAX_ORDER`: the conditional likelihood of the
 innovations r_t − Σ_k a_k r_{t−k}, which a high enough order makes white, so that every
-innovation counts. Kind ``"known"``: Gaussian
+innovation counts. Kind ``"adjusted"`` takes N_c = k·N, the i.i.d. likelihood tempered by the
+magnitude adjustment k = n / tr(H⁻¹M) of :func:`femupdate.posterior.sandwich.magnitude_adjustment`
+(Ribatet, Cooley & Davison 2012): k is the one power that matches, on average over the
+parameters, the likelihood's curvature to the sandwich covariance of the least-squares best fit,
+the covariance the residuals' own autocorrelation gives it with no model of that correlation;
+it needs the Jacobian at the best fit (in any coordinates: k does not depend on them). Kind
+``"known"``: Gaussian
 errors of a given standard deviation per block (analytic checks).
 
 Every function takes residual rows (k, m), so that a population is one call; a row with a
@@ -46,7 +52,7 @@ from scipy.special import gammaln
 from femupdate.errors import ConfigError, DataError
 
 #: The kinds of error model, the default first.
-KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "arp", "known")
+KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known")
 DEFAULT_KIND = "neff"
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
@@ -258,22 +264,25 @@ class ErrorModel:
 def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIND, *,
                 best_residuals: np.ndarray | None = None,
                 dof_removed: tuple[int, ...] | list[int] | None = None,
-                sigma: float | np.ndarray | None = None) -> ErrorModel:
+                sigma: float | np.ndarray | None = None,
+                jacobian: np.ndarray | None = None) -> ErrorModel:
     """Build an error model over the residual ``blocks`` (:func:`residual_blocks`).
 
     Parameters
     ----------
     blocks : sequence of slice
         Contiguous blocks covering r from 0, in order.
-    kind : {"neff", "tau", "iid", "ar1", "arp", "known"}
+    kind : {"neff", "tau", "iid", "ar1", "arp", "adjusted", "known"}
         See the module docstring.
     best_residuals : ndarray (m,), optional
-        r at the best fit: needed by ``"neff"``, ``"tau"``, ``"ar1"`` and ``"arp"`` (measured
-        on it, once).
+        r at the best fit: needed by every kind but ``"iid"`` and ``"known"`` (measured on it,
+        once).
     dof_removed : sequence of int, optional
         Degrees of freedom each block lost to fitted constants (subtracted from N_c).
     sigma : float or ndarray (c,), optional
         The known error standard deviation (kind ``"known"`` only), in units of r.
+    jacobian : ndarray (m, n), optional
+        ∂r/∂θ at the best fit (kind ``"adjusted"`` only), in any coordinates of θ.
     """
     if kind not in KINDS:
         raise ConfigError(f"error model kind: got {kind!r} (allowed: {', '.join(KINDS)})")
@@ -290,7 +299,7 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     rho = np.zeros(len(blocks))
     sig = None
     ar = None
-    if kind in ("neff", "tau", "ar1", "arp"):
+    if kind in ("neff", "tau", "ar1", "arp", "adjusted"):
         if best_residuals is None:
             raise ConfigError(f"error model {kind!r} needs the residuals at the best fit "
                               "(best_residuals)")
@@ -311,6 +320,15 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
                            for a, b, k in zip(starts, stops, removed, strict=True)])
     elif kind == "ar1":
         counts = (lengths - 1 - removed).astype(float)
+    elif kind == "adjusted":
+        from femupdate.posterior.sandwich import magnitude_adjustment
+
+        if jacobian is None or np.shape(jacobian)[0] != stops[-1]:
+            raise ConfigError(f"error model 'adjusted' needs the Jacobian at the best fit "
+                              f"({stops[-1]} rows), got "
+                              f"{None if jacobian is None else np.shape(jacobian)}")
+        k = magnitude_adjustment(jacobian, r, blocks)
+        counts = (lengths - removed) * k
     elif kind == "arp":
         order = max(ar_order(r[a:b]) for a, b in zip(starts, stops, strict=True))
         ar = np.array([ar_fit(r[a:b], order)[0] for a, b in zip(starts, stops, strict=True)])
@@ -330,7 +348,10 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
 
 
 def problem_error_model(problem: Any, best_residuals: np.ndarray,
-                        kind: str = DEFAULT_KIND) -> ErrorModel:
-    """The error model of an UpdateProblem, fixed at its best fit's residuals."""
+                        kind: str = DEFAULT_KIND, jacobian: np.ndarray | None = None
+                        ) -> ErrorModel:
+    """The error model of an UpdateProblem, fixed at its best fit's residuals (and, for kind
+    ``"adjusted"``, its Jacobian there)."""
     blocks, removed = residual_blocks(problem)
-    return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed)
+    return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed,
+                       jacobian=jacobian)
