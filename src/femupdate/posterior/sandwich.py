@@ -2,7 +2,7 @@
 
 The best fit ξ* of a case minimises φ = ‖r‖², so it solves Jᵀr = 0. If the prediction errors
 ε of each block c (trial × channel) are a stationary series of autocovariance γ_c(k), the
-least-squares estimate has, to first order, the covariance (Huber; White 1980)::
+least-squares estimate has, to first order, the covariance (White 1980)::
 
     Cov(ξ*) = H⁻¹ M H⁻¹,   H = JᵀJ,   M = Σ_c J_cᵀ Γ_c J_c,   (Γ_c)_{ts} = γ_c(|t − s|)
 
