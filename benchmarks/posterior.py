@@ -3,6 +3,9 @@
     python benchmarks/posterior.py                  # everything (tens of minutes)
     python benchmarks/posterior.py --quick          # CI: analytic check + a small bridge run
     python benchmarks/posterior.py --only calibration --replicates 50
+    python benchmarks/posterior.py --only calibration --replicates 20 --kinds neff \
+        --tmcmc-kinds neff --hits tmcmc.jsonl
+    OPENBLAS_NUM_THREADS=1 python benchmarks/posterior.py --only speed --population 6000
 
 Sections (``--only`` takes a comma-separated list):
 
@@ -12,8 +15,10 @@ Sections (``--only`` takes a comma-separated list):
 - ``calibration``: viscous bridge, 2 % noise, replicates with truths drawn from the prior and
   fresh noise: the best fit by a local least-squares search started at the truth (where
   multistart-lm ends at this noise level, at a tenth of its cost), then the **Laplace** 90 %
-  interval of every parameter for each error model kind; the share of replicates whose
-  interval holds the truth.
+  interval of every parameter for each error model kind (``--kinds``, with ``sandwich``: the
+  least-squares fit's sandwich covariance) and TMCMC's for ``--tmcmc-kinds``; the share of
+  replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
+  keeps each replicate as a JSON line: a run resumes there, several processes can share it.
 - ``speed``: viscous bridge (9 parameters), 2 % noise: TMCMC started from the Laplace
   Gaussian against emcee on the same log-posterior (unit cube, same batches), both started
   from the Laplace Gaussian, in the same run: evaluations, wall time, effective samples.
