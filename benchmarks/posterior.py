@@ -48,6 +48,7 @@ from femupdate.case import parse_case
 from femupdate.experiment import load_experiment
 from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
 from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
+from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.posterior.likelihood import residual_blocks
 from femupdate.posterior.sandwich import sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
@@ -175,7 +176,8 @@ def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
 
 
 def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
-              tmcmc_kinds: list[str], tmcmc_population: int) -> dict[str, Any]:
+              tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False
+              ) -> dict[str, Any]:
     """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth."""
@@ -192,18 +194,31 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
                              int(rng.integers(2 ** 31)))
     unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
-    # steps of 1 % of each range: the slope of the kp1 valley, not of one of its ripples
-    jac = jacobian_unit(problem.residuals_batch, unit, prior, step=1e-2)
+    # the Laplace record's two scales (femupdate.posterior.best_fit.two_scale_record): the
+    # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
+    # over 1 % of each range (the kp1 valley's slope, not a ripple's) for those that one
+    # says the data do not determine; with ``coarse_only`` the 1 % one for every parameter
+    jac = jacobian_unit(problem.residuals_batch, unit, prior, step=UNIT_STEP)
+    jac_local = jac if coarse_only else jacobian_unit(problem.residuals_batch, unit, prior,
+                                                      step=LOCAL_STEP)
+    blocks = residual_blocks(problem)[0]
+
+    def two_scale(estimate: Any) -> tuple[Any, np.ndarray]:
+        coarse, local = estimate(jac), estimate(jac_local)
+        q = local.quantiles.copy()
+        use = coarse.undetermined & ~local.undetermined
+        q[:, use] = coarse.quantiles[:, use]
+        return local, q
+
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {}}
     for kind in kinds:
         if kind == SANDWICH:
-            lap = sandwich_laplace(jac, r, unit, residual_blocks(problem)[0], prior)
-            out["laplace"][kind] = ((lap.quantiles[0] <= truth_values)
-                                    & (truth_values <= lap.quantiles[2])).tolist()
+            _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
+            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
             continue
         model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None)
-        lap = laplace(jac, r, unit, model, prior)
-        inside = (lap.quantiles[0] <= truth_values) & (truth_values <= lap.quantiles[2])
+        lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
+        inside = (q[0] <= truth_values) & (truth_values <= q[2])
         out["laplace"][kind] = inside.tolist()
         if kind in tmcmc_kinds:
             # TMCMC's first population from the Laplace Gaussian, its sd capped at half the
@@ -223,8 +238,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
 
 def calibration(replicates: int, root: Path, first: int = 0, *,
                 kinds: list[str] | None = None, tmcmc_kinds: list[str] | None = None,
-                tmcmc_population: int = 1000, hits_file: Path | None = None
-                ) -> dict[str, Any]:
+                tmcmc_population: int = 1000, hits_file: Path | None = None,
+                coarse_only: bool = False) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -249,7 +264,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     for i, child in enumerate(children):
         if i < first or i in done:
             continue
-        row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population)
+        row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -437,6 +452,9 @@ def main() -> None:
     parser.add_argument("--tmcmc-kinds", default="",
                         help="calibration: kinds whose TMCMC intervals are measured too")
     parser.add_argument("--tmcmc-population", type=int, default=1000)
+    parser.add_argument("--coarse-jacobian", action="store_true",
+                        help="calibration: the Jacobian over 1 %% of each range for every "
+                        "parameter (before: the Laplace record's two scales)")
     parser.add_argument("--hits", type=Path, default=None,
                         help="calibration: JSON lines of the replicates (resume, merge)")
     parser.add_argument("--seeds", type=int, default=10)
@@ -458,7 +476,8 @@ def main() -> None:
             out["calibration"] = calibration(
                 args.replicates, root, args.first_replicate, kinds=args.kinds.split(","),
                 tmcmc_kinds=[k for k in args.tmcmc_kinds.split(",") if k],
-                tmcmc_population=args.tmcmc_population, hits_file=args.hits)
+                tmcmc_population=args.tmcmc_population, hits_file=args.hits,
+                coarse_only=args.coarse_jacobian)
         if "speed" in sections:
             out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000)
         if "friction" in sections:
