@@ -3,6 +3,9 @@
     python benchmarks/posterior.py                  # everything (tens of minutes)
     python benchmarks/posterior.py --quick          # CI: analytic check + a small bridge run
     python benchmarks/posterior.py --only calibration --replicates 50
+    python benchmarks/posterior.py --only calibration --replicates 20 --kinds neff \
+        --tmcmc-kinds neff --hits tmcmc.jsonl
+    OPENBLAS_NUM_THREADS=1 python benchmarks/posterior.py --only speed --population 6000
 
 Sections (``--only`` takes a comma-separated list):
 
@@ -12,8 +15,10 @@ Sections (``--only`` takes a comma-separated list):
 - ``calibration``: viscous bridge, 2 % noise, replicates with truths drawn from the prior and
   fresh noise: the best fit by a local least-squares search started at the truth (where
   multistart-lm ends at this noise level, at a tenth of its cost), then the **Laplace** 90 %
-  interval of every parameter for each error model kind; the share of replicates whose
-  interval holds the truth.
+  interval of every parameter for each error model kind (``--kinds``, with ``sandwich``: the
+  least-squares fit's sandwich covariance) and TMCMC's for ``--tmcmc-kinds``; the share of
+  replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
+  keeps each replicate as a JSON line: a run resumes there, several processes can share it.
 - ``speed``: viscous bridge (9 parameters), 2 % noise: TMCMC started from the Laplace
   Gaussian against emcee on the same log-posterior (unit cube, same batches), both started
   from the Laplace Gaussian, in the same run: evaluations, wall time, effective samples.
@@ -43,13 +48,19 @@ from femupdate.case import parse_case
 from femupdate.experiment import load_experiment
 from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
 from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
+from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
+from femupdate.posterior.likelihood import residual_blocks
+from femupdate.posterior.sandwich import sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
 from femupdate.problems import bridge
 from femupdate.update import UpdateProblem
 
 SEED = 2026
 FIT_EVALS = 2000
-KINDS = ("neff", "tau", "iid")
+KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted")
+#: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
+#: least-squares estimate (femupdate.posterior.sandwich), measured beside them
+SANDWICH = "sandwich"
 #: TMCMC's moves on the bridge: independent proposals from the weighted population's Gaussian,
 #: 12 steps at β = 1 (measured across 10 seeds: 3.2× fewer evaluations per effective sample than
 #: random-walk moves with 3 steps per stage and at β = 1); since they are TMCMC's defaults, this
@@ -150,45 +161,139 @@ def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: st
 # -------------------------------------------------------------------------------- calibration
 
 
-def calibration(replicates: int, root: Path, first: int = 0) -> dict[str, Any]:
+def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
+    """(share, low, high) per parameter of boolean hits (replicates, n): the share of
+    replicates whose interval holds the truth and its 95 % Clopper–Pearson interval (the
+    binomial spread of the share itself: ±8 points at 50 replicates)."""
+    from scipy.stats import binomtest
+
+    out = []
+    for column in np.asarray(hits, dtype=bool).T:
+        k, n = int(column.sum()), column.size
+        ci = binomtest(k, n).proportion_ci(0.95, method="exact")
+        out.append((k / n, float(ci.low), float(ci.high)))
+    return out
+
+
+def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
+              tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False
+              ) -> dict[str, Any]:
+    """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
+    search started at the truth, then per error model kind whether the Laplace (and, for
+    ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth."""
+    from femupdate.posterior.likelihood import KINDS as ALL_KINDS
+
+    rng = np.random.default_rng(child)
+    # TMCMC's seeds: one child per kind of the library, whichever kinds this run measures
+    tm_seeds = dict(zip(ALL_KINDS, child.spawn(len(ALL_KINDS)), strict=True))
+    case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
+                      source=root / "viscous.toml")
+    prior = Prior.from_case(case)
+    truth_values = prior.sample(rng, 1)[1][0]
+    truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
+    problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
+                             int(rng.integers(2 ** 31)))
+    unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
+    # the Laplace record's two scales (femupdate.posterior.best_fit.two_scale_record): the
+    # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
+    # over 1 % of each range (the kp1 valley's slope, not a ripple's) for those that one
+    # says the data do not determine; with ``coarse_only`` the 1 % one for every parameter
+    jac = jacobian_unit(problem.residuals_batch, unit, prior, step=UNIT_STEP)
+    jac_local = jac if coarse_only else jacobian_unit(problem.residuals_batch, unit, prior,
+                                                      step=LOCAL_STEP)
+    blocks = residual_blocks(problem)[0]
+
+    def two_scale(estimate: Any) -> tuple[Any, np.ndarray]:
+        coarse, local = estimate(jac), estimate(jac_local)
+        q = local.quantiles.copy()
+        use = coarse.undetermined & ~local.undetermined
+        q[:, use] = coarse.quantiles[:, use]
+        return local, q
+
+    out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {}}
+    for kind in kinds:
+        if kind == SANDWICH:
+            _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
+            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            continue
+        model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None)
+        lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
+        inside = (q[0] <= truth_values) & (truth_values <= q[2])
+        out["laplace"][kind] = inside.tolist()
+        if kind in tmcmc_kinds:
+            # TMCMC's first population from the Laplace Gaussian, its sd capped at half the
+            # range (neff's exceeds the range for kp1, c1, c4): any normalised start density
+            # gives the same posterior, this one keeps enough of its mass inside the bounds
+            cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
+            reference = (np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap))
+            post, _ = run_tmcmc(problem.residuals, prior, model, seed=tm_seeds[kind],
+                                population=tmcmc_population, reference=reference, **MOVES)
+            if not post.reached:
+                raise RuntimeError(f"replicate {i}: TMCMC ({kind}) did not reach β = 1")
+            q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
+            out["tmcmc"][kind] = ((q[0] <= truth_values) & (truth_values <= q[1])).tolist()
+            out["tmcmc_evals"][kind] = post.evaluations
+    return out
+
+
+def calibration(replicates: int, root: Path, first: int = 0, *,
+                kinds: list[str] | None = None, tmcmc_kinds: list[str] | None = None,
+                tmcmc_population: int = 1000, hits_file: Path | None = None,
+                coarse_only: bool = False) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
-    processes: replicate i is the same wherever it runs)."""
+    processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
+    each replicate is appended as it ends, replicates already there are not run again
+    (resume, or several processes on one file), and the table is of every replicate the
+    file holds below ``replicates``."""
+    kinds = list(kinds or KINDS)
+    tmcmc_kinds = list(tmcmc_kinds or [])
+    names = Prior.from_case(parse_case(bridge.bridge_case("viscous", "narrow",
+                                                          directory=str(root)),
+                                       source=root / "viscous.toml")).names
     children = np.random.SeedSequence(SEED).spawn(replicates)
-    hits: dict[str, list[np.ndarray]] = {k: [] for k in KINDS}
-    names: tuple[str, ...] = ()
+    done: dict[int, dict[str, Any]] = {}
+    if hits_file is not None and hits_file.exists():
+        for line in hits_file.read_text().splitlines():
+            row = json.loads(line)
+            done[row["replicate"]] = row
     start = time.perf_counter()
     print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
-          f"the prior, fresh noise), Laplace 90 % intervals at the best fit of a local "
-          f"least-squares search started at the truth")
+          f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
+          f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
+          f"best fit of a local least-squares search started at the truth")
     for i, child in enumerate(children):
-        if i < first:
+        if i < first or i in done:
             continue
-        rng = np.random.default_rng(child)
-        case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
-                          source=root / "viscous.toml")
-        prior = Prior.from_case(case)
-        names = prior.names
-        truth_values = prior.sample(rng, 1)[1][0]
-        truth = dict(zip(names, truth_values.tolist(), strict=True))
-        problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
-                                 int(rng.integers(2 ** 31)))
-        unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
-        line = []
-        for kind in KINDS:
-            lap, _, _ = laplace_of(problem, unit, r, kind)
-            inside = (lap.quantiles[0] <= truth_values) & (truth_values <= lap.quantiles[2])
-            hits[kind].append(inside)
-            line.append(f"{kind} {''.join('1' if h else '0' for h in inside)}")
+        row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only)
+        done[i] = row
+        if hits_file is not None:
+            with hits_file.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+        line = [f"{k} {''.join('1' if h else '0' for h in v)}" for k, v in row["laplace"].items()]
+        line += [f"tmcmc-{k} {''.join('1' if h else '0' for h in v)}"
+                 for k, v in row["tmcmc"].items()]
         print(f"  replicate {i:2d}: " + "  ".join(line), flush=True)
-    print(f"\n{'kind':6s} " + " ".join(f"{n:>6s}" for n in names) + "   (share of "
-          "replicates whose 90 % interval holds the truth; target 0.84–0.96)")
-    out = {}
-    for kind in KINDS:
-        share = np.mean(hits[kind], axis=0)
-        print(f"{kind:6s} " + " ".join(f"{s:6.2f}" for s in share))
-        out[kind] = dict(zip(names, share.tolist(), strict=True))
-    print(f"(replicates {first}–{replicates - 1} in {time.perf_counter() - start:.0f} s; "
-          f"{load()})")
+    rows = [done[i] for i in sorted(done) if i < replicates]
+    print("\nShare of replicates whose 90 % interval holds the truth (target 0.84–0.96), "
+          "95 % Clopper–Pearson interval of the share below each figure; '*' marks a "
+          "parameter whose interval excludes 0.90")
+    print(f"{'':14s} {'n':>3s} " + " ".join(f"{n:>9s}" for n in names))
+    out: dict[str, Any] = {}
+    for estimator in ("laplace", "tmcmc"):
+        for kind in sorted({k for row in rows for k in row[estimator]}):
+            hits = [row[estimator][kind] for row in rows if kind in row[estimator]]
+            cov = coverage_row(np.array(hits))
+            label = f"{estimator} {kind}"
+            print(f"{label:14s} {len(hits):3d} " + " ".join(
+                f"{s:8.2f}{'*' if not lo <= 0.9 <= hi else ' '}" for s, lo, hi in cov))
+            print(f"{'':14s} {'':3s} " + " ".join(f"{lo:4.2f}–{hi:4.2f}" for _, lo, hi in cov))
+            out[label] = {"replicates": len(hits),
+                          **{n: {"share": s, "ci95": [lo, hi]}
+                             for n, (s, lo, hi) in zip(names, cov, strict=True)}}
+    evals = [e for row in rows for e in row.get("tmcmc_evals", {}).values()]
+    if evals:
+        print(f"TMCMC evaluations per replicate: mean {np.mean(evals):.0f}")
+    print(f"(replicates run here in {time.perf_counter() - start:.0f} s; {load()})")
     return out
 
 
@@ -225,7 +330,7 @@ def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
     start = start[:walkers]
     sampler = emcee.EnsembleSampler(walkers, prior.dim, log_posterior, vectorize=True)
     sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 31))).get_state()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     state = start
     ess = 0.0
     while calls["evals"] < max_evals:
@@ -236,8 +341,8 @@ def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
                   for i in range(prior.dim))
         if ess >= target_ess:
             break
-    seconds = time.perf_counter() - t0
-    return {"evals": calls["evals"], "seconds": seconds, "ess": ess,
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {"evals": calls["evals"], "seconds": seconds, "cpu_seconds": cpu, "ess": ess,
             "steps": int(sampler.get_chain().shape[0])}
 
 
@@ -253,13 +358,16 @@ def speed(population: int, steps: int, root: Path, emcee_max: int) -> dict[str, 
           f"evaluations")
     for sentence in lap.sentences:
         print("  " + sentence)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     post, _ = run_tmcmc(problem.residuals, prior, model, seed=rng, population=population,
                         steps=steps, reference=(lap.mean_unit, lap.cov_unit), **MOVES)
-    tm_s = time.perf_counter() - t0
-    print(f"TMCMC: {post.evaluations} evaluations in {tm_s:.1f} s ({load()}), "
+    tm_s, tm_cpu = time.perf_counter() - t0, time.process_time() - c0
+    # the CPU time of this process: what the wall time would be on an otherwise idle core
+    print(f"TMCMC (population {population}): {post.evaluations} evaluations in {tm_s:.1f} s "
+          f"wall, {tm_cpu:.1f} s CPU ({load()}), "
           f"{len(post.stages)} stages, ESS {post.ess:.0f} -> "
-          f"{post.evaluations / post.ess:.1f} evaluations per effective sample; "
+          f"{post.evaluations / post.ess:.1f} evaluations per effective sample (ESS: the "
+          f"smaller of the ancestry and last-resampling estimates, worst parameter); "
           f"log Z {post.log_evidence:.3f}")
     for s in post.stages:
         print(f"   β {s['beta']:.4f}  acceptance {s['acceptance']:.2f}  weights ESS "
@@ -270,12 +378,14 @@ def speed(population: int, steps: int, root: Path, emcee_max: int) -> dict[str, 
         print(f"   {name:4s} 5/50/95 %: {q[0, i]:.4g} {q[1, i]:.4g} {q[2, i]:.4g}")
     em = emcee_run(problem, model, prior, lap, rng, walkers=36, target_ess=post.ess,
                    max_evals=emcee_max)
-    print(f"emcee (36 walkers): {em['evals']} evaluations in {em['seconds']:.1f} s "
-          f"({load()}), {em['steps']} steps, ESS {em['ess']:.0f} (ArviZ bulk, second half) "
+    print(f"emcee (36 walkers): {em['evals']} evaluations in {em['seconds']:.1f} s wall, "
+          f"{em['cpu_seconds']:.1f} s CPU ({load()}), {em['steps']} steps, ESS "
+          f"{em['ess']:.0f} (ArviZ bulk, second half) "
           f"-> {em['evals'] / max(em['ess'], 1e-9):.1f} evaluations per effective sample")
     ratio = (em["evals"] / max(em["ess"], 1e-9)) / (post.evaluations / post.ess)
     print(f"evaluations per effective sample, emcee / TMCMC: {ratio:.1f}")
-    return {"tmcmc": {"evals": post.evaluations, "seconds": tm_s, "ess": post.ess,
+    return {"tmcmc": {"evals": post.evaluations, "seconds": tm_s, "cpu_seconds": tm_cpu,
+                      "ess": post.ess, "population": population,
                       "stages": len(post.stages), "log_z": post.log_evidence},
             "emcee": em, "ratio": ratio, "fit_evals": fit_evals,
             "sentences": lap.sentences}
@@ -336,6 +446,17 @@ def main() -> None:
     parser.add_argument("--replicates", type=int, default=50)
     parser.add_argument("--first-replicate", type=int, default=0,
                         help="calibration: start at this replicate (split a run over processes)")
+    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH)),
+                        help="calibration: the error model kinds (Laplace intervals) and "
+                        "'sandwich' (the least-squares estimate's sandwich covariance)")
+    parser.add_argument("--tmcmc-kinds", default="",
+                        help="calibration: kinds whose TMCMC intervals are measured too")
+    parser.add_argument("--tmcmc-population", type=int, default=1000)
+    parser.add_argument("--coarse-jacobian", action="store_true",
+                        help="calibration: the Jacobian over 1 %% of each range for every "
+                        "parameter (before: the Laplace record's two scales)")
+    parser.add_argument("--hits", type=Path, default=None,
+                        help="calibration: JSON lines of the replicates (resume, merge)")
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--population", type=int, default=2000)
     parser.add_argument("--steps", type=int, default=3)
@@ -352,7 +473,11 @@ def main() -> None:
         if "analytic" in sections:
             out["analytic"] = analytic(4000)
         if "calibration" in sections:
-            out["calibration"] = calibration(args.replicates, root, args.first_replicate)
+            out["calibration"] = calibration(
+                args.replicates, root, args.first_replicate, kinds=args.kinds.split(","),
+                tmcmc_kinds=[k for k in args.tmcmc_kinds.split(",") if k],
+                tmcmc_population=args.tmcmc_population, hits_file=args.hits,
+                coarse_only=args.coarse_jacobian)
         if "speed" in sections:
             out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000)
         if "friction" in sections:

@@ -13,12 +13,15 @@ from femupdate.case import parse_case
 from femupdate.errors import ConfigError, DataError
 from femupdate.experiment import load_experiments
 from femupdate.posterior.likelihood import (
+    ar_fit,
+    ar_order,
     effective_count,
     error_model,
     lag1_autocorrelation,
     problem_error_model,
     residual_blocks,
 )
+from femupdate.posterior.method import error_model_data, error_model_from
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 
@@ -141,6 +144,48 @@ def test_ar1_whitens_an_ar1_series() -> None:
     assert model.counts[0] == n - 1
 
 
+def _ar_series(coefficients: list[float], n: int, rng: np.random.Generator) -> np.ndarray:
+    """An AR process x_t = Σ_k a_k x_{t−k} + u_t, u white of unit variance."""
+    from scipy.signal import lfilter
+
+    return lfilter([1.0], np.concatenate([[1.0], -np.asarray(coefficients)]),
+                   rng.standard_normal(n))
+
+
+def test_arp_recovers_the_order_and_coefficients_of_an_ar3_series() -> None:
+    rng = np.random.default_rng(11)
+    truth = [1.6, -0.9, 0.2]
+    n = 20_000
+    x = _ar_series(truth, n, rng)
+    assert ar_order(x, 12) == 3
+    a, _ = ar_fit(x, 3)
+    assert a == pytest.approx(truth, abs=0.05)  # 4 asymptotic sd of a_2 (0.012)
+    model = error_model([slice(0, n)], "arp", best_residuals=x, dof_removed=[2])
+    assert model.lag == 3 and model.counts[0] == n - 3 - 2
+    white = model.whiten(x)[0]
+    assert white.size == n - 3
+    assert abs(lag1_autocorrelation(white)) < 0.03
+    # the innovations by hand: the likelihood is the i.i.d. one of them
+    by_hand = x[3:] - sum(c * x[3 - k - 1:n - k - 1] for k, c in enumerate(model.ar[0]))
+    assert white == pytest.approx(by_hand, rel=1e-12, abs=1e-12)
+    iid = error_model([slice(0, n - 3)], "iid", dof_removed=[2])
+    assert model.loglike(x) == pytest.approx(iid.loglike(by_hand), rel=1e-12)
+
+
+def test_arp_blocks_share_one_order_and_round_trip_as_data() -> None:
+    rng = np.random.default_rng(12)
+    x = np.concatenate([_ar_series([0.5], 3000, rng), _ar_series([1.6, -0.9, 0.2], 3000, rng)])
+    model = error_model([slice(0, 3000), slice(3000, 6000)], "arp", best_residuals=x)
+    assert model.ar.shape == (2, 3)  # the larger order of the two blocks, for both
+    assert model.ar[0] == pytest.approx([0.5, 0.0, 0.0], abs=0.05)
+    again = error_model_from(error_model_data(model))
+    rows = np.vstack([x, 1.1 * x, np.full_like(x, np.nan)])
+    assert np.array_equal(again.loglike_rows(rows), model.loglike_rows(rows))
+    assert model.loglike_rows(rows)[2] == -np.inf
+    with pytest.raises(ConfigError, match="order 5 for a block of 12 samples"):
+        ar_fit(x[:12], 5)
+
+
 def test_weights_are_the_hessian_of_the_log_likelihood() -> None:
     """−∂²log L/∂θ² of r(θ) = a·θ − y at θ where aᵀr = 0 equals aᵀ W a."""
     rng = np.random.default_rng(8)
@@ -165,7 +210,7 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
     assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
     tau = problem_error_model(problem, r, "tau")
     assert np.all(tau.counts < (tau.stops - tau.starts))
-    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, known"):
+    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, arp, adjusted, known"):
         error_model([slice(0, 5)], "gaussian")
     with pytest.raises(ConfigError, match="needs the residuals"):
         error_model([slice(0, 5)], "neff")
@@ -173,3 +218,18 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
         error_model([slice(0, 5)], "neff", best_residuals=np.zeros(5))
     with pytest.raises(ConfigError, match="sigma must be > 0"):
         error_model([slice(0, 5)], "known", sigma=0.0)
+
+
+def test_adjusted_error_model_of_a_case_and_its_laplace_record(problem: UpdateProblem) -> None:
+    from femupdate.posterior.best_fit import laplace_record
+    from femupdate.posterior.jacobian import residual_jacobian
+
+    x = problem.case.to_search(TRUTH)
+    r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+    model = problem_error_model(problem, r, "adjusted", jac)
+    iid = problem_error_model(problem, r, "iid")
+    # one power for every block, below 1: the residuals of a time history are correlated
+    ratio = model.counts / iid.counts
+    assert np.all(ratio < 1.0) and np.ptp(ratio) < 1e-12
+    record = laplace_record(problem, x, kind="adjusted")
+    assert record.note is None and record.error_model == "adjusted"

@@ -59,12 +59,14 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
         prior = case_priors(case)
         x = np.asarray(x, dtype=float)
         r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-        model = problem_error_model(problem, r, kind)
         best_unit = prior.to_unit(x)
-        results = []
-        for step in (LOCAL_STEP, UNIT_STEP):
-            r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
-            results.append(centred(laplace(jac, r, best_unit, model, prior), best_unit, prior))
+        jacobians = [residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
+                     for step in (LOCAL_STEP, UNIT_STEP)]
+        # "adjusted" takes its count from the Jacobian over 1 % of each range (the valley's)
+        model = problem_error_model(problem, r, kind,
+                                    jacobians[1][1] if kind == "adjusted" else None)
+        results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
+                   for r_x, jac in jacobians]
     except FemupdateError as exc:
         return LaplaceRecord(error_model=kind, names=list(problem.names), nfev=nfev,
                              note=f"no Laplace approximation: {exc}")

@@ -22,7 +22,18 @@ autocorrelation time (Geyer's initial monotone sequence, as ArviZ's effective sa
 computes it), which, unlike the AR(1) count, credits the oscillating (band-limited) residual
 of a structure's response with the many cycles it holds. Kind ``"ar1"`` models the errors as
 an AR(1) process of that fixed ρ_c instead (the conditional likelihood of the innovations
-r_t − ρ r_{t−1}). Kind ``"known"``: Gaussian
+r_t − ρ r_{t−1}). Kind ``"arp"`` models them as an AR(p) process per block, its
+coefficients fitted by least squares to the block's residuals at the best fit and then held
+fixed, the order p (the same for every block) the largest of the blocks' orders chosen by the
+Bayesian information criterion up to :data:`AR_MAX_ORDER`: the conditional likelihood of the
+innovations r_t − Σ_k a_k r_{t−k}, which a high enough order makes white, so that every
+innovation counts. Kind ``"adjusted"`` takes N_c = k·N, the i.i.d. likelihood tempered by the
+magnitude adjustment k = n / tr(H⁻¹M) of :func:`femupdate.posterior.sandwich.magnitude_adjustment`
+(Ribatet, Cooley & Davison 2012): k is the one power that matches, on average over the
+parameters, the likelihood's curvature to the sandwich covariance of the least-squares best fit,
+the covariance the residuals' own autocorrelation gives it with no model of that correlation;
+it needs the Jacobian at the best fit (in any coordinates: k does not depend on them). Kind
+``"known"``: Gaussian
 errors of a given standard deviation per block (analytic checks).
 
 Every function takes residual rows (k, m), so that a population is one call; a row with a
@@ -41,8 +52,10 @@ from scipy.special import gammaln
 from femupdate.errors import ConfigError, DataError
 
 #: The kinds of error model, the default first.
-KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "known")
+KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known")
 DEFAULT_KIND = "neff"
+#: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
+AR_MAX_ORDER = 32
 
 
 def residual_blocks(problem: Any) -> tuple[tuple[slice, ...], tuple[int, ...]]:
@@ -84,6 +97,38 @@ def autocorrelation_count(r: np.ndarray) -> float:
     return float(min(arviz.ess(r[None, :], method="mean"), r.size))
 
 
+def ar_fit(r: np.ndarray, order: int) -> tuple[np.ndarray, float]:
+    """(a, BIC) of an AR(``order``) model r_t = Σ_k a_k r_{t−k} + e_t fitted by least squares
+    (the conditional maximum likelihood; unlike Yule–Walker, exact enough for the nearly
+    unit-root residuals of a displacement record, lag-1 autocorrelation 0.999);
+    BIC = n log(‖e‖²/n) + order · log n over the n = N − order innovations."""
+    r = np.asarray(r, dtype=float)
+    n = r.size - order
+    if order < 1 or n <= 2 * order:
+        raise ConfigError(f"error model 'arp': order {order} for a block of {r.size} samples "
+                          f"(allowed: 1 to {max((r.size - 1) // 3, 1)})")
+    lagged = np.column_stack([r[order - k - 1:r.size - k - 1] for k in range(order)])
+    a = np.linalg.lstsq(lagged, r[order:], rcond=None)[0]
+    e = r[order:] - lagged @ a
+    return a, float(n * math.log(max(float(e @ e), 1e-300) / n) + order * math.log(n))
+
+
+def ar_order(r: np.ndarray, max_order: int = AR_MAX_ORDER) -> int:
+    """The order of least BIC among 1 … ``max_order`` (fewer for a short block), every order
+    fitted on the same samples t ≥ ``max_order``: one QR factorisation of the lagged matrix
+    gives them all, since its first p columns are the regressors of order p."""
+    r = np.asarray(r, dtype=float)
+    top = max(1, min(max_order, (r.size - 1) // 3))
+    n = r.size - top
+    lagged = np.column_stack([r[top - k - 1:r.size - k - 1] for k in range(top)])
+    q, _ = np.linalg.qr(lagged)
+    z = q.T @ r[top:]
+    rss = float(r[top:] @ r[top:]) - np.cumsum(z ** 2)
+    orders = np.arange(1, top + 1)
+    bic = n * np.log(np.maximum(rss, 1e-300) / n) + orders * math.log(n)
+    return int(orders[np.argmin(bic)])
+
+
 def effective_count(n: int, rho: float) -> float:
     """N·(1 − ρ)/(1 + ρ): the number of independent values an AR(1) series of N samples and
     lag-1 autocorrelation ρ carries about its mean (ρ clipped to [0, 1): a negatively
@@ -108,6 +153,8 @@ class ErrorModel:
         Lag-1 autocorrelation of each block at the best fit (zeros when not measured).
     sigma : ndarray (c,) or None
         Known error standard deviation per block (kind ``"known"``), in units of r.
+    ar : ndarray (c, p) or None
+        AR coefficients a_1 … a_p of each block (kind ``"arp"``).
     """
 
     kind: str
@@ -116,17 +163,33 @@ class ErrorModel:
     counts: np.ndarray
     rho: np.ndarray
     sigma: np.ndarray | None = None
+    ar: np.ndarray | None = None
 
     @property
     def size(self) -> int:
         """m, the length of the residual vector."""
         return int(self.stops[-1])
 
+    @property
+    def lag(self) -> int:
+        """The samples each block loses to whitening: 1 for ``"ar1"``, p for ``"arp"``."""
+        if self.kind == "ar1":
+            return 1
+        return 0 if self.ar is None else int(self.ar.shape[1])
+
     def whiten(self, rows: np.ndarray) -> np.ndarray:
         """The rows (k, m) as the errors the model takes independent: themselves, or for
-        ``"ar1"`` each block's innovations r_t − ρ_c r_{t−1} (the first sample dropped). A
-        linear map: apply it to a Jacobian's columns too (``whiten(J.T).T``)."""
+        ``"ar1"`` each block's innovations r_t − ρ_c r_{t−1} (the first sample dropped), for
+        ``"arp"`` r_t − Σ_k a_k r_{t−k} (the first p dropped). A linear map: apply it to a
+        Jacobian's columns too (``whiten(J.T).T``)."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
+        if self.kind == "arp" and self.ar is not None:
+            from scipy.signal import lfilter
+
+            p = self.lag
+            return np.concatenate(
+                [lfilter(np.concatenate([[1.0], -a]), [1.0], rows[:, s:b], axis=1)[:, p:]
+                 for s, b, a in zip(self.starts, self.stops, self.ar, strict=True)], axis=1)
         if self.kind != "ar1":
             return rows
         parts = [rows[:, a + 1:b] - rho * rows[:, a:b - 1]
@@ -135,7 +198,7 @@ class ErrorModel:
 
     def _white_blocks(self) -> list[tuple[int, int]]:
         """The blocks of :meth:`whiten`'s output."""
-        lengths = self.stops - self.starts - (1 if self.kind == "ar1" else 0)
+        lengths = self.stops - self.starts - self.lag
         ends = np.cumsum(lengths)
         return [(int(e - n), int(e)) for e, n in zip(ends, lengths, strict=True)]
 
@@ -194,27 +257,32 @@ class ErrorModel:
         """A JSON-ready description (kind, N_c, ρ_c, σ_c)."""
         return {"kind": self.kind, "counts": self.counts.tolist(), "rho": self.rho.tolist(),
                 "block_lengths": (self.stops - self.starts).tolist(),
-                **({} if self.sigma is None else {"sigma": self.sigma.tolist()})}
+                **({} if self.sigma is None else {"sigma": self.sigma.tolist()}),
+                **({} if self.ar is None else {"ar": self.ar.tolist()})}
 
 
 def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIND, *,
                 best_residuals: np.ndarray | None = None,
                 dof_removed: tuple[int, ...] | list[int] | None = None,
-                sigma: float | np.ndarray | None = None) -> ErrorModel:
+                sigma: float | np.ndarray | None = None,
+                jacobian: np.ndarray | None = None) -> ErrorModel:
     """Build an error model over the residual ``blocks`` (:func:`residual_blocks`).
 
     Parameters
     ----------
     blocks : sequence of slice
         Contiguous blocks covering r from 0, in order.
-    kind : {"neff", "iid", "ar1", "known"}
+    kind : {"neff", "tau", "iid", "ar1", "arp", "adjusted", "known"}
         See the module docstring.
     best_residuals : ndarray (m,), optional
-        r at the best fit: needed by ``"neff"``, ``"tau"`` and ``"ar1"`` (measured on it, once).
+        r at the best fit: needed by every kind but ``"iid"`` and ``"known"`` (measured on it,
+        once).
     dof_removed : sequence of int, optional
         Degrees of freedom each block lost to fitted constants (subtracted from N_c).
     sigma : float or ndarray (c,), optional
         The known error standard deviation (kind ``"known"`` only), in units of r.
+    jacobian : ndarray (m, n), optional
+        ∂r/∂θ at the best fit (kind ``"adjusted"`` only), in any coordinates of θ.
     """
     if kind not in KINDS:
         raise ConfigError(f"error model kind: got {kind!r} (allowed: {', '.join(KINDS)})")
@@ -230,7 +298,8 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     removed = np.zeros(len(blocks)) if dof_removed is None else np.asarray(dof_removed, float)
     rho = np.zeros(len(blocks))
     sig = None
-    if kind in ("neff", "tau", "ar1"):
+    ar = None
+    if kind in ("neff", "tau", "ar1", "arp", "adjusted"):
         if best_residuals is None:
             raise ConfigError(f"error model {kind!r} needs the residuals at the best fit "
                               "(best_residuals)")
@@ -251,6 +320,19 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
                            for a, b, k in zip(starts, stops, removed, strict=True)])
     elif kind == "ar1":
         counts = (lengths - 1 - removed).astype(float)
+    elif kind == "adjusted":
+        from femupdate.posterior.sandwich import magnitude_adjustment
+
+        if jacobian is None or np.shape(jacobian)[0] != stops[-1]:
+            raise ConfigError(f"error model 'adjusted' needs the Jacobian at the best fit "
+                              f"({stops[-1]} rows), got "
+                              f"{None if jacobian is None else np.shape(jacobian)}")
+        k = magnitude_adjustment(jacobian, r, blocks)
+        counts = (lengths - removed) * k
+    elif kind == "arp":
+        order = max(ar_order(r[a:b]) for a, b in zip(starts, stops, strict=True))
+        ar = np.array([ar_fit(r[a:b], order)[0] for a, b in zip(starts, stops, strict=True)])
+        counts = (lengths - order - removed).astype(float)
     else:
         counts = (lengths - removed).astype(float)
     if kind == "known":
@@ -262,11 +344,14 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     elif sigma is not None:
         raise ConfigError(f"error model {kind!r}: sigma is only for kind 'known'")
     counts = np.maximum(counts, 1.0)
-    return ErrorModel(kind, starts, stops, counts, rho, sig)
+    return ErrorModel(kind, starts, stops, counts, rho, sig, ar)
 
 
 def problem_error_model(problem: Any, best_residuals: np.ndarray,
-                        kind: str = DEFAULT_KIND) -> ErrorModel:
-    """The error model of an UpdateProblem, fixed at its best fit's residuals."""
+                        kind: str = DEFAULT_KIND, jacobian: np.ndarray | None = None
+                        ) -> ErrorModel:
+    """The error model of an UpdateProblem, fixed at its best fit's residuals (and, for kind
+    ``"adjusted"``, its Jacobian there)."""
     blocks, removed = residual_blocks(problem)
-    return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed)
+    return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed,
+                       jacobian=jacobian)

@@ -51,15 +51,17 @@ def error_model_data(model: ErrorModel) -> dict[str, Any]:
     """An error model as plain data (:func:`error_model_from` rebuilds it bit for bit)."""
     return {"kind": model.kind, "starts": model.starts.tolist(), "stops": model.stops.tolist(),
             "counts": model.counts.tolist(), "rho": model.rho.tolist(),
-            "sigma": None if model.sigma is None else model.sigma.tolist()}
+            "sigma": None if model.sigma is None else model.sigma.tolist(),
+            "ar": None if model.ar is None else model.ar.tolist()}
 
 
 def error_model_from(data: Mapping[str, Any]) -> ErrorModel:
-    sigma = data.get("sigma")
+    sigma, ar = data.get("sigma"), data.get("ar")
     return ErrorModel(str(data["kind"]), np.asarray(data["starts"], dtype=int),
                       np.asarray(data["stops"], dtype=int), np.asarray(data["counts"], float),
                       np.asarray(data["rho"], float),
-                      None if sigma is None else np.asarray(sigma, float))
+                      None if sigma is None else np.asarray(sigma, float),
+                      None if ar is None else np.asarray(ar, float))
 
 
 def prior_data(prior: Prior, specs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:

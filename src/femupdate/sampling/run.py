@@ -98,7 +98,15 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-    model = problem_error_model(problem, r, kind)
+    jac_adjusted = None
+    if kind == "adjusted":  # its count comes from the Jacobian at the best fit
+        try:
+            jac_adjusted = residual_jacobian(problem.residuals_batch, problem.bounds, x)[1]
+        except FemupdateError as exc:
+            raise ConfigError(f"{problem.case.label}: [posterior] error_model = 'adjusted' "
+                              f"needs the Jacobian at the best fit: {exc} (allowed: another "
+                              "error_model)") from exc
+    model = problem_error_model(problem, r, kind, jac_adjusted)
     if counts_from is not None:
         if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
                 or model.stops.tolist() != counts_from.stops.tolist()):
@@ -106,7 +114,8 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                               f", {counts_from.starts.size} blocks) is not of this case's data "
                               f"({model.kind}, {model.starts.size} blocks) (allowed: model "
                               "classes of the same trials, channels and error model)")
-        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho,
+                                    ar=counts_from.ar)
     best_unit = prior.to_unit(x)
     try:
         r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
