@@ -5,7 +5,7 @@
     python benchmarks/posterior.py --only calibration --replicates 50
     python benchmarks/posterior.py --only calibration --replicates 20 --kinds neff \
         --tmcmc-kinds neff --hits tmcmc.jsonl
-    OPENBLAS_NUM_THREADS=1 python benchmarks/posterior.py --only speed --population 6000
+    python benchmarks/posterior.py --only speed --population 6000 [--threads 2]
 
 Sections (``--only`` takes a comma-separated list):
 
@@ -22,19 +22,27 @@ Sections (``--only`` takes a comma-separated list):
 - ``speed``: viscous bridge (9 parameters), 2 % noise: TMCMC started from the Laplace
   Gaussian against emcee on the same log-posterior (unit cube, same batches), both started
   from the Laplace Gaussian, in the same run: evaluations, wall time, effective samples.
+  ``--threads`` (default 1) evaluates TMCMC's populations over that many threads of this
+  process (the compiled evaluator releases the GIL; ``femupdate posterior --workers 2``
+  does the same); emcee's ensemble of 36 walkers is evaluated in one thread.
 - ``friction``: friction bridge (13 parameters): best fit, Laplace, TMCMC: wall time.
 - ``evidence``: TMCMC's log-evidence on the viscous bridge over 10 seeds (spawned), and the
   effective sample size measured across them (posterior variance over the variance of the
   seeds' means: no autocorrelation model needed).
 
-Wall times are of this machine at its load (printed beside them).
+Wall times are of this machine at its load (printed beside them). BLAS runs one thread (set
+before numpy loads): the residuals' small products cost 200 times more when a busy machine's
+BLAS threads contend for them.
 """
 
 from __future__ import annotations
 
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads
+
 import argparse
 import json
-import os
 import tempfile
 import time
 import warnings
@@ -346,7 +354,22 @@ def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
             "steps": int(sampler.get_chain().shape[0])}
 
 
-def speed(population: int, steps: int, root: Path, emcee_max: int) -> dict[str, Any]:
+class ThreadedBatches:
+    """A problem whose residual batches run over ``threads`` threads (its ``residuals`` method
+    is what ``run_tmcmc`` takes: a population goes in one ``residuals_batch`` call)."""
+
+    def __init__(self, problem: UpdateProblem, threads: int) -> None:
+        self.problem, self.threads = problem, threads
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return self.problem.residuals(x)
+
+    def residuals_batch(self, X: np.ndarray) -> np.ndarray:
+        return self.problem.residuals_batch(X, threads=self.threads)
+
+
+def speed(population: int, steps: int, root: Path, emcee_max: int,
+          threads: int = 1) -> dict[str, Any]:
     rng = np.random.default_rng(SEED)
     problem = bridge_problem("viscous", bridge.truth("viscous"), root / "speed", seed=1)
     t0 = time.perf_counter()
@@ -359,11 +382,13 @@ def speed(population: int, steps: int, root: Path, emcee_max: int) -> dict[str, 
     for sentence in lap.sentences:
         print("  " + sentence)
     t0, c0 = time.perf_counter(), time.process_time()
-    post, _ = run_tmcmc(problem.residuals, prior, model, seed=rng, population=population,
+    fun = ThreadedBatches(problem, threads).residuals if threads > 1 else problem.residuals
+    post, _ = run_tmcmc(fun, prior, model, seed=rng, population=population,
                         steps=steps, reference=(lap.mean_unit, lap.cov_unit), **MOVES)
     tm_s, tm_cpu = time.perf_counter() - t0, time.process_time() - c0
     # the CPU time of this process: what the wall time would be on an otherwise idle core
-    print(f"TMCMC (population {population}): {post.evaluations} evaluations in {tm_s:.1f} s "
+    print(f"TMCMC (population {population}, {threads} thread(s)): {post.evaluations} "
+          f"evaluations in {tm_s:.1f} s "
           f"wall, {tm_cpu:.1f} s CPU ({load()}), "
           f"{len(post.stages)} stages, ESS {post.ess:.0f} -> "
           f"{post.evaluations / post.ess:.1f} evaluations per effective sample (ESS: the "
@@ -460,6 +485,8 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--population", type=int, default=2000)
     parser.add_argument("--steps", type=int, default=3)
+    parser.add_argument("--threads", type=int, default=1,
+                        help="speed: threads over which TMCMC's populations are evaluated")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     warnings.filterwarnings("ignore", category=FutureWarning)  # ArviZ's refactor notice
@@ -479,7 +506,8 @@ def main() -> None:
                 tmcmc_population=args.tmcmc_population, hits_file=args.hits,
                 coarse_only=args.coarse_jacobian)
         if "speed" in sections:
-            out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000)
+            out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000,
+                                 threads=args.threads)
         if "friction" in sections:
             out["friction"] = friction(2000, args.steps, root)
         if "evidence" in sections:
