@@ -45,9 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.signal as ss
-from scale import BAND_HZ, DT, SEED, ground_motion, load, median_time
+from scale import BAND_HZ, DT, ground_motion, load, median_time, virtual_runs
 
-from femupdate import minimize
 from femupdate.model import Structure
 from femupdate.model.modes import NaturalModes
 from femupdate.model.sparse import lowest_modes
@@ -300,27 +299,12 @@ def growth_exponent(rows: list[dict]) -> float | None:
 
 
 def multistart(dofs: int, runs: int, max_evals: int) -> dict:
-    """Noise-free virtual experiment: φ < 1e-6 reached in how many of ``runs`` runs."""
+    """Noise-free virtual experiment on a frame (``scale.virtual_runs``)."""
     bays, storeys = SIZES[dofs]
     spec = FrameSpec(bays, storeys, min(storeys, 7), min(storeys, 3))
     problem = FramePhi(spec, ground_motion())
-    truth = np.random.default_rng(SEED).uniform(0.7, 1.3, len(spec.names))
-    problem.target = problem.prediction(truth)
-    seeds = np.random.SeedSequence(SEED).spawn(runs)
-    found, evals, best = 0, [], []
-    t0 = time.perf_counter()
-    for seed in seeds:
-        res = minimize(problem.residuals, [(0.5, 1.5)] * len(spec.names),
-                       method="multistart-lm", seed=seed, max_evals=max_evals, f_target=1e-12,
-                       residuals=True)
-        found += res.fun < 1e-6
-        evals.append(int(res.nfev))
-        best.append(float(res.fun))
-        print(f"  run {len(evals)}: φ {res.fun:.2e} after {res.nfev} evaluations, "
-              f"{time.perf_counter() - t0:.0f} s so far ({load()})", flush=True)
-    return {"dofs": problem.structure.n_dof, "parameters": len(spec.names), "runs": runs,
-            "reached_1e-6": int(found), "nfev": evals, "best_phi": best,
-            "seconds": time.perf_counter() - t0, "load": os.getloadavg()[0]}
+    return {"dofs": problem.structure.n_dof,
+            **virtual_runs(problem, len(spec.names), runs, max_evals, progress=True)}
 
 
 def main() -> None:

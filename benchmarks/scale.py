@@ -203,11 +203,12 @@ def growth_exponent(rows: list[dict], key: str = "phi_reduced_s") -> float:
                             1)[0])
 
 
-def multistart(n: int, n_params: int, runs: int, max_evals: int) -> dict:
-    """Noise-free virtual experiment: φ < 1e-6 reached in how many of ``runs`` runs."""
-    ag = ground_motion()
+def virtual_runs(problem: object, n_params: int, runs: int, max_evals: int,
+                 progress: bool = False) -> dict:
+    """multistart-lm on a noise-free virtual experiment of ``problem`` (its ``target`` set
+    from a truth drawn in [0.7, 1.3] of nominal, bounds [0.5, 1.5]): φ < 1e-6 reached in how
+    many of ``runs`` runs (seeds spawned), with their evaluations."""
     truth = np.random.default_rng(SEED).uniform(0.7, 1.3, n_params)
-    problem = BuildingPhi(n, n_params, ag, reduced=True)
     problem.target = problem.prediction(truth)
     seeds = np.random.SeedSequence(SEED).spawn(runs)
     found, evals, best = 0, [], []
@@ -218,9 +219,18 @@ def multistart(n: int, n_params: int, runs: int, max_evals: int) -> dict:
         found += res.fun < 1e-6
         evals.append(int(res.nfev))
         best.append(float(res.fun))
-    return {"dofs": n, "parameters": n_params, "runs": runs, "reached_1e-6": int(found),
-            "nfev": evals, "best_phi": best, "seconds": time.perf_counter() - t0,
+        if progress:
+            print(f"  run {len(evals)}: φ {res.fun:.2e} after {res.nfev} evaluations, "
+                  f"{time.perf_counter() - t0:.0f} s so far ({load()})", flush=True)
+    return {"parameters": n_params, "runs": runs, "reached_1e-6": int(found), "nfev": evals,
+            "best_phi": best, "seconds": time.perf_counter() - t0,
             "load": os.getloadavg()[0]}
+
+
+def multistart(n: int, n_params: int, runs: int, max_evals: int) -> dict:
+    """Noise-free virtual experiment on an ``n``-DOF building (:func:`virtual_runs`)."""
+    problem = BuildingPhi(n, n_params, ground_motion(), reduced=True)
+    return {"dofs": n, **virtual_runs(problem, n_params, runs, max_evals)}
 
 
 def peak_memory_child(n: int, n_params: int, max_evals: int) -> dict:

@@ -89,17 +89,25 @@ class LaplaceResult:
         }
 
 
+def checked_jacobian(jac: np.ndarray, residuals: np.ndarray, who: str
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """J (m, n) and r (m,) as float arrays, refused (a DataError naming ``who``) when their
+    shapes disagree or a value is not finite."""
+    jac = np.asarray(jac, dtype=float)
+    r = np.asarray(residuals, dtype=float).reshape(-1)
+    if jac.ndim != 2 or jac.shape[0] != r.size:
+        raise DataError(f"{who}: the Jacobian has shape {jac.shape}, the residual vector "
+                        f"{r.size} values (allowed: J of shape (m, n) with m = len(r))")
+    if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(r))):
+        raise DataError(f"{who}: the Jacobian or the residuals at the best fit are not finite")
+    return jac, r
+
+
 def gaussian_precision(jac: np.ndarray, residuals: np.ndarray, model: ErrorModel
                        ) -> tuple[np.ndarray, np.ndarray]:
     """The likelihood's Gauss–Newton precision J_wᵀ W J_w (n, n) and gradient of log L
     (n,) at residuals r with Jacobian J (m, n)."""
-    jac = np.asarray(jac, dtype=float)
-    r = np.asarray(residuals, dtype=float).reshape(-1)
-    if jac.ndim != 2 or jac.shape[0] != r.size:
-        raise DataError(f"Laplace: the Jacobian has shape {jac.shape}, the residual vector "
-                        f"{r.size} values (allowed: J of shape (m, n) with m = len(r))")
-    if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(r))):
-        raise DataError("Laplace: the Jacobian or the residuals at the best fit are not finite")
+    jac, r = checked_jacobian(jac, residuals, "Laplace")
     jw = model.whiten(jac.T).T
     rw = model.whiten(r[None, :])[0]
     w = model.weights(r)

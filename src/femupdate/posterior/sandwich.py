@@ -22,8 +22,7 @@ import math
 import numpy as np
 from scipy.linalg import matmul_toeplitz
 
-from femupdate.errors import DataError
-from femupdate.posterior.laplace import LaplaceResult, summarize_gaussian
+from femupdate.posterior.laplace import LaplaceResult, checked_jacobian, summarize_gaussian
 from femupdate.posterior.likelihood import lag1_autocorrelation
 from femupdate.posterior.priors import Prior
 
@@ -52,14 +51,7 @@ def sandwich_covariance(jac: np.ndarray, residuals: np.ndarray,
     """H⁻¹ M H⁻¹ (n, n) of the least-squares estimate (module docstring) from the Jacobian J
     (m, n) and the residuals r (m,) at the best fit, the errors of each block stationary and
     the blocks independent."""
-    jac = np.asarray(jac, dtype=float)
-    r = np.asarray(residuals, dtype=float).reshape(-1)
-    if jac.ndim != 2 or jac.shape[0] != r.size:
-        raise DataError(f"sandwich: the Jacobian has shape {jac.shape}, the residual vector "
-                        f"{r.size} values (allowed: J of shape (m, n) with m = len(r))")
-    if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(r))):
-        raise DataError("sandwich: the Jacobian or the residuals at the best fit are not "
-                        "finite")
+    jac, r = checked_jacobian(jac, residuals, "sandwich")
     meat = np.zeros((jac.shape[1], jac.shape[1]))
     for block in blocks:
         rc, jc = r[block], jac[block]
