@@ -184,7 +184,8 @@ def _decoupled_eigen(system: System, w_s: float
     hundreds of modes).
 
     DOF j's block of the state ``[ω_s y; ẏ]`` is ``[[0, ω_s], [-k/(m ω_s), -c/m]]``, with
-    eigenvalues the roots of ``λ² + (c/m) λ + k/m`` and eigenvectors ``[ω_s, λ]`` at (j, n + j).
+    eigenvalues the roots of ``λ² + (c/m) λ + k/m`` and eigenvectors ``[ω_s, λ]`` at (j, n + j),
+    scaled to unit length as LAPACK's.
     Ordered as LAPACK does: a complex pair with Im > 0 first; real roots as they are. Equal
     roots (critical damping) have no eigenvector basis: the condition number is then infinite,
     and the caller takes the matrix exponential.
@@ -223,7 +224,9 @@ class ExactSimulator(Simulator):
     """A linear system discretised exactly for first-order-hold inputs at step ``dt``.
 
     Build it once per system (one 2n × 2n eigendecomposition), then call :meth:`run` for each
-    input. Use :func:`prepare_exact` to build one.
+    input. Use :func:`prepare_exact` to build one. With ``decoupled=True`` a system whose
+    ``M``, ``C`` and ``K`` are all diagonal (uncoupled modal coordinates) takes its
+    eigendecomposition in closed form instead (O(n), not O(n³); the reduced path's).
 
     Attributes
     ----------
