@@ -1,9 +1,9 @@
-"""The two-storey shear building the workflow and posterior tests update: its model,
-parameters and records, up to the [objective] each test file chooses."""
+"""The two-storey shear building that many tests update: its model, parameters and records,
+as pieces a test file puts together with the [search], [objective] or edits it needs."""
 
 TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
 
-MODEL_AND_DATA = """\
+MODEL = """\
 [case]
 name = "two-storey"
 
@@ -11,26 +11,20 @@ name = "two-storey"
 masses = [1.0, 0.8]
 stiffnesses = ["k1", "k2"]
 dampers = ["c1", "c2"]
+"""
 
-[[parameters]]
-name = "k1"
-lower = 1000.0
-upper = 10000.0
-scale = "log"
-[[parameters]]
-name = "k2"
-lower = 1000.0
-upper = 10000.0
-scale = "log"
-[[parameters]]
-name = "c1"
-lower = 0.0
-upper = 5.0
-[[parameters]]
-name = "c2"
-lower = 0.0
-upper = 5.0
 
+def parameters(log_stiffness: bool = False) -> str:
+    """``[[parameters]]`` of k1, k2 (on a log scale if asked) and c1, c2."""
+    scale = 'scale = "log"\n' if log_stiffness else ""
+    return "".join(f'[[parameters]]\nname = "{name}"\nlower = {low}\nupper = {high}\n'
+                   + (scale if name.startswith("k") else "")
+                   for name, low, high in (("k1", 1000.0, 10000.0), ("k2", 1000.0, 10000.0),
+                                           ("c1", 0.0, 5.0), ("c2", 0.0, 5.0)))
+
+
+#: ``[data]``: the table record and both floors' accelerations, CSV files in ``data/``.
+DATA = """\
 [data]
 format = "csv"
 directory = "data"
@@ -50,5 +44,6 @@ file = "floors.csv"
 column = "a2"
 node = "F2"
 dof = "ux"
-
 """
+
+MODEL_AND_DATA = MODEL + "\n" + parameters(log_stiffness=True) + "\n" + DATA + "\n"

@@ -38,11 +38,11 @@ from femupdate import cli
 from femupdate.case import load_case
 from femupdate.errors import FemupdateError
 from femupdate.virtual import virtual_experiment
+from two_storey_case import DATA, MODEL, TRUTH, parameters
 
 HERE = Path(__file__).resolve().parent
 CASES = sorted((HERE / "cases").glob("*.toml"))
 ROOT = HERE.parents[1]
-TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
 #: Seconds a case may take unless it says otherwise (``limit_s``).
 LIMIT_S = 30.0
 #: The keys a case file may have.
@@ -50,52 +50,7 @@ KEYS = {"about", "kind", "args", "code", "expect", "outcome", "result", "limit_s
         "case_prefix", "case_replace", "case_append", "case_text", "files", "file_replace",
         "file_lines", "file_remove", "file_folder"}
 
-BASE = """\
-[case]
-name = "two-storey"
-
-[model.shear_building]
-masses = [1.0, 0.8]
-stiffnesses = ["k1", "k2"]
-dampers = ["c1", "c2"]
-
-[[parameters]]
-name = "k1"
-lower = 1000.0
-upper = 10000.0
-[[parameters]]
-name = "k2"
-lower = 1000.0
-upper = 10000.0
-[[parameters]]
-name = "c1"
-lower = 0.0
-upper = 5.0
-[[parameters]]
-name = "c2"
-lower = 0.0
-upper = 5.0
-
-[data]
-format = "csv"
-directory = "data"
-time_column = "t"
-
-[data.input]
-file = "table.csv"
-column = "table"
-
-[[data.outputs]]
-file = "floors.csv"
-column = "a1"
-node = "F1"
-dof = "ux"
-[[data.outputs]]
-file = "floors.csv"
-column = "a2"
-node = "F2"
-dof = "ux"
-
+BASE = MODEL + "\n" + parameters() + "\n" + DATA + """
 [search]
 method = "ab"
 runs = 1

@@ -12,6 +12,7 @@ from femupdate.evaluation import evaluator_for
 from femupdate.experiment import load_experiments
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
+from two_storey_case import DATA
 
 CASE = """\
 [case]
@@ -57,26 +58,7 @@ substeps = 5
 [objective]
 quantity = "QUANTITY"
 
-[data]
-format = "csv"
-directory = "data"
-time_column = "t"
-
-[data.input]
-file = "table.csv"
-column = "table"
-
-[[data.outputs]]
-file = "floors.csv"
-column = "a1"
-node = "F1"
-dof = "ux"
-[[data.outputs]]
-file = "floors.csv"
-column = "a2"
-node = "F2"
-dof = "ux"
-"""
+""" + DATA
 TRUTH = {"k1": 4000.0, "k2": 3000.0, "b1": 7.5e5, "g": 2.0e5}
 
 
