@@ -30,6 +30,8 @@ be shared):
 The 10,200-DOF frame runs with ``--max-dofs 10200`` only: without rigid diaphragms, every
 floor node's own modes lie below the cut-off (670 of the 1,050-DOF frame's 1,050 modes are
 below 50 Hz), so the modes kept grow with the model, and their count decides the cost.
+``benchmarks/building3d_scale.py`` measures the same frames with rigid floors and floor masses,
+as buildings are modelled.
 """
 
 from __future__ import annotations

@@ -56,6 +56,7 @@ def _module_missing(*modules: str) -> str | None:
 #: script -> (a line its output must contain, what to check for a skip)
 QUICK = {
     "bridge_posterior.py": ("truth inside the posterior's 90 % interval", lambda: None),
+    "building3d_scale.py": ('"reached_1e-6": 2', _opensees_missing),
     "coco_bbob.py": ("targets hit", lambda: _module_missing("cocoex", "cma")),
     "dask_runs.py": ("dask results identical to inline: True",
                      lambda: _module_missing("dask.distributed")),

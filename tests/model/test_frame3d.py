@@ -174,6 +174,30 @@ def test_structure_with_six_dofs_is_the_frame3d():
                                atol=1e-13 * np.abs(uy.seismic_load).max())
 
 
+def test_structure_with_diaphragms_is_the_frame3d():
+    """Rigid diaphragms by the sparse transformation of Structure equal Frame3D's dense one:
+    matrices, load, labels, and the follower DOFs refused by dof_index."""
+    frame = example_frame(diaphragm=True, kappa_z=0.8)
+    a = frame.assemble()
+    s = as_structure(frame)
+    for sparse in (False, True):
+        b = s.assemble(sparse=sparse)
+        assert b.dof_labels == a.system.dof_labels == s.dof_labels
+        for x, y in ((b.K, a.system.K), (b.M, a.system.M), (b.C, a.system.C)):
+            x = x.toarray() if sparse else x
+            np.testing.assert_allclose(x, y, rtol=1e-13, atol=1e-13 * np.abs(y).max())
+        np.testing.assert_allclose(b.r, a.system.r, atol=1e-12)
+        np.testing.assert_allclose(b.seismic_load, a.system.seismic_load, rtol=1e-13,
+                                   atol=1e-13 * np.abs(a.system.seismic_load).max())
+    assert s.n_dof == a.system.n_dof
+    assert s.dof_index("M1", "rz") == a.system.dof_labels.index("M1.rz")
+    with pytest.raises(ModelError, match=r"N011\.ux follows the rigid diaphragm of 'M1'"):
+        s.dof_index("N011", "ux")
+    with pytest.raises(ModelError, match="friction element acts on a DOF that follows"):
+        s.add_friction("N011", "ux", k_r=1.0, f_u=1.0)
+        s.assemble()
+
+
 def test_structure_with_six_dofs_takes_parameters():
     from femupdate.model.structure import Structure
 

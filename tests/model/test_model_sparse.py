@@ -101,7 +101,62 @@ def test_a_mechanism_is_refused_by_the_sparse_eigensolver():
         lowest_modes(system.K, system.M, n_modes=3)
 
 
-def test_a_sparse_mass_matrix_without_inertia_names_the_dof():
+def test_a_massless_dof_is_refused_dense_and_condensed_sparse():
+    """The step-by-step integrators need M⁻¹ (dense: refused, naming the DOF); the reduced
+    path condenses a DOF without mass: the 3-storey chain with a massless middle storey is a
+    2-DOF chain whose middle spring is k2, k3 in series (k/2)."""
     s = shear_building([1.0, 0.0, 1.0], [10.0] * 3)
     with pytest.raises(ModelError, match=r"F2\.ux"):
-        s.assemble(sparse=True)
+        s.assemble()
+    system = s.assemble(sparse=True)
+    modes = lowest_modes(system.K, system.M, cutoff_hz=1e3)
+    k_chain = np.array([[10.0 + 5.0, -5.0], [-5.0, 5.0]])
+    exact = np.sqrt(np.linalg.eigvalsh(k_chain)) / (2.0 * np.pi)
+    np.testing.assert_allclose(modes.freqs_hz, exact, rtol=1e-13)
+    # the massless floor sits statically between the others: u2 = (u1 + u3) / 2
+    np.testing.assert_allclose(modes.shapes[1], 0.5 * (modes.shapes[0] + modes.shapes[2]),
+                               rtol=1e-12)
+    with pytest.raises(ConfigError, match=r"2 with mass.*allowed 1 to 2"):
+        lowest_modes(system.K, system.M, n_modes=3)
+    with pytest.raises(ModelError, match="no DOF of the model has mass"):
+        shear_building([0.0, 0.0], [10.0] * 2).assemble(sparse=True)
+
+
+def test_lanczos_and_condensation_agree_on_a_model_with_massless_dofs(monkeypatch):
+    """Above CONDENSE_MAX_DOF DOFs with mass the modes come from Lanczos on the whole model
+    (purified of M's null space): the same frequencies and shapes as the condensation, and as
+    the dense generalised problem (M, K) solved for 1/ω²."""
+    import scipy.linalg as sla
+
+    from femupdate.model import sparse as sparse_module
+
+    rng = np.random.default_rng(3)
+    n = 300
+    a = sp.random(n, n, density=0.02, random_state=1)
+    K = (a @ a.T + 5.0 * sp.eye(n)).tocsr()
+    m = np.zeros(n)
+    m[rng.choice(n, 40, replace=False)] = rng.uniform(1.0, 2.0, 40)
+    M = sp.diags(m).tocsr()
+    condensed = lowest_modes(K, M, n_modes=40)
+    mu = sla.eigh(M.toarray(), K.toarray(), eigvals_only=True)
+    np.testing.assert_allclose((2 * np.pi * condensed.freqs_hz) ** 2,
+                               np.sort(1.0 / mu[mu > 1e-12]), rtol=1e-12)
+    monkeypatch.setattr(sparse_module, "CONDENSE_MAX_DOF", 10)
+    lanczos = lowest_modes(K, M, cutoff_hz=float(condensed.freqs_hz[10:12].mean()))
+    kept = lanczos.freqs_hz.size
+    assert kept == 11
+    np.testing.assert_allclose(lanczos.freqs_hz, condensed.freqs_hz[:kept], rtol=1e-12)
+    np.testing.assert_allclose(lanczos.shapes, condensed.shapes[:, :kept], atol=1e-10)
+
+
+def test_the_condensation_solves_the_whole_stiffness():
+    """Condensation.solve (block elimination on K_ss's factorisation and K*) is K⁻¹."""
+    from femupdate.model.sparse import condense
+
+    a = sp.random(60, 60, density=0.1, random_state=2)
+    K = (a @ a.T + 3.0 * sp.eye(60)).tocsr()
+    m = np.zeros(60)
+    m[::7] = 1.0
+    b = np.random.default_rng(4).standard_normal((60, 3))
+    x = condense(K, sp.diags(m)).solve(b)
+    np.testing.assert_allclose(x, np.linalg.solve(K.toarray(), b), rtol=1e-11, atol=1e-12)

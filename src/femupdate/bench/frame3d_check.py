@@ -35,21 +35,25 @@ _SPAN_ELEMENTS = 8
 SUPPORT_GROUPS = (("P0.uz",), (f"P{_SPAN_ELEMENTS}.uz",), (f"P{2 * _SPAN_ELEMENTS}.uz",))
 
 
-def example_frame(diaphragm: bool = False) -> Frame3D:
-    """Two storeys of 3 m, one bay of 5 m (x) by 4 m (y), fixed column bases."""
+def example_frame(diaphragm: bool = False, kappa_z: float = 0.7) -> Frame3D:
+    """Two storeys of 3 m, one bay of 5 m (x) by 4 m (y), fixed column bases.
+
+    ``kappa_z = 0.8`` (the same shear coefficient on both axes) makes it a frame that
+    ``Structure`` takes too (:func:`as_structure`)."""
     f = Frame3D()
+    steel = {**_STEEL, "kappa_z": kappa_z}
     for i, x in enumerate((0.0, 5.0)):
         for j, y in enumerate((0.0, 4.0)):
             for k in range(3):
                 f.add_node(f"N{i}{j}{k}", x, y, 3.0 * k)
             f.fix(f"N{i}{j}0")
             for k in range(2):
-                f.add_beam(f"N{i}{j}{k}", f"N{i}{j}{k + 1}", vecxz=(1.0, 0.3, 0.0), **_STEEL)
+                f.add_beam(f"N{i}{j}{k}", f"N{i}{j}{k + 1}", vecxz=(1.0, 0.3, 0.0), **steel)
     for k in (1, 2):
         for j in range(2):
-            f.add_beam(f"N0{j}{k}", f"N1{j}{k}", vecxz=(0.0, 0.0, 1.0), **_STEEL)
+            f.add_beam(f"N0{j}{k}", f"N1{j}{k}", vecxz=(0.0, 0.0, 1.0), **steel)
         for i in range(2):
-            f.add_beam(f"N{i}0{k}", f"N{i}1{k}", vecxz=(0.0, 0.0, 1.0), **_STEEL)
+            f.add_beam(f"N{i}0{k}", f"N{i}1{k}", vecxz=(0.0, 0.0, 1.0), **steel)
         f.add_mass(f"N11{k}", 500.0, Jz=100.0)
         if diaphragm:
             f.add_node(f"M{k}", 2.5, 2.0, 3.0 * k)
@@ -76,7 +80,7 @@ def two_span_beam() -> Frame3D:
 
 
 def as_structure(frame: Frame3D) -> Structure:
-    """The same frame (no diaphragms) as a ``Structure(dofs_per_node=6)``."""
+    """The same frame (its diaphragms included) as a ``Structure(dofs_per_node=6)``."""
     s = Structure(dofs_per_node=6)
     for name, xyz in zip(frame.nodes, frame._xyz, strict=True):
         s.add_node(name, *xyz)
@@ -89,11 +93,20 @@ def as_structure(frame: Frame3D) -> Structure:
                    kappa=p["kappa_y"], mass_per_length=p["mass_per_length"], name=name,
                    **shear)
     for k, (n, vals) in enumerate(frame._masses):
-        if not vals[3] == vals[4] == vals[5]:
-            raise ModelError("Structure takes one rotary inertia J per mass")
-        s.add_mass(frame.nodes[n], vals[0], vals[3], name=f"m{k}")
+        if vals[3] == vals[4] == vals[5]:
+            s.add_mass(frame.nodes[n], vals[0], vals[3], name=f"m{k}")
+        elif vals[3] == vals[4] == 0.0:  # a floor's inertia about the vertical only
+            s.add_mass(frame.nodes[n], vals[0], vals[5], name=f"m{k}",
+                       dofs=("ux", "uy", "uz", "rz"))
+        else:
+            raise ModelError("Structure takes one rotary inertia J per mass, or Jz alone")
     for g in sorted(frame._fixed):
         s.fix(frame.nodes[g // 6], ("ux", "uy", "uz", "rx", "ry", "rz")[g % 6])
+    masters: dict[int, list[str]] = {}
+    for follower, master in frame._slaves.items():
+        masters.setdefault(master, []).append(frame.nodes[follower])
+    for master, followers in masters.items():
+        s.add_diaphragm(frame.nodes[master], followers)
     alpha, beta = frame._rayleigh
     s.set_rayleigh(alpha, beta)
     return s

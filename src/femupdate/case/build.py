@@ -79,9 +79,12 @@ def build_structure(model: Model) -> Structure:
                                    gamma=bw.gamma, n=bw.n, node2=bw.node2, dof2=bw.dof2,
                                    name=bw.name or f"model.bouc_wen[{i}]")
         for i, mass in enumerate(model.masses):
-            structure.add_mass(mass.node, m=mass.m, J=mass.J, name=f"model.masses[{i}]")
+            structure.add_mass(mass.node, m=mass.m, J=mass.J, name=f"model.masses[{i}]",
+                               dofs=mass.dofs)
         for support in model.supports:
             structure.fix(support.node, *support.dofs)
+        for floor in model.diaphragms:
+            structure.add_diaphragm(floor.master, floor.nodes)
     if model.rayleigh is not None:
         structure.set_rayleigh(alpha=model.rayleigh.alpha, beta=model.rayleigh.beta)
     structure.influence_vector(model.excitation_direction)  # builds and checks the topology

@@ -23,7 +23,38 @@ if typing.TYPE_CHECKING:
 
 #: The element lists of ``[model]``, in the order of the case file.
 ELEMENT_LISTS = ("nodes", "beams", "springs", "dampers", "frictions", "bouc_wen", "masses",
-                 "supports")
+                 "supports", "diaphragms")
+
+
+def diaphragm_issues(model: Model, coordinates: dict[str, tuple[float, float, float]]
+                     ) -> list[Issue]:
+    """``[[model.diaphragms]]``: 3-D frames only; known nodes at the master's height, each
+    node in one diaphragm, a master not among its own nodes."""
+    if model.diaphragms and model.dofs_per_node != 6:
+        return [("diaphragms", f"rigid floor diaphragms with dofs_per_node = "
+                 f"{model.dofs_per_node}", "dofs_per_node = 6 (a 3-D frame), or no diaphragms")]
+    issues: list[Issue] = []
+    seen: dict[str, str] = {}
+    for i, floor in enumerate(model.diaphragms):
+        for path, node in ((f"diaphragms[{i}].master", floor.master),
+                           *((f"diaphragms[{i}].nodes[{j}]", n)
+                             for j, n in enumerate(floor.nodes))):
+            if node not in coordinates:
+                hint = did_you_mean(node, list(coordinates))
+                issues.append((path, f"unknown node {node!r}{hint}", "a node of [[model.nodes]]"))
+                continue
+            if node in seen:
+                issues.append((path, f"node {node!r} is already in {seen[node]}",
+                               "each node in one diaphragm"))
+                continue
+            seen[node] = f"model.diaphragms[{i}]"
+            z_master = coordinates.get(floor.master, (0.0, 0.0, None))[2]
+            z = coordinates[node][2]
+            if z_master is not None and abs(z - z_master) > 1e-9 * max(1.0, abs(z_master)):
+                issues.append((path, f"node {node!r} is at z = {format_value(z)}, the master "
+                               f"{floor.master!r} at z = {format_value(z_master)}",
+                               "nodes of the master's floor (the same z)"))
+    return issues
 
 
 def model_issues(model: Model) -> list[Issue]:
@@ -101,6 +132,9 @@ def model_issues(model: Model) -> list[Issue]:
             dof_issue(f"{key}[{i}].dof2", link.dof2)
     for i, mass in enumerate(model.masses):
         node_issue(f"masses[{i}].node", mass.node)
+        for j, dof in enumerate(mass.dofs or ()):
+            dof_issue(f"masses[{i}].dofs[{j}]", dof)
+    issues += diaphragm_issues(model, coordinates)
     fixed: dict[tuple[str, str], str] = {}
     for i, support in enumerate(model.supports):
         node_issue(f"supports[{i}].node", support.node)
@@ -269,6 +303,7 @@ def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
     nodes = model.node_names()
     dofs = model.dof_names()
     fixed = model.fixed_dofs()
+    follows = {node: floor.master for floor in model.diaphragms for node in floor.nodes}
     for i, out in enumerate(data.outputs):
         path = f"{where}.outputs[{i}]"
         missing = [key for key in ("node", "dof") if getattr(out, key) is None]
@@ -288,6 +323,11 @@ def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
             issues.append((f"{path}.dof", f"{out.node}.{out.dof} is fixed by "
                            f"{fixed[out.node, out.dof]}: it moves with the table",
                            "a free DOF of the model"))
+        elif out.node in follows and out.dof in ("ux", "uy", "rz"):
+            issues.append((f"{path}.node", f"{out.node}.{out.dof} follows the rigid diaphragm "
+                           f"of {follows[out.node]!r} (its ux, uy, rz are the master's)",
+                           f"the master: node = {follows[out.node]!r} (or {out.node}.uz, or a "
+                           "node outside the diaphragms)"))
         elif out.dof.startswith("r"):
             unit = out.unit or data.unit
             translations = ", ".join(repr(d) for d in dofs if d.startswith("u"))

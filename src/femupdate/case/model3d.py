@@ -112,8 +112,9 @@ def mechanism_dofs(structure: Structure, values: Mapping[str, float],
     (:func:`femupdate.model.frame3d.null_space_dofs`)."""
     from femupdate.model.frame3d import null_space_dofs
 
-    system = structure.assemble(values, direction=direction)
-    return null_space_dofs(system.K, system.dof_labels)
+    # sparse: no positive-definite mass asked of a model whose floors carry all its mass
+    system = structure.assemble(values, direction=direction, sparse=True)
+    return null_space_dofs(system.K.toarray(), system.dof_labels)
 
 
 #: Free DOFs up to which a 3-D frame's stiffness is checked for a mechanism by a dense

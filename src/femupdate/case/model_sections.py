@@ -170,11 +170,21 @@ class BoucWen(_Link):
 
 class Mass(Section):
     """``[[model.masses]]``: a lumped mass on the node's translations and a rotary inertia
-    ``J`` (on ``rz``; on each of ``rx``, ``ry``, ``rz`` of a 3-D frame)."""
+    ``J`` (on ``rz``; on each of ``rx``, ``ry``, ``rz`` of a 3-D frame); ``dofs`` names the
+    DOFs that carry them (default all: ``["ux", "uy"]`` for a building's floor mass)."""
 
     node: NodeName
     m: NodalMass
     J: RotaryInertia = 0.0
+    dofs: Annotated[list[DofName], Field(min_length=1, max_length=6)] | None = None
+
+
+class Diaphragm(Section):
+    """``[[model.diaphragms]]`` (3-D frames): a floor rigid in its horizontal plane, its
+    ``nodes`` following ``master`` in ux, uy and rz."""
+
+    master: NodeName
+    nodes: Annotated[list[NodeName], Field(min_length=1, max_length=100_000)]
 
 
 class Support(Section):
@@ -351,6 +361,7 @@ class Model(Section):
     bouc_wen: list[BoucWen] = Field(default_factory=list)
     masses: list[Mass] = Field(default_factory=list)
     supports: list[Support] = Field(default_factory=list)
+    diaphragms: list[Diaphragm] = Field(default_factory=list)
     shear_building: ShearBuilding | None = None
     python: PythonModelSection | None = None
     opensees: OpenSeesSection | None = None

@@ -74,16 +74,27 @@ def model_dof_count(model: Model) -> int | None:
         return None
     if model.shear_building is not None:
         return len(model.shear_building.masses)
-    return len(model.nodes) * model.dofs_per_node - len(model.fixed_dofs())
+    fixed = model.fixed_dofs()
+    following = sum(1 for floor in model.diaphragms for node in floor.nodes
+                    for dof in ("ux", "uy", "rz") if (node, dof) not in fixed)
+    return len(model.nodes) * model.dofs_per_node - len(fixed) - following
+
+
+def leaves_dofs_without_mass(model: Model) -> bool:
+    """Whether ``[model]`` says that some DOFs carry no mass: rigid diaphragms (a building's
+    floors) or masses on chosen DOFs. The full paths integrate ``M⁻¹``; the reduced path
+    condenses such DOFs (exact when they have no mass)."""
+    return bool(model.diaphragms) or any(mass.dofs is not None for mass in model.masses)
 
 
 def reduced_by_default(model: Model) -> bool:
     """Whether a case without ``[simulation] method`` takes the reduced path: a linear model
-    of femupdate's own with at least :data:`REDUCED_MIN_DOF` DOFs."""
+    of femupdate's own with at least :data:`REDUCED_MIN_DOF` DOFs, or one that
+    :func:`leaves_dofs_without_mass`."""
     if model.has_nonlinear:
         return False
     n = model_dof_count(model)
-    return n is not None and n >= REDUCED_MIN_DOF
+    return n is not None and (n >= REDUCED_MIN_DOF or leaves_dofs_without_mass(model))
 
 
 def simulation_issues(case: Case) -> list[tuple[str, str, str]]:
@@ -185,7 +196,7 @@ class ReducedPath:
         system = self._structure.assemble(values, direction=self._direction, sparse=True)
         n_modes = self.n_modes
         if n_modes is not None and factor != 1.0:
-            n_modes = min(round(n_modes * factor), system.n_dof)
+            n_modes = min(round(n_modes * factor), mode_count(system))
         start = self.start_modes(dt) if factor == 1.0 else None
         return ReducedSimulator(system, dt, outputs, band_hz=self.band_hz(dt),
                                 cutoff_factor=self.cutoff_factor * factor, n_modes=n_modes,
@@ -199,11 +210,19 @@ class ReducedPath:
 
         system = self._structure.assemble(values, direction=self._direction, sparse=True)
         if dt is None:
-            modes = lowest_modes(system.K, system.M, n_modes=min(count, system.n_dof))
+            modes = lowest_modes(system.K, system.M, n_modes=min(count, mode_count(system)))
         else:
             modes = lowest_modes(system.K, system.M, n_modes=self.n_modes,
                                  cutoff_hz=self.cutoff_hz(dt), previous=self.start_modes(dt))
         return modes.freqs_hz
+
+
+def mode_count(system: Any) -> int:
+    """How many modes a (sparse) system has: one per DOF with mass (a DOF without mass is
+    condensed, :mod:`femupdate.model.sparse`)."""
+    from femupdate.model.sparse import massless_dofs
+
+    return int(system.n_dof - massless_dofs(system.M).size)
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
@@ -216,13 +235,27 @@ def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
     above this module) at ``values`` against the full model's (or, above
     :data:`FULL_CHECK_MAX_DOF` DOFs, against the reduced model with four times the cut-off)."""
     from femupdate.simulate.exact import ExactSimulator
+    from femupdate.simulate.reduced import ReducedSimulator
 
     model = trial.model
     path = model.reduced
     dt = trial.experiment.dt
     reduced = path.simulator(values, dt, model.outputs)
     n = model.structure.n_dof
-    if n <= FULL_CHECK_MAX_DOF:
+    system = path.system(values)
+    massed = mode_count(system)
+    record = {"trial": trial.name, "n_dof": n, "n_modes": reduced.n_modes,
+              "cutoff_hz": reduced.cutoff_hz, "band_hz": path.band_hz(dt)}
+    if massed < n and reduced.n_modes == massed:  # every mode kept: nothing to measure
+        phi = trial.objective(trial.scored(trial.prediction(reduced.run(trial._ag))))
+        return {**record, "truncation_error": 0.0, "phi_reduced": phi, "phi_full": phi,
+                "against": (f"nothing (no mode truncated: all {massed} modes kept, the "
+                            f"{n - massed} DOFs without mass condensed exactly)")}
+    if massed < n and massed <= FULL_CHECK_MAX_DOF:  # all modes and the condensation: exact
+        full = ReducedSimulator(system, dt, model.outputs, n_modes=massed)
+        against = (f"the full model (exact: its {massed} modes, its {n - massed} DOFs "
+                   "without mass condensed)")
+    elif n <= FULL_CHECK_MAX_DOF:
         full = ExactSimulator(model.system(values), dt, model.outputs)
         against = f"the full model (exact, {n} DOFs)"
     else:
@@ -232,9 +265,7 @@ def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
     got = trial.scored(trial.prediction(reduced.run(ag)))
     ref = trial.scored(trial.prediction(full.run(ag)))
     phi_reduced, phi_full = trial.objective(got), trial.objective(ref)
-    return {"trial": trial.name, "n_dof": n, "n_modes": reduced.n_modes,
-            "cutoff_hz": reduced.cutoff_hz, "band_hz": path.band_hz(dt),
-            "truncation_error": _relative(got, ref), "against": against,
+    return {**record, "truncation_error": _relative(got, ref), "against": against,
             "phi_reduced": phi_reduced, "phi_full": phi_full}
 
 
@@ -280,6 +311,8 @@ def describe_simulation(record: Mapping[str, Any]) -> str:
     err = record.get("truncation_error")
     tail = "" if err is None or not math.isfinite(err) else (
         f"; truncation error {err:.2g} against {record['against']} at {record['at']}")
+    if str(record.get("against", "")).startswith("nothing"):
+        tail = f"; {record['against'].removeprefix('nothing (').rstrip(')')}"
     return f"simulation: reduced: {record['n_modes']} modes{where} of {n} DOFs{tail}"
 
 
@@ -297,7 +330,7 @@ def lowest_case_modes(path: ReducedPath, values: Mapping[str, float],
     from femupdate.model.system import System
 
     system = path.system(values)
-    modes = lowest_modes(system.K, system.M, n_modes=min(count, system.n_dof))
+    modes = lowest_modes(system.K, system.M, n_modes=min(count, mode_count(system)))
     phi = modes.shapes
     c_red = phi.T @ np.asarray(system.C @ phi)
     m = phi.shape[1]

@@ -52,28 +52,38 @@ def _shear_phi(EI: float, G: float, Av: float, L: float) -> float:
 
 
 def frame3d_stiffness(
-    E: float, G: float, A: float, Iy: float, Iz: float, J: float, Avy: float, Avz: float,
-    L: float,
+    E: ArrayLike, G: ArrayLike, A: ArrayLike, Iy: ArrayLike, Iz: ArrayLike, J: ArrayLike,
+    Avy: ArrayLike, Avz: ArrayLike, L: ArrayLike,
 ) -> FloatArray:
     """Local 12 × 12 stiffness of a 3-D Timoshenko beam-column (``G = inf``: no shear strain).
 
+    Every argument may be an array (one entry per element): the result is then a stack
+    (..., 12, 12), computed in one pass (a 3-D frame's assembly calls it once per evaluation
+    for all its beams).
+
     Parameters
     ----------
-    E, G : float
+    E, G : array_like
         Young's and shear moduli.
-    A, Iy, Iz, J : float
+    A, Iy, Iz, J : array_like
         Area, second moments about local ``y`` and ``z``, torsion constant.
-    Avy, Avz : float
+    Avy, Avz : array_like
         Shear areas along local ``y`` and ``z`` (``κ A``).
-    L : float
+    L : array_like
         Length.
     """
-    k = np.zeros((12, 12))
-    _bar(E * A / L, np.array([[1.0, -1.0], [-1.0, 1.0]]), k, 0)
-    _bar(G * J / L if not math.isinf(G) else 0.0, np.array([[1.0, -1.0], [-1.0, 1.0]]), k, 3)
-    k[np.ix_(_XY, _XY)] += beam_stiffness(E * Iz, L, _shear_phi(E * Iz, G, Avy, L))
-    k[np.ix_(_XZ, _XZ)] += _FLIP_XZ @ beam_stiffness(
-        E * Iy, L, _shear_phi(E * Iy, G, Avz, L)) @ _FLIP_XZ
+    E, G, A, Iy, Iz, J, Avy, Avz, L = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (E, G, A, Iy, Iz, J, Avy, Avz, L)))
+    rigid = np.isinf(G)
+    k = np.zeros((*E.shape, 12, 12))
+    with np.errstate(invalid="ignore"):  # inf · 0 where rigid in shear: masked below
+        for i, value in ((0, E * A / L), (3, np.where(rigid, 0.0, G * J / L))):
+            k[..., i, i] = k[..., i + 6, i + 6] = value
+            k[..., i, i + 6] = k[..., i + 6, i] = -value
+        phi_y = np.where(rigid, 0.0, 12.0 * (E * Iz) / (G * Avy * L * L))
+        phi_z = np.where(rigid, 0.0, 12.0 * (E * Iy) / (G * Avz * L * L))
+    k[..., _XY[:, None], _XY[None, :]] += beam_stiffness(E * Iz, L, phi_y)
+    k[..., _XZ[:, None], _XZ[None, :]] += _FLIP_XZ @ beam_stiffness(E * Iy, L, phi_z) @ _FLIP_XZ
     return k
 
 

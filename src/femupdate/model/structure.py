@@ -20,9 +20,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
 from femupdate.errors import ModelError
+from femupdate.model.diaphragm import Diaphragms, diaphragm_constraint
 from femupdate.model.elements import (
     _range_text,
     beam_mass,
@@ -36,7 +38,7 @@ from femupdate.model.elements import (
 from femupdate.model.elements3d import frame3d_mass, frame3d_rotation, frame3d_stiffness
 from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
 from femupdate.model.modes import check_mass_matrix
-from femupdate.model.sparse import check_sparse_mass, scatter_sparse
+from femupdate.model.sparse import SparsePattern, check_sparse_mass, scatter_sparse
 from femupdate.model.system import BoucWenElements, FrictionElements, System
 
 __all__ = ["DOF_NAMES", "Structure", "shear_building"]
@@ -184,13 +186,6 @@ def _shear_modulus(E: np.ndarray, bp: Mapping[str, np.ndarray], shear: np.ndarra
     return np.where(shear == 1, bp["G"], np.where(shear == 2, from_nu, _INF))
 
 
-def _beam3d_stack(kernel: object, *args: np.ndarray) -> np.ndarray:
-    """A 12 × 12 element matrix per beam from a scalar kernel of :mod:`elements3d`."""
-    n = int(np.asarray(args[-1]).size)
-    return np.array([kernel(*(float(a[e]) for a in args))  # type: ignore[operator]
-                     for e in range(n)]).reshape(n, 12, 12)
-
-
 def _scatter(dof_map: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Flat targets in an ``n × n`` matrix and the kept entries of an element stack.
 
@@ -240,10 +235,14 @@ class _Topology:
     rayleigh: tuple[_Prop, _Prop] | None
     mass_const: bool  # no parameter changes M: it is assembled and checked once
     cache: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # the CSR structure of the sparse K and C (their targets never change)
+    patterns: dict[str, SparsePattern] = field(default_factory=dict)
     # Bouc–Wen elements: end DOFs and their six properties (BOUC_WEN_PARAMETERS)
     bouc_wen_i: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     bouc_wen_j: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     bouc_wen_props: tuple[_Prop, ...] = ()
+    # rigid floor diaphragms (3-D frames): the elimination of the follower DOFs, or None
+    diaphragms: Diaphragms | None = None
 
 
 class Structure:
@@ -277,6 +276,7 @@ class Structure:
         self._records: list[_Record] = []
         self._element_names: set[str] = set()
         self._fixed: set[int] = set()
+        self._followers: dict[int, int] = {}  # node → master node of its rigid diaphragm
         self._topology: _Topology | None = None
         self._parameters: tuple[str, ...] | None = None
 
@@ -496,9 +496,16 @@ class Structure:
                               specs=_BOUC_WEN_SPECS)
 
     def add_mass(
-        self, node: str, m: Value = 0.0, J: Value = 0.0, *, name: str | None = None
+        self, node: str, m: Value = 0.0, J: Value = 0.0, *, name: str | None = None,
+        dofs: Sequence[str] | None = None,
     ) -> str:
-        """Add a lumped mass ``m`` on every translation of ``node`` and rotary inertia ``J``."""
+        """Add a lumped mass ``m`` on every translation of ``node`` and rotary inertia ``J``.
+
+        ``dofs`` (optional) names the DOFs that carry them, e.g. ``("ux", "uy", "rz")`` for a
+        building's floor mass, which moves horizontally and twists about the vertical: ``m``
+        on the translations among them, ``J`` on the rotations. A DOF without any mass has no
+        mode of its own; the reduced path condenses it (:mod:`femupdate.model.sparse`).
+        """
         name = self._new_name(name, "mass")
         label = f"mass {name!r}"
         n = self._node(node, label)
@@ -506,9 +513,44 @@ class Structure:
             raise ModelError(
                 f"{label}: J = {J!r} needs a rotational DOF; this structure has ux only"
             )
+        carried = tuple(range(self.dofs_per_node)) if dofs is None else tuple(
+            self._dof(d, label) for d in dofs)
+        if not carried:
+            raise ModelError(f"{label}: dofs = []; name at least one of {self.dof_names}")
         props = {"m": self._value(m, label, "m", _NONNEG), "J": self._value(J, label, "J", _NONNEG)}
-        self._add(_Record("mass", name, props, nodes=(n,)))
+        self._add(_Record("mass", name, props, nodes=(n,), options={"dofs": carried}))
         return name
+
+    def add_diaphragm(self, master: str, nodes: Sequence[str]) -> None:
+        """Make a floor rigid in its horizontal plane (3-D frames): ``nodes`` follow
+        ``master`` in ux, uy and rz (:mod:`femupdate.model.diaphragm`).
+
+        The nodes must lie at the master's height ``z``; a node belongs to one diaphragm.
+        Their DOFs ux, uy, rz leave the model (``dof_index`` refuses them); loads, sensors and
+        friction or Bouc–Wen elements go on the master.
+        """
+        label = f"diaphragm of {master!r}"
+        if self.dofs_per_node != 6:
+            raise ModelError(f"{label}: rigid diaphragms need a 3-D frame (dofs_per_node = 6); "
+                             f"this structure has {self.dofs_per_node}")
+        m = self._node(master, label)
+        if m in self._followers:
+            raise ModelError(f"{label}: {master!r} already follows another diaphragm's master")
+        if not nodes:
+            raise ModelError(f"{label}: nodes = []; name the floor's other nodes")
+        for node in nodes:
+            s = self._node(node, label)
+            if s == m:
+                raise ModelError(f"{label}: the master cannot be one of its own nodes")
+            if s in self._followers or s in self._followers.values():
+                raise ModelError(f"{label}: node {node!r} is already in a diaphragm")
+            dz = self._z[s] - self._z[m]
+            if abs(dz) > 1e-9 * max(1.0, abs(self._z[m])):
+                raise ModelError(f"{label}: node {node!r} is at z = {self._z[s]!r}, not at the "
+                                 f"master's z = {self._z[m]!r}")
+        for node in nodes:
+            self._followers[self._node_index[node]] = m
+        self._topology = None
 
     def fix(self, node: str, *dofs: str) -> None:
         """Fix (support) the given DOFs of ``node``; all of them when none is given."""
@@ -531,13 +573,15 @@ class Structure:
 
     @property
     def n_dof(self) -> int:
-        """Number of free DOFs."""
-        return self._topo().n
+        """Number of free DOFs (those that follow a diaphragm's master left out)."""
+        topo = self._topo()
+        return topo.n if topo.diaphragms is None else topo.diaphragms.n
 
     @property
     def dof_labels(self) -> tuple[str, ...]:
         """Label of every free DOF, ``"node.dof"``."""
-        return self._topo().labels
+        topo = self._topo()
+        return topo.labels if topo.diaphragms is None else topo.diaphragms.labels
 
     def dof_index(self, node: str, dof: str) -> int:
         """Index of ``node.dof`` among the free DOFs (``ModelError`` if unknown or fixed)."""
@@ -545,6 +589,13 @@ class Structure:
         i = int(self._topo().free[g])
         if i < 0:
             raise ModelError(f"DOF {node}.{dof} is fixed; it has no free-DOF index")
+        floors = self._topo().diaphragms
+        if floors is not None:
+            if floors.index[i] < 0:
+                raise ModelError(
+                    f"DOF {node}.{dof} follows the rigid diaphragm of {floors.followed[i]!r} "
+                    "(ux, uy, rz of its nodes are the master's); use the master node's DOF")
+            i = int(floors.index[i])
         return i
 
     def force_vector(self, node: str, dof: str) -> np.ndarray:
@@ -559,7 +610,8 @@ class Structure:
         1 on the translations along ``direction`` (``"x"`` or ``"y"``), 0 elsewhere.
         """
         topo = self._topo()
-        return self._rigid(direction)[topo.free >= 0]
+        r = self._rigid(direction)[topo.free >= 0]
+        return r if topo.diaphragms is None else r[topo.diaphragms.kept]
 
     # ------------------------------------------------------------------ assembly
 
@@ -599,6 +651,8 @@ class Structure:
             seismic = m @ r + np.bincount(
                 rows, weights=beam_m.reshape(-1)[keep] * rigid[gcols], minlength=topo.n
             )
+        if topo.diaphragms is not None:
+            return _constrained(topo, m, c, k, r, friction, bouc_wen, seismic, sparse)
         return System(M=m, C=c, K=k, r=r, friction=friction, dof_labels=topo.labels,
                       seismic=seismic, bouc_wen=bouc_wen)
 
@@ -633,9 +687,14 @@ class Structure:
         n = topo.n
         nn = n * n
 
-        def accumulate(target: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        def accumulate(target: np.ndarray, weights: np.ndarray, key: str = "") -> np.ndarray:
             if sparse:  # flat targets row·n + col summed into CSR (duplicates add up)
-                return scatter_sparse(target, weights, n)
+                if not key:
+                    return scatter_sparse(target, weights, n)
+                pattern = topo.patterns.get(key)
+                if pattern is None:
+                    pattern = topo.patterns[key] = SparsePattern.of(target, n)
+                return pattern.matrix(weights)
             return np.bincount(target, weights=weights, minlength=nn).reshape(n, n)
 
         bp = {key: prop.evaluate(p) for key, prop in topo.beam_props.items()}
@@ -651,8 +710,8 @@ class Structure:
         frame = self.dofs_per_node == 3
         if self.dofs_per_node == 6:
             g = _shear_modulus(E, bp, topo.beam_shear)
-            kb = _beam3d_stack(frame3d_stiffness, E, g, A, bp["Iy"], bp["Iz"], bp["J"],
-                               bp["kappa"] * A, bp["kappa"] * A, L)
+            kb = frame3d_stiffness(E, g, A, bp["Iy"], bp["Iz"], bp["J"], bp["kappa"] * A,
+                                   bp["kappa"] * A, L).reshape(L.size, 12, 12)
         elif frame:
             kb = frame_stiffness(E * A, E * I, L, phi)
         else:
@@ -686,7 +745,8 @@ class Structure:
                     [mb.reshape(-1)[topo.beam_keep], mm[topo.mass_m_owner], mj[topo.mass_J_owner]]
                 ),
             )
-            (check_sparse_mass if sparse else check_mass_matrix)(m, topo.labels)
+            if topo.diaphragms is None:
+                _check_mass(m, topo.labels, sparse)
             if topo.mass_const:
                 topo.cache[mass_key] = (m.copy(), mb)
 
@@ -694,9 +754,10 @@ class Structure:
         k = accumulate(
             np.concatenate([topo.beam_target, topo.spring_target]),
             np.concatenate([kb.reshape(-1)[topo.beam_keep], ks.reshape(-1)[topo.spring_keep]]),
+            "K",
         )
         cs = spring_matrix(topo.damper_c.evaluate(p))
-        c = accumulate(topo.damper_target, cs.reshape(-1)[topo.damper_keep])
+        c = accumulate(topo.damper_target, cs.reshape(-1)[topo.damper_keep], "C")
         if topo.rayleigh is not None:
             alpha, beta = (float(prop.evaluate(p)[0]) for prop in topo.rayleigh)
             c = c + alpha * m + beta * k
@@ -946,7 +1007,8 @@ class Structure:
         rot = [j for j, name in enumerate(self.dof_names) if name.startswith("r")]
 
         def diag(js: list[int]) -> tuple[np.ndarray, np.ndarray]:
-            idx = [(free[rec.nodes[0] * dpn + j], e) for e, rec in enumerate(masses) for j in js]
+            idx = [(free[rec.nodes[0] * dpn + j], e) for e, rec in enumerate(masses) for j in js
+                   if j in rec.options.get("dofs", js)]
             idx = [(i, e) for i, e in idx if i >= 0]
             arr = np.array(idx, dtype=np.int64).reshape(-1, 2)
             return arr[:, 0] * (n + 1), arr[:, 1]
@@ -976,6 +1038,13 @@ class Structure:
             beam_props["E"].is_const or not np.any(beam_props["E"].pidx[beam_shear == 1] >= 0)
         )
         mass_const = mass_const and all(prop.is_const for prop in (mass_m, mass_J))
+        diaphragms = None
+        if self._followers:
+            diaphragms = diaphragm_constraint(self._followers, [self._xyz(i) for i in
+                                                                range(n_nodes)],
+                                              free, node_names, labels)
+            for ends, kind in ((fr, "friction element"), (bw, "Bouc–Wen element")):
+                diaphragms.reindex(ends.reshape(-1), f"a {kind}")
         return _Topology(
             n=n,
             labels=labels,
@@ -1011,7 +1080,47 @@ class Structure:
             bouc_wen_j=bw[:, 1].copy(),
             bouc_wen_props=tuple(self._prop(bouc_wens, "bouc_wen", what, _BOUC_WEN_SPECS[what])
                                  for what in BOUC_WEN_PARAMETERS),
+            diaphragms=diaphragms,
         )
+
+
+def _check_mass(m: np.ndarray | sp.spmatrix, labels: Sequence[str], sparse: bool) -> None:
+    """Dense ``M``: positive definite (the step-by-step integrators invert it); sparse ``M``
+    (the reduced path): DOFs without mass allowed, condensed there."""
+    if sparse:
+        check_sparse_mass(m, labels, allow_massless=True)
+    else:
+        check_mass_matrix(m, labels)
+
+
+def _constrained(topo: _Topology, m: np.ndarray | sp.spmatrix, c: np.ndarray | sp.spmatrix,
+                 k: np.ndarray | sp.spmatrix, r: np.ndarray,
+                 friction: FrictionElements | None, bouc_wen: BoucWenElements | None,
+                 seismic: np.ndarray | None, sparse: bool) -> System:
+    """The System on the independent DOFs of a structure with rigid diaphragms."""
+    floors = topo.diaphragms
+    assert floors is not None
+    key = "diaphragm mass sparse" if sparse else "diaphragm mass"
+    cached = topo.cache.get(key)
+    if cached is not None and topo.mass_const:
+        mq = cached[0].copy()
+    else:
+        mq = floors.transform(m)
+        _check_mass(mq, floors.labels, sparse)
+        if topo.mass_const:
+            topo.cache[key] = (mq.copy(), np.zeros(0))
+    if friction is not None:
+        friction = FrictionElements(floors.reindex(friction.dof_i, "friction"),
+                                    floors.reindex(friction.dof_j, "friction"),
+                                    friction.k_r, friction.f_u)
+    if bouc_wen is not None:
+        bouc_wen = BoucWenElements(floors.reindex(bouc_wen.dof_i, "Bouc–Wen"),
+                                   floors.reindex(bouc_wen.dof_j, "Bouc–Wen"),
+                                   bouc_wen.table, bouc_wen.names)
+    return System(M=mq, C=floors.transform(c), K=floors.transform(k), r=r[floors.kept],
+                  friction=friction, dof_labels=floors.labels,
+                  seismic=None if seismic is None else floors.T.T @ seismic,
+                  bouc_wen=bouc_wen)
 
 
 def shear_building(

@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 
 from femupdate.errors import ConfigError, ModelError
 from femupdate.model.modes import NaturalModes
-from femupdate.model.sparse import lowest_modes
+from femupdate.model.sparse import CONDENSE_MAX_DOF, condense, lowest_modes, massless_dofs
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     check_excitation,
@@ -154,12 +154,16 @@ class ReducedSimulator:
         self.n_dof = system.n_dof
         self.outputs = check_outputs(outputs, self.n_dof)
         self.cutoff_hz = None
+        # DOFs without mass: condensed, and the factorisation reused by the static correction
+        massless = massless_dofs(system.M)
+        condensation = (condense(system.K, system.M, massless) if massless.size and
+                        self.n_dof - massless.size <= CONDENSE_MAX_DOF else None)
         if modes is None:
             if n_modes is None:
                 band = 0.5 / self.dt if band_hz is None else band_hz
                 self.cutoff_hz = cutoff_from_band(band, cutoff_factor)
             modes = lowest_modes(system.K, system.M, n_modes=n_modes, cutoff_hz=self.cutoff_hz,
-                                 previous=previous)
+                                 previous=previous, condensation=condensation)
         self.modes = modes
         phi = modes.shapes
         w2 = (2.0 * np.pi * modes.freqs_hz) ** 2
@@ -190,10 +194,13 @@ class ReducedSimulator:
         # modes; a local damper does)
         self._damp_out = np.zeros((n_out, m))
         if static_correction:
-            lu = _factor(system.K)
             unit = np.zeros((self.n_dof, n_out))
             unit[self.outputs, np.arange(n_out)] = 1.0
-            kinv_out = np.atleast_2d(_solve(system.K, lu, unit).reshape(self.n_dof, n_out)).T
+            if condensation is not None:
+                kinv = condensation.solve(unit)
+            else:
+                kinv = _solve(system.K, _factor(system.K), unit)
+            kinv_out = np.atleast_2d(kinv.reshape(self.n_dof, n_out)).T
             # rows of the residual flexibility K⁻¹ - Φ Ω⁻² Φᵀ at the outputs
             self._flex_out = kinv_out - (self._phi_out / w2) @ phi.T
             self._static_ag = -(self._flex_out @ p)
@@ -286,12 +293,13 @@ def prepare_linear(system: System, dt: float, outputs: Sequence[int] | np.ndarra
                    cutoff_factor: float = DEFAULT_CUTOFF_FACTOR,
                    previous: NaturalModes | None = None,
                    ) -> ExactSimulator | ReducedSimulator:
-    """The exact full-model simulator up to :data:`FULL_PATH_MAX_DOF` DOFs, the reduced above.
+    """The exact full-model simulator up to :data:`FULL_PATH_MAX_DOF` DOFs, the reduced above
+    (and for a system with DOFs without mass, whose full path would need ``M⁻¹``).
 
     A sparse system larger than that is never made dense; a sparse small one is. ``previous``
     (the modes of the previous, neighbouring evaluation) warm-starts the reduced path.
     """
-    if system.n_dof <= FULL_PATH_MAX_DOF:
+    if system.n_dof <= FULL_PATH_MAX_DOF and not massless_dofs(system.M).size:
         if sp.issparse(system.K):
             system = System(M=system.M.toarray(), C=system.C.toarray(), K=system.K.toarray(),
                             r=system.r, friction=system.friction, dof_labels=system.dof_labels,
