@@ -233,12 +233,18 @@ def test_options_of_the_default_path_follow_the_size(tmp_path: Path) -> None:
            storeys=10)
 
 
-def test_a_nonlinear_model_is_refused_on_the_reduced_path(tmp_path: Path) -> None:
+def test_a_nonlinear_model_takes_the_reduced_path_only_when_asked(tmp_path: Path) -> None:
+    """A friction model: "reduced" is Craig–Bampton (tests/simulate/test_craig_bampton.py),
+    never the default; a linear method is refused naming the allowed ones."""
     case = _case(tmp_path, None, storeys=10)
     data = case.to_dict()
     data["model"]["shear_building"]["frictions"] = {"k_r": 100.0, "f_u": 1.0}
+    data.pop("simulation", None)
+    assert parse_case(data, source=case.source).simulation_method == "nonlinear"
     data["simulation"] = {"method": "reduced"}
-    with pytest.raises(ConfigError, match=r"simulation\.method: got 'reduced' but the model "
+    assert parse_case(data, source=case.source).simulation_method == "reduced"
+    data["simulation"] = {"method": "exact"}
+    with pytest.raises(ConfigError, match=r"simulation\.method: got 'exact' but the model "
                                           "has friction or Bouc–Wen elements"):
         parse_case(data, source=case.source)
 

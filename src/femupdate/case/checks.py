@@ -212,9 +212,11 @@ def case_issues(case: Case) -> list[Issue]:
             issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
                            "model never uses it", f'use it in [model] (e.g. k = "{name}") '
                            "or remove it"))
-    if case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear"):
+    if case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear",
+                                                                    "reduced"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
-                       "has friction or Bouc–Wen elements", "'nonlinear' (or leave it out)"))
+                       "has friction or Bouc–Wen elements",
+                       "'nonlinear' (or leave it out), or 'reduced' for a large model"))
     issues += bouc_wen_bound_issues(case)
     if case.trials and case.data is None:
         issues.append(("trials", "[[trials]] given without [data]",
