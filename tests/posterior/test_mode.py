@@ -2,14 +2,25 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from scipy.optimize import least_squares
 
+from femupdate.case import parse_case
 from femupdate.errors import DataError
+from femupdate.experiment import load_experiments
+from femupdate.posterior.best_fit import case_priors, laplace_record, mode_jacobians
+from femupdate.posterior.jacobian import LOCAL_STEP, residual_jacobian
 from femupdate.posterior.laplace import jacobian_unit, laplace
-from femupdate.posterior.likelihood import ErrorModel
-from femupdate.posterior.mode import whitened_mode
+from femupdate.posterior.likelihood import ErrorModel, problem_error_model
+from femupdate.posterior.mode import newton_system, whitened_mode
 from femupdate.posterior.priors import Prior
+from femupdate.sampling.run import best_fit_gaussian
+from femupdate.update import UpdateProblem
+from femupdate.virtual import virtual_experiment
+from two_storey_case import TRUTH
 
 RHO = 0.9
 M = 400
@@ -129,3 +140,53 @@ def test_a_start_that_cannot_be_evaluated_is_an_error() -> None:
     with pytest.raises(DataError, match="mode: a finite-difference point failed"):
         whitened_mode(lambda x: np.full((np.atleast_2d(x).shape[0], 5), np.nan), prior,
                       _model("arp"), np.array([0.5]))
+
+
+def _two_storey(root: Path) -> UpdateProblem:
+    """The two-storey building's displacements (accelerations with 3 % noise, high-passed and
+    integrated twice: coloured errors), one trial."""
+    spec = {
+        "case": {"name": "two-storey"},
+        "model": {"shear_building": {"masses": [1.0, 0.8], "stiffnesses": ["k1", "k2"],
+                                     "dampers": ["c1", "c2"]}},
+        "parameters": [{"name": "k1", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
+                       {"name": "k2", "lower": 1000.0, "upper": 10000.0},
+                       {"name": "c1", "lower": 0.0, "upper": 5.0},
+                       {"name": "c2", "lower": 0.0, "upper": 5.0}],
+        "data": {"format": "csv", "directory": str(root), "time_column": "t",
+                 "input": {"file": "table.csv", "column": "table"},
+                 "outputs": [{"file": "floors.csv", "column": "a1", "node": "F1", "dof": "ux"},
+                             {"file": "floors.csv", "column": "a2", "node": "F2",
+                              "dof": "ux"}]},
+        "preprocess": {"highpass_hz": 0.5},
+        "objective": {"quantity": "displacement", "experimental_parameters": True},
+    }
+    case = parse_case(spec, source=root / "case.toml")
+    virtual_experiment(case, TRUTH, root, seed=1, rate=200.0, duration=2.0, snr=0.03,
+                       clean_input=True)
+    return UpdateProblem(case, load_experiments(case))
+
+
+def test_the_laplace_record_and_tmcmc_start_of_arp_sit_at_its_mode(tmp_path: Path) -> None:
+    problem = _two_storey(tmp_path)
+    prior = case_priors(problem.case)
+    n = len(problem.names)
+    truth_unit = prior.from_physical(np.array([TRUTH[k] for k in problem.names]))
+    fit = least_squares(lambda u: problem.residuals(prior.to_search(u)), truth_unit,
+                        bounds=(0.0, 1.0), x_scale="jac", xtol=1e-12, ftol=1e-12)
+    x = prior.to_search(fit.x)
+    r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x, step=LOCAL_STEP)
+    model = problem_error_model(problem, r, "arp")
+    centre, _, evals = mode_jacobians(problem, prior, model, fit.x, r, jac)
+    sd = np.sqrt(np.diag(np.linalg.inv(newton_system(jac, r, fit.x, model, prior)[0])))
+    assert np.max(np.abs(centre - fit.x) / sd) > 0.3  # the mode is not the fit
+    record = laplace_record(problem, x, kind="arp")
+    assert record.note is None and record.nfev == 4 * n + 1 + evals
+    medians = np.array([record.params[k].q50 for k in problem.names])
+    assert np.allclose(medians, prior.to_physical(centre), rtol=1e-9)
+    _, _, gaussian, why = best_fit_gaussian(problem, x, "arp")
+    assert why is None and np.allclose(gaussian.mean_unit, centre, rtol=0, atol=1e-9)
+    # the other kinds stay at the best fit
+    neff = laplace_record(problem, x, kind="neff")
+    assert np.allclose([neff.params[k].q50 for k in problem.names],
+                       prior.search_to_physical(x), rtol=1e-9)
