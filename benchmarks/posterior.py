@@ -19,6 +19,10 @@ Sections (``--only`` takes a comma-separated list):
   least-squares fit's sandwich covariance) and TMCMC's for ``--tmcmc-kinds``; the share of
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
+- ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
+  scatter of its estimate? The truth's Mahalanobis distance on the first replicates, with
+  the table's record noisy and clean, and the scatter over noise draws at one truth
+  (:func:`whitening`).
 - ``speed``: viscous bridge (9 parameters), 2 % noise: TMCMC started from the Laplace
   Gaussian against emcee on the same log-posterior (unit cube, same batches), both started
   from the Laplace Gaussian, in the same run: evaluations, wall time, effective samples.
@@ -338,6 +342,95 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     return out
 
 
+# -------------------------------------------------------------------------------- whitening
+
+
+def mahalanobis(d: np.ndarray, cov: np.ndarray, keep: np.ndarray) -> float:
+    """dᵀ Σ⁻¹ d over the parameters ``keep`` (the marginal Gaussian of those)."""
+    d, cov = d[keep], cov[np.ix_(keep, keep)]
+    return float(d @ np.linalg.solve(cov, d))
+
+
+def whitening(replicates: int, seeds: int, root: Path) -> dict[str, Any]:
+    """The hypothesis that arp, centred at its own mode, is calibrated: on the calibration's
+    first replicates, dᵀΣ⁻¹d of the truth (χ²₈ if calibrated: mean 8, 95 % below 15.5; kp1
+    aside, whose local curvature is a ripple's) under the sandwich at the least-squares fit,
+    arp's Gaussian there and at arp's mode, with the table's record noisy (as measured) and
+    clean (noise on the outputs only); then, at the bridge's nominal truth over ``seeds``
+    noise draws, the scatter of the least-squares fit and of arp's mode in units of arp's
+    standard deviations (1 if arp's curvature is right)."""
+    from femupdate.posterior.sandwich import sandwich_covariance
+
+    children = np.random.SeedSequence(SEED).spawn(max(replicates, 1))
+    print(f"\n## Whitening: arp at its own mode ({load()})")
+    print("dᵀΣ⁻¹d of the truth, kp1 aside (χ²₈: mean 8, 95 % below 15.5)")
+    print(f"{'replicate':>9s} {'table':>6s} {'sandwich@fit':>13s} {'arp@fit':>9s} "
+          f"{'arp@mode':>9s} {'mode evals':>10s}")
+    out: dict[str, Any] = {"replicates": [], "seeds": {}}
+    for i, child in enumerate(children[:replicates]):
+        for clean in (False, True):
+            rng = np.random.default_rng(child)
+            case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
+                              source=root / "viscous.toml")
+            prior = Prior.from_case(case)
+            truth = prior.sample(rng, 1)[1][0]
+            keep = np.array([n != "kp1" for n in prior.names])
+            problem = bridge_problem("viscous", dict(zip(prior.names, truth.tolist(),
+                                                         strict=True)),
+                                     root / f"whitening-{i}-{clean}",
+                                     int(rng.integers(2 ** 31)), clean)
+            t_unit = prior.from_physical(truth)
+            unit, r, _ = local_fit(problem, t_unit)
+            jac = jacobian_unit(problem.residuals_batch, unit, prior, step=LOCAL_STEP)
+            model = problem_error_model(problem, r, "arp")
+            fit_cov = laplace(jac, r, unit, model, prior).cov_unit
+            centre, ((r_c, jac_c),), evals = mode_jacobians(problem, prior, model, unit, r,
+                                                            jac, steps=(LOCAL_STEP,))
+            mode_cov = laplace(jac_c, r_c, centre, model, prior).cov_unit
+            sandwich = sandwich_covariance(jac, r, residual_blocks(problem)[0])
+            row = {"replicate": i, "clean_input": clean,
+                   "sandwich_at_fit": mahalanobis(t_unit - unit, sandwich, keep),
+                   "arp_at_fit": mahalanobis(t_unit - unit, fit_cov, keep),
+                   "arp_at_mode": mahalanobis(t_unit - centre, mode_cov, keep),
+                   "mode_evals": evals}
+            out["replicates"].append(row)
+            print(f"{i:9d} {'clean' if clean else 'noisy':>6s} {row['sandwich_at_fit']:13.1f} "
+                  f"{row['arp_at_fit']:9.1f} {row['arp_at_mode']:9.1f} {evals:10d}",
+                  flush=True)
+    case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
+                      source=root / "viscous.toml")
+    prior = Prior.from_case(case)
+    names = list(prior.names)
+    truth = np.array([bridge.truth("viscous")[n] for n in names])
+    t_unit = prior.from_physical(truth)
+    for clean in (False, True):
+        fits, modes, sds = [], [], []
+        for s in range(seeds):
+            problem = bridge_problem("viscous", bridge.truth("viscous"),
+                                     root / f"seeds-{s}-{clean}", 1000 + s, clean)
+            unit, r, _ = local_fit(problem, t_unit)
+            jac = jacobian_unit(problem.residuals_batch, unit, prior, step=LOCAL_STEP)
+            model = problem_error_model(problem, r, "arp")
+            centre, ((r_c, jac_c),), _ = mode_jacobians(problem, prior, model, unit, r, jac,
+                                                        steps=(LOCAL_STEP,))
+            fits.append(unit)
+            modes.append(centre)
+            sds.append(np.sqrt(np.diag(laplace(jac_c, r_c, centre, model, prior).cov_unit)))
+        sd = np.mean(sds, axis=0)
+        fit_scatter = np.std(fits, axis=0, ddof=1) / sd
+        mode_scatter = np.std(modes, axis=0, ddof=1) / sd
+        label = "clean" if clean else "noisy"
+        print(f"\nnominal truth, {seeds} noise draws, table {label}: scatter over the draws in "
+              "units of arp's sd at its mode (1 if arp's curvature is right; kp1's local "
+              "curvature is a ripple's)")
+        print(f"{'':16s}" + " ".join(f"{n:>6s}" for n in names))
+        print(f"{'least squares':16s}" + " ".join(f"{v:6.2f}" for v in fit_scatter))
+        print(f"{'arp mode':16s}" + " ".join(f"{v:6.2f}" for v in mode_scatter))
+        out["seeds"][label] = {"least_squares": fit_scatter.tolist(),
+                               "arp_mode": mode_scatter.tolist()}
+    return out
+
+
 # -------------------------------------------------------------------------------- speed
 
 
@@ -517,6 +610,10 @@ def main() -> None:
                         help="calibration: the table's record without noise (outputs only)")
     parser.add_argument("--ar-max-order", type=int, default=AR_MAX_ORDER,
                         help="calibration: the largest AR order of kind arp (by BIC)")
+    parser.add_argument("--whitening-replicates", type=int, default=8,
+                        help="whitening: the calibration replicates it looks at")
+    parser.add_argument("--noise-seeds", type=int, default=16,
+                        help="whitening: noise draws at the nominal truth")
     parser.add_argument("--hits", type=Path, default=None,
                         help="calibration: JSON lines of the replicates (resume, merge)")
     parser.add_argument("--seeds", type=int, default=10)
@@ -543,6 +640,8 @@ def main() -> None:
                 tmcmc_population=args.tmcmc_population, hits_file=args.hits,
                 coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
                 ar_max_order=args.ar_max_order)
+        if "whitening" in sections:
+            out["whitening"] = whitening(args.whitening_replicates, args.noise_seeds, root)
         if "speed" in sections:
             out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000,
                                  threads=args.threads)
