@@ -190,3 +190,23 @@ def test_the_laplace_record_and_tmcmc_start_of_arp_sit_at_its_mode(tmp_path: Pat
     neff = laplace_record(problem, x, kind="neff")
     assert np.allclose([neff.params[k].q50 for k in problem.names],
                        prior.search_to_physical(x), rtol=1e-9)
+
+
+def test_a_clean_input_leaves_the_table_record_without_sensor_errors(tmp_path: Path) -> None:
+    case = _two_storey(tmp_path / "a").case
+    records = {}
+    for name, settings in (("exact", {"snr": 0.0, "offset": 0.0, "drift": 0.0}),
+                           ("clean", {"snr": 0.03, "clean_input": True}),
+                           ("noisy", {"snr": 0.03})):
+        manifest = virtual_experiment(case, TRUTH, tmp_path / name, seed=1, rate=200.0,
+                                      duration=1.0, **settings)
+        assert manifest.get("clean_input", False) == (name == "clean")
+        records[name] = {f: np.genfromtxt(tmp_path / name / f, delimiter=",", names=True,
+                                          skip_header=1)
+                         for f in ("table.csv", "floors.csv")}
+    table = {k: v["table.csv"]["table"] for k, v in records.items()}
+    floor = {k: v["floors.csv"]["a1"] for k, v in records.items()}
+    assert np.array_equal(table["clean"], table["exact"])
+    assert not np.allclose(table["noisy"], table["exact"])
+    assert np.array_equal(floor["clean"], floor["noisy"])  # the outputs' errors unchanged
+    assert not np.allclose(floor["clean"], floor["exact"])
