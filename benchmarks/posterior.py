@@ -61,6 +61,7 @@ from femupdate.experiment import load_experiment
 from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
 from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
 from femupdate.posterior.best_fit import centred, mode_jacobians
+from femupdate.posterior.gls_sandwich import gls_sandwich_laplace, trial_groups
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.posterior.likelihood import AR_MAX_ORDER, residual_blocks
 from femupdate.posterior.mode import WHITENING_KINDS
@@ -75,6 +76,9 @@ KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
 #: least-squares estimate (femupdate.posterior.sandwich), measured beside them
 SANDWICH = "sandwich"
+#: Not an error model either: the Gaussian at arp's mode with the covariance of that estimate
+#: when the whitening leaves the errors coloured (femupdate.posterior.gls_sandwich)
+GLS_SANDWICH = "gls-sandwich"
 #: TMCMC's moves on the bridge: independent proposals from the weighted population's Gaussian,
 #: 12 steps at β = 1 (measured across 10 seeds: 3.2× fewer evaluations per effective sample than
 #: random-walk moves with 3 steps per stage and at β = 1); since they are TMCMC's defaults, this
@@ -233,6 +237,15 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
                            "mode_evals": {}}
     for kind in kinds:
+        if kind == GLS_SANDWICH:
+            model = problem_error_model(problem, r, "arp", ar_max_order=ar_max_order)
+            centre, ((r_c, local_c), (_, coarse_c)), evals = mode_jacobians(
+                problem, prior, model, unit, r, jac_local)
+            _, q = two_scale(lambda j, m=model, c=centre, rc=r_c: gls_sandwich_laplace(
+                j, rc, c, m, prior, trial_groups(problem)), (coarse_c, local_c))
+            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            out["mode_evals"][kind] = evals
+            continue
         if kind == SANDWICH:
             _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
@@ -597,9 +610,10 @@ def main() -> None:
     parser.add_argument("--replicates", type=int, default=50)
     parser.add_argument("--first-replicate", type=int, default=0,
                         help="calibration: start at this replicate (split a run over processes)")
-    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH)),
-                        help="calibration: the error model kinds (Laplace intervals) and "
-                        "'sandwich' (the least-squares estimate's sandwich covariance)")
+    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH, GLS_SANDWICH)),
+                        help="calibration: the error model kinds (Laplace intervals), "
+                        "'sandwich' (the least-squares estimate's sandwich covariance) and "
+                        "'gls-sandwich' (arp's mode with its estimate's sandwich covariance)")
     parser.add_argument("--tmcmc-kinds", default="",
                         help="calibration: kinds whose TMCMC intervals are measured too")
     parser.add_argument("--tmcmc-population", type=int, default=1000)
