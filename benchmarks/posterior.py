@@ -19,6 +19,10 @@ Sections (``--only`` takes a comma-separated list):
   least-squares fit's sandwich covariance) and TMCMC's for ``--tmcmc-kinds``; the share of
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
+- ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
+  scatter of its estimate? The truth's Mahalanobis distance on the first replicates, with
+  the table's record noisy and clean, and the scatter over noise draws at one truth
+  (:func:`whitening`).
 - ``speed``: viscous bridge (9 parameters), 2 % noise: TMCMC started from the Laplace
   Gaussian against emcee on the same log-posterior (unit cube, same batches), both started
   from the Laplace Gaussian, in the same run: evaluations, wall time, effective samples.
@@ -56,8 +60,11 @@ from femupdate.case import parse_case
 from femupdate.experiment import load_experiment
 from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
 from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
+from femupdate.posterior.best_fit import centred, mode_jacobians
+from femupdate.posterior.gls_sandwich import gls_sandwich_laplace, trial_groups
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
-from femupdate.posterior.likelihood import residual_blocks
+from femupdate.posterior.likelihood import AR_MAX_ORDER, residual_blocks
+from femupdate.posterior.mode import WHITENING_KINDS
 from femupdate.posterior.sandwich import sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
 from femupdate.problems import bridge
@@ -69,6 +76,9 @@ KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
 #: least-squares estimate (femupdate.posterior.sandwich), measured beside them
 SANDWICH = "sandwich"
+#: Not an error model either: the Gaussian at arp's mode with the covariance of that estimate
+#: when the whitening leaves the errors coloured (femupdate.posterior.gls_sandwich)
+GLS_SANDWICH = "gls-sandwich"
 #: TMCMC's moves on the bridge: independent proposals from the weighted population's Gaussian,
 #: 12 steps at β = 1 (measured across 10 seeds: 3.2× fewer evaluations per effective sample than
 #: random-walk moves with 3 steps per stage and at β = 1); since they are TMCMC's defaults, this
@@ -121,12 +131,13 @@ def analytic(population: int) -> dict[str, Any]:
 # -------------------------------------------------------------------------------- the bridge
 
 
-def bridge_problem(model: str, truth: dict[str, float], work: Path, seed: int
-                   ) -> UpdateProblem:
-    """The bridge's update problem on a virtual experiment of ``truth`` with 2 % noise."""
+def bridge_problem(model: str, truth: dict[str, float], work: Path, seed: int,
+                   clean_input: bool = False) -> UpdateProblem:
+    """The bridge's update problem on a virtual experiment of ``truth`` with 2 % noise (on
+    the outputs only with ``clean_input``)."""
     case = parse_case(bridge.bridge_case(model, "narrow", directory=str(work)),
                       source=work / f"{model}.toml")
-    bridge.ensure_records(case, truth, work, seed=seed, snr=0.02)
+    bridge.ensure_records(case, truth, work, seed=seed, snr=0.02, clean_input=clean_input)
     return UpdateProblem(case, load_experiment(case))
 
 
@@ -184,11 +195,14 @@ def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
 
 
 def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
-              tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False
-              ) -> dict[str, Any]:
+              tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False,
+              clean_input: bool = False, ar_max_order: int = AR_MAX_ORDER) -> dict[str, Any]:
     """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
     search started at the truth, then per error model kind whether the Laplace (and, for
-    ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth."""
+    ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
+    a whitening kind (``ar1``, ``arp``) is taken at that kind's own mode, climbed to from the
+    least-squares fit (femupdate.posterior.mode), as the product does; ``KIND@fit`` is the
+    same Gaussian centred at the least-squares fit instead."""
     from femupdate.posterior.likelihood import KINDS as ALL_KINDS
 
     rng = np.random.default_rng(child)
@@ -200,7 +214,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     truth_values = prior.sample(rng, 1)[1][0]
     truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
     problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
-                             int(rng.integers(2 ** 31)))
+                             int(rng.integers(2 ** 31)), clean_input)
     unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
     # the Laplace record's two scales (femupdate.posterior.best_fit.two_scale_record): the
     # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
@@ -211,21 +225,51 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                                                       step=LOCAL_STEP)
     blocks = residual_blocks(problem)[0]
 
-    def two_scale(estimate: Any) -> tuple[Any, np.ndarray]:
-        coarse, local = estimate(jac), estimate(jac_local)
+    def two_scale(estimate: Any, jacobians: tuple[np.ndarray, np.ndarray] | None = None
+                  ) -> tuple[Any, np.ndarray]:
+        coarse_jac, local_jac = jacobians or (jac, jac_local)
+        coarse, local = estimate(coarse_jac), estimate(local_jac)
         q = local.quantiles.copy()
         use = coarse.undetermined & ~local.undetermined
         q[:, use] = coarse.quantiles[:, use]
         return local, q
 
-    out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {}}
+    out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
+                           "mode_evals": {}}
     for kind in kinds:
+        if kind == GLS_SANDWICH:
+            model = problem_error_model(problem, r, "arp", ar_max_order=ar_max_order)
+            centre, ((r_c, local_c), (_, coarse_c)), evals = mode_jacobians(
+                problem, prior, model, unit, r, jac_local)
+            _, q = two_scale(lambda j, m=model, c=centre, rc=r_c: gls_sandwich_laplace(
+                j, rc, c, m, prior, trial_groups(problem)), (coarse_c, local_c))
+            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            out["mode_evals"][kind] = evals
+            continue
         if kind == SANDWICH:
             _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
             continue
-        model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None)
-        lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
+        model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None,
+                                    ar_max_order=ar_max_order)
+        if kind in WHITENING_KINDS:
+            # beside it, the same Gaussian at the least-squares fit, no step to the mode (as
+            # the Laplace record took it before): the cost of the wrong centre
+            _, q_fit = two_scale(lambda j, m=model: centred(laplace(j, r, unit, m, prior),
+                                                            unit, prior))
+            out["laplace"][f"{kind}@fit"] = ((q_fit[0] <= truth_values)
+                                             & (truth_values <= q_fit[2])).tolist()
+            # at the kind's own mode, as the Laplace record does
+            centre, ((r_c, local_c), (_, coarse_c)), evals = mode_jacobians(
+                problem, prior, model, unit, r, jac_local if not coarse_only else
+                jacobian_unit(problem.residuals_batch, unit, prior, step=LOCAL_STEP))
+            if coarse_only:
+                local_c = coarse_c
+            out["mode_evals"][kind] = evals
+            lap, q = two_scale(lambda j, m=model, c=centre, rc=r_c: laplace(j, rc, c, m, prior),
+                               (coarse_c, local_c))
+        else:
+            lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
         inside = (q[0] <= truth_values) & (truth_values <= q[2])
         out["laplace"][kind] = inside.tolist()
         if kind in tmcmc_kinds:
@@ -247,7 +291,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
 def calibration(replicates: int, root: Path, first: int = 0, *,
                 kinds: list[str] | None = None, tmcmc_kinds: list[str] | None = None,
                 tmcmc_population: int = 1000, hits_file: Path | None = None,
-                coarse_only: bool = False) -> dict[str, Any]:
+                coarse_only: bool = False, clean_input: bool = False,
+                ar_max_order: int = AR_MAX_ORDER) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -268,11 +313,14 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
           f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
           f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
-          f"best fit of a local least-squares search started at the truth")
+          f"best fit of a local least-squares search started at the truth (ar1, arp: at "
+          f"their own mode from there; arp orders up to {ar_max_order})"
+          + ("; the table's record without noise" if clean_input else ""))
     for i, child in enumerate(children):
         if i < first or i in done:
             continue
-        row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only)
+        row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only,
+                        clean_input, ar_max_order)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -298,10 +346,101 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
             out[label] = {"replicates": len(hits),
                           **{n: {"share": s, "ci95": [lo, hi]}
                              for n, (s, lo, hi) in zip(names, cov, strict=True)}}
-    evals = [e for row in rows for e in row.get("tmcmc_evals", {}).values()]
-    if evals:
-        print(f"TMCMC evaluations per replicate: mean {np.mean(evals):.0f}")
+    for name, field in (("TMCMC", "tmcmc_evals"), ("the mode's climb", "mode_evals")):
+        for kind in sorted({k for row in rows for k in row.get(field, {})}):
+            evals = [row[field][kind] for row in rows if kind in row.get(field, {})]
+            print(f"evaluations per replicate of {name} ({kind}): mean {np.mean(evals):.0f}, "
+                  f"range {min(evals)}–{max(evals)}")
     print(f"(replicates run here in {time.perf_counter() - start:.0f} s; {load()})")
+    return out
+
+
+# -------------------------------------------------------------------------------- whitening
+
+
+def mahalanobis(d: np.ndarray, cov: np.ndarray, keep: np.ndarray) -> float:
+    """dᵀ Σ⁻¹ d over the parameters ``keep`` (the marginal Gaussian of those)."""
+    d, cov = d[keep], cov[np.ix_(keep, keep)]
+    return float(d @ np.linalg.solve(cov, d))
+
+
+def whitening(replicates: int, seeds: int, root: Path) -> dict[str, Any]:
+    """The hypothesis that arp, centred at its own mode, is calibrated: on the calibration's
+    first replicates, dᵀΣ⁻¹d of the truth (χ²₈ if calibrated: mean 8, 95 % below 15.5; kp1
+    aside, whose local curvature is a ripple's) under the sandwich at the least-squares fit,
+    arp's Gaussian there and at arp's mode, with the table's record noisy (as measured) and
+    clean (noise on the outputs only); then, at the bridge's nominal truth over ``seeds``
+    noise draws, the scatter of the least-squares fit and of arp's mode in units of arp's
+    standard deviations (1 if arp's curvature is right)."""
+    from femupdate.posterior.sandwich import sandwich_covariance
+
+    children = np.random.SeedSequence(SEED).spawn(max(replicates, 1))
+    print(f"\n## Whitening: arp at its own mode ({load()})")
+    print("dᵀΣ⁻¹d of the truth, kp1 aside (χ²₈: mean 8, 95 % below 15.5)")
+    print(f"{'replicate':>9s} {'table':>6s} {'sandwich@fit':>13s} {'arp@fit':>9s} "
+          f"{'arp@mode':>9s} {'mode evals':>10s}")
+    out: dict[str, Any] = {"replicates": [], "seeds": {}}
+    for i, child in enumerate(children[:replicates]):
+        for clean in (False, True):
+            rng = np.random.default_rng(child)
+            case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
+                              source=root / "viscous.toml")
+            prior = Prior.from_case(case)
+            truth = prior.sample(rng, 1)[1][0]
+            keep = np.array([n != "kp1" for n in prior.names])
+            problem = bridge_problem("viscous", dict(zip(prior.names, truth.tolist(),
+                                                         strict=True)),
+                                     root / f"whitening-{i}-{clean}",
+                                     int(rng.integers(2 ** 31)), clean)
+            t_unit = prior.from_physical(truth)
+            unit, r, _ = local_fit(problem, t_unit)
+            jac = jacobian_unit(problem.residuals_batch, unit, prior, step=LOCAL_STEP)
+            model = problem_error_model(problem, r, "arp")
+            fit_cov = laplace(jac, r, unit, model, prior).cov_unit
+            centre, ((r_c, jac_c),), evals = mode_jacobians(problem, prior, model, unit, r,
+                                                            jac, steps=(LOCAL_STEP,))
+            mode_cov = laplace(jac_c, r_c, centre, model, prior).cov_unit
+            sandwich = sandwich_covariance(jac, r, residual_blocks(problem)[0])
+            row = {"replicate": i, "clean_input": clean,
+                   "sandwich_at_fit": mahalanobis(t_unit - unit, sandwich, keep),
+                   "arp_at_fit": mahalanobis(t_unit - unit, fit_cov, keep),
+                   "arp_at_mode": mahalanobis(t_unit - centre, mode_cov, keep),
+                   "mode_evals": evals}
+            out["replicates"].append(row)
+            print(f"{i:9d} {'clean' if clean else 'noisy':>6s} {row['sandwich_at_fit']:13.1f} "
+                  f"{row['arp_at_fit']:9.1f} {row['arp_at_mode']:9.1f} {evals:10d}",
+                  flush=True)
+    case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
+                      source=root / "viscous.toml")
+    prior = Prior.from_case(case)
+    names = list(prior.names)
+    truth = np.array([bridge.truth("viscous")[n] for n in names])
+    t_unit = prior.from_physical(truth)
+    for clean in (False, True):
+        fits, modes, sds = [], [], []
+        for s in range(seeds):
+            problem = bridge_problem("viscous", bridge.truth("viscous"),
+                                     root / f"seeds-{s}-{clean}", 1000 + s, clean)
+            unit, r, _ = local_fit(problem, t_unit)
+            jac = jacobian_unit(problem.residuals_batch, unit, prior, step=LOCAL_STEP)
+            model = problem_error_model(problem, r, "arp")
+            centre, ((r_c, jac_c),), _ = mode_jacobians(problem, prior, model, unit, r, jac,
+                                                        steps=(LOCAL_STEP,))
+            fits.append(unit)
+            modes.append(centre)
+            sds.append(np.sqrt(np.diag(laplace(jac_c, r_c, centre, model, prior).cov_unit)))
+        sd = np.mean(sds, axis=0)
+        fit_scatter = np.std(fits, axis=0, ddof=1) / sd
+        mode_scatter = np.std(modes, axis=0, ddof=1) / sd
+        label = "clean" if clean else "noisy"
+        print(f"\nnominal truth, {seeds} noise draws, table {label}: scatter over the draws in "
+              "units of arp's sd at its mode (1 if arp's curvature is right; kp1's local "
+              "curvature is a ripple's)")
+        print(f"{'':16s}" + " ".join(f"{n:>6s}" for n in names))
+        print(f"{'least squares':16s}" + " ".join(f"{v:6.2f}" for v in fit_scatter))
+        print(f"{'arp mode':16s}" + " ".join(f"{v:6.2f}" for v in mode_scatter))
+        out["seeds"][label] = {"least_squares": fit_scatter.tolist(),
+                               "arp_mode": mode_scatter.tolist()}
     return out
 
 
@@ -471,15 +610,24 @@ def main() -> None:
     parser.add_argument("--replicates", type=int, default=50)
     parser.add_argument("--first-replicate", type=int, default=0,
                         help="calibration: start at this replicate (split a run over processes)")
-    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH)),
-                        help="calibration: the error model kinds (Laplace intervals) and "
-                        "'sandwich' (the least-squares estimate's sandwich covariance)")
+    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH, GLS_SANDWICH)),
+                        help="calibration: the error model kinds (Laplace intervals), "
+                        "'sandwich' (the least-squares estimate's sandwich covariance) and "
+                        "'gls-sandwich' (arp's mode with its estimate's sandwich covariance)")
     parser.add_argument("--tmcmc-kinds", default="",
                         help="calibration: kinds whose TMCMC intervals are measured too")
     parser.add_argument("--tmcmc-population", type=int, default=1000)
     parser.add_argument("--coarse-jacobian", action="store_true",
                         help="calibration: the Jacobian over 1 %% of each range for every "
                         "parameter (before: the Laplace record's two scales)")
+    parser.add_argument("--clean-input", action="store_true",
+                        help="calibration: the table's record without noise (outputs only)")
+    parser.add_argument("--ar-max-order", type=int, default=AR_MAX_ORDER,
+                        help="calibration: the largest AR order of kind arp (by BIC)")
+    parser.add_argument("--whitening-replicates", type=int, default=8,
+                        help="whitening: the calibration replicates it looks at")
+    parser.add_argument("--noise-seeds", type=int, default=16,
+                        help="whitening: noise draws at the nominal truth")
     parser.add_argument("--hits", type=Path, default=None,
                         help="calibration: JSON lines of the replicates (resume, merge)")
     parser.add_argument("--seeds", type=int, default=10)
@@ -504,7 +652,10 @@ def main() -> None:
                 args.replicates, root, args.first_replicate, kinds=args.kinds.split(","),
                 tmcmc_kinds=[k for k in args.tmcmc_kinds.split(",") if k],
                 tmcmc_population=args.tmcmc_population, hits_file=args.hits,
-                coarse_only=args.coarse_jacobian)
+                coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
+                ar_max_order=args.ar_max_order)
+        if "whitening" in sections:
+            out["whitening"] = whitening(args.whitening_replicates, args.noise_seeds, root)
         if "speed" in sections:
             out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000,
                                  threads=args.threads)

@@ -19,7 +19,8 @@ import numpy as np
 from femupdate.errors import FemupdateError
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, laplace, summarize_gaussian
-from femupdate.posterior.likelihood import DEFAULT_KIND, problem_error_model
+from femupdate.posterior.likelihood import DEFAULT_KIND, ErrorModel, problem_error_model
+from femupdate.posterior.mode import WHITENING_KINDS, whitened_mode
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.records import LaplaceRecord, Marginal, correlation_rows
 from femupdate.update import UpdateProblem
@@ -46,7 +47,9 @@ def case_error_kind(case: Any) -> str:
 def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
                    kind: str | None = None) -> LaplaceRecord:
     """The Laplace approximation at search point ``x`` (a best fit) of ``problem``, at two
-    scales (:func:`two_scale_record`; 4n + 1 evaluations).
+    scales (:func:`two_scale_record`; 4n + 1 evaluations). A whitening error model (``"ar1"``,
+    ``"arp"``) has its maximum elsewhere than φ's minimum: its Gaussian is taken at its own
+    mode, climbed to from ``x`` (:func:`mode_jacobians`; the evaluations counted in ``nfev``).
 
     A failure (the model fails beside ``x``, a residual block is zero) is recorded as the
     record's ``note``, not raised: the update's results stand without it.
@@ -65,12 +68,31 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
         # "adjusted" takes its count from the Jacobian over 1 % of each range (the valley's)
         model = problem_error_model(problem, r, kind,
                                     jacobians[1][1] if kind == "adjusted" else None)
+        if kind in WHITENING_KINDS:  # its Gaussian sits at its own mode, not at φ's minimum
+            best_unit, jacobians, extra = mode_jacobians(problem, prior, model, best_unit,
+                                                         *jacobians[0])
+            nfev += extra
         results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
                    for r_x, jac in jacobians]
     except FemupdateError as exc:
         return LaplaceRecord(error_model=kind, names=list(problem.names), nfev=nfev,
                              note=f"no Laplace approximation: {exc}")
     return two_scale_record(results[0], results[1], prior, kind, nfev)
+
+
+def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,
+                   start_unit: np.ndarray, r: np.ndarray, jac: np.ndarray,
+                   steps: tuple[float, ...] = (LOCAL_STEP, UNIT_STEP)
+                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]], int]:
+    """The mode of a whitening error model (:func:`~femupdate.posterior.mode.whitened_mode`
+    from the best fit, with r and the local Jacobian there), the residuals and Jacobians at
+    the mode over each of ``steps``, and the evaluations all that took."""
+    mode = whitened_mode(problem.residuals_batch, prior, model, start_unit, residuals=r,
+                         jacobian=jac)
+    x = prior.to_search(mode.unit)
+    jacobians = [residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
+                 for step in steps]
+    return mode.unit, jacobians, mode.evaluations + len(steps) * (2 * x.size + 1)
 
 
 def two_scale_record(local: LaplaceResult, coarse: LaplaceResult, prior: Prior, kind: str,

@@ -265,7 +265,8 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
                 best_residuals: np.ndarray | None = None,
                 dof_removed: tuple[int, ...] | list[int] | None = None,
                 sigma: float | np.ndarray | None = None,
-                jacobian: np.ndarray | None = None) -> ErrorModel:
+                jacobian: np.ndarray | None = None,
+                ar_max_order: int = AR_MAX_ORDER) -> ErrorModel:
     """Build an error model over the residual ``blocks`` (:func:`residual_blocks`).
 
     Parameters
@@ -283,6 +284,8 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
         The known error standard deviation (kind ``"known"`` only), in units of r.
     jacobian : ndarray (m, n), optional
         ∂r/∂θ at the best fit (kind ``"adjusted"`` only), in any coordinates of θ.
+    ar_max_order : int
+        The largest AR order kind ``"arp"`` considers (by BIC).
     """
     if kind not in KINDS:
         raise ConfigError(f"error model kind: got {kind!r} (allowed: {', '.join(KINDS)})")
@@ -330,7 +333,7 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
         k = magnitude_adjustment(jacobian, r, blocks)
         counts = (lengths - removed) * k
     elif kind == "arp":
-        order = max(ar_order(r[a:b]) for a, b in zip(starts, stops, strict=True))
+        order = max(ar_order(r[a:b], ar_max_order) for a, b in zip(starts, stops, strict=True))
         ar = np.array([ar_fit(r[a:b], order)[0] for a, b in zip(starts, stops, strict=True)])
         counts = (lengths - order - removed).astype(float)
     else:
@@ -348,10 +351,10 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
 
 
 def problem_error_model(problem: Any, best_residuals: np.ndarray,
-                        kind: str = DEFAULT_KIND, jacobian: np.ndarray | None = None
-                        ) -> ErrorModel:
+                        kind: str = DEFAULT_KIND, jacobian: np.ndarray | None = None,
+                        ar_max_order: int = AR_MAX_ORDER) -> ErrorModel:
     """The error model of an UpdateProblem, fixed at its best fit's residuals (and, for kind
     ``"adjusted"``, its Jacobian there)."""
     blocks, removed = residual_blocks(problem)
     return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed,
-                       jacobian=jacobian)
+                       jacobian=jacobian, ar_max_order=ar_max_order)

@@ -214,7 +214,7 @@ def viscous_problem(work_dir: Path | None = None, *, seed: int = 0, snr: float =
 
 
 def ensure_records(case: Any, truth_values: dict[str, float], data_dir: Path, *, seed: int,
-                    snr: float) -> None:
+                    snr: float, clean_input: bool = False) -> None:
     """Write the virtual experiment to ``data_dir`` unless the records there are of this truth
     and noise (records of another truth or noise are overwritten, never reused)."""
     from femupdate.virtual import virtual_experiment
@@ -222,8 +222,9 @@ def ensure_records(case: Any, truth_values: dict[str, float], data_dir: Path, *,
     manifest = data_dir / "manifest.json"
     if manifest.exists():
         written = json.loads(manifest.read_text())
-        if written.get("truth") == truth_values and written.get("snr") == snr:
+        if (written.get("truth") == truth_values and written.get("snr") == snr
+                and written.get("clean_input", False) == clean_input):
             return
     virtual_experiment(case, truth_values, data_dir, seed=seed, duration=DURATION,
                        rate=SAMPLE_RATE, snr=snr, offset=0.05 if snr else 0.0,
-                       drift=0.01 if snr else 0.0)
+                       drift=0.01 if snr else 0.0, clean_input=clean_input)

@@ -32,11 +32,12 @@ from femupdate.case.posterior_section import (
 )
 from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
-from femupdate.posterior.best_fit import case_priors, centred
-from femupdate.posterior.jacobian import residual_jacobian
+from femupdate.posterior.best_fit import case_priors, centred, mode_jacobians
+from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
 from femupdate.posterior.likelihood import ErrorModel, problem_error_model
 from femupdate.posterior.method import METHOD, SampledProblem, sampler_options
+from femupdate.posterior.mode import WHITENING_KINDS
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.records import (
     PosteriorRecord,
@@ -118,6 +119,13 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                                     ar=counts_from.ar)
     best_unit = prior.to_unit(x)
     try:
+        if model.kind in WHITENING_KINDS:  # TMCMC starts from the Gaussian at its mode
+            best_unit, ((r, jac),), _ = mode_jacobians(
+                problem, prior, model, best_unit,
+                *residual_jacobian(problem.residuals_batch, problem.bounds, x,
+                                   step=LOCAL_STEP), steps=(UNIT_STEP,))
+            return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
+                                         prior), None
         r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
         return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                      prior), None
