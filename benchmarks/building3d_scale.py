@@ -52,10 +52,12 @@ from frame3d_scale import (
     FramePhi,
     FrameSpec,
     floor_masses,
+    growth_exponent,
     members,
     node_name,
 )
-from scale import BAND_HZ, DT, ground_motion, load, median_time, virtual_runs
+from frame3d_scale import multistart as frame_multistart
+from scale import BAND_HZ, DT, ground_motion, load, median_time
 
 from femupdate.model import Structure
 from femupdate.model.sparse import lowest_modes
@@ -230,20 +232,8 @@ def phi_rows(sizes: list[int], repeat: int) -> list[dict]:
     return rows
 
 
-def growth_exponent(rows: list[dict]) -> float | None:
-    sel = [r for r in rows if r["dofs"] >= 100]
-    if len(sel) < 2:
-        return None
-    return float(np.polyfit(np.log([r["dofs"] for r in sel]), np.log([r["phi_s"] for r in sel]),
-                            1)[0])
-
-
 def multistart(dofs: int, runs: int, max_evals: int) -> dict:
-    bays, storeys = SIZES[dofs]
-    spec = Building(bays, storeys, min(storeys, 7), min(storeys, 3))
-    problem = BuildingPhi(spec, ground_motion())
-    return {"dofs": problem.structure.n_dof,
-            **virtual_runs(problem, len(spec.names), runs, max_evals, progress=True)}
+    return frame_multistart(dofs, runs, max_evals, SIZES, Building, BuildingPhi)
 
 
 def main() -> None:
@@ -259,7 +249,7 @@ def main() -> None:
     if not args.skip_phi:
         sizes = [15, 105] if args.quick else list(SIZES)
         rows = phi_rows(sizes, repeat=3 if args.quick else 7)
-        exponent = growth_exponent(rows)
+        exponent = growth_exponent(rows, min_dofs=100)
         if exponent is not None:
             print(f"growth exponent of φ above 100 DOFs: {exponent:.2f}")
         for r in rows:

@@ -292,19 +292,22 @@ def phi_rows(sizes: list[int], repeat: int) -> list[dict]:
     return rows
 
 
-def growth_exponent(rows: list[dict]) -> float | None:
-    sel = [r for r in rows if r["dofs"] >= 96]
+def growth_exponent(rows: list[dict], min_dofs: int = 96) -> float | None:
+    """The slope of log φ against log DOFs over the rows from ``min_dofs`` up."""
+    sel = [r for r in rows if r["dofs"] >= min_dofs]
     if len(sel) < 2:
         return None
     return float(np.polyfit(np.log([r["dofs"] for r in sel]), np.log([r["phi_s"] for r in sel]),
                             1)[0])
 
 
-def multistart(dofs: int, runs: int, max_evals: int) -> dict:
-    """Noise-free virtual experiment on a frame (``scale.virtual_runs``)."""
-    bays, storeys = SIZES[dofs]
-    spec = FrameSpec(bays, storeys, min(storeys, 7), min(storeys, 3))
-    problem = FramePhi(spec, ground_motion())
+def multistart(dofs: int, runs: int, max_evals: int, sizes: dict = SIZES,
+               spec_type: type = FrameSpec, phi_type: type = FramePhi) -> dict:
+    """Noise-free virtual experiment on a frame (``scale.virtual_runs``); ``spec_type`` and
+    ``phi_type`` make another kind of frame (benchmarks/building3d_scale.py's)."""
+    bays, storeys = sizes[dofs]
+    spec = spec_type(bays, storeys, min(storeys, 7), min(storeys, 3))
+    problem = phi_type(spec, ground_motion())
     return {"dofs": problem.structure.n_dof,
             **virtual_runs(problem, len(spec.names), runs, max_evals, progress=True)}
 
