@@ -260,6 +260,15 @@ class TrialProblem:
         """The samples of a prediction the error function scores."""
         return prediction[self.experiment.score]
 
+    def phi_against(self, prediction: np.ndarray, reference: np.ndarray) -> float:
+        """φ of a scored ``prediction`` with another scored prediction, ``reference``, as the
+        measured target: this trial's error function otherwise (its weights and, for
+        displacements, the fitted offset and drift)."""
+        own = self.objective
+        return float(ErrorFunction(reference, t=own.t, weights=own.weights, kind=own.kind,
+                                   experimental_parameters=own.with_experimental_parameters)(
+                                       prediction))
+
     def _scored_prediction(self, values: Mapping[str, float]) -> np.ndarray | None:
         """The scored prediction, or None for a failed simulation (``last_failure`` says why:
         an unstable step, a divergence, an external model's error)."""

@@ -253,19 +253,6 @@ def mode_count(system: Any) -> int:
     return int(system.n_dof - massless_dofs(system.M).size)
 
 
-def _phi_against(trial: Any, got: np.ndarray, ref: np.ndarray) -> float:
-    """φ of the prediction ``got`` with ``ref`` as the measured target: the trial's error
-    function (its weights and, for displacements, the fitted offset and drift that absorb the
-    drift of twice-integrated accelerations, which a nonlinear model's small acceleration
-    differences make large)."""
-    from femupdate.objective import ErrorFunction
-
-    own = trial.objective
-    return float(ErrorFunction(ref, t=own.t, weights=own.weights,
-                               experimental_parameters=own.with_experimental_parameters,
-                               kind=own.kind)(got))
-
-
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
     """‖a − b‖² / ‖b‖² (the NMSE that φ is made of)."""
     return float(np.sum((a - b) ** 2) / np.sum(b**2))
@@ -300,7 +287,7 @@ def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
         got = trial.scored(trial.prediction(reduced.run(trial._ag)))
         ref = trial.scored(trial.prediction(full.run(trial._ag)))
         return {**record, "n_modes": reduced.n_dof,
-                "truncation_error": _phi_against(trial, got, ref),
+                "truncation_error": trial.phi_against(got, ref),
                 "against": against, "phi_reduced": trial.objective(got),
                 "phi_full": trial.objective(ref)}
     if massed < n and reduced.n_modes == massed:  # every mode kept: nothing to measure
