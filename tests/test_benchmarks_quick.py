@@ -58,6 +58,7 @@ QUICK = {
     "bridge_posterior.py": ("truth inside the posterior's 90 % interval", lambda: None),
     "building3d_scale.py": ('"reached_1e-6": 2', _opensees_missing),
     "coco_bbob.py": ("targets hit", lambda: _module_missing("cocoex", "cma")),
+    "craig_bampton.py": ("full / reduced", lambda: None),
     "dask_runs.py": ("dask results identical to inline: True",
                      lambda: _module_missing("dask.distributed")),
     "evaluation_cost.py": ("3-DOF shear building", lambda: None),

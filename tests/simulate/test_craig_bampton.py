@@ -8,12 +8,12 @@ import pytest
 import scipy.linalg as sla
 import scipy.signal as ss
 
+from femupdate.bench.friction_beam import ELEMENTS, TRUTH, friction_beam_case
 from femupdate.errors import ConfigError
 from femupdate.model import Structure
 from femupdate.simulate import prepare
 from femupdate.simulate.craig_bampton import craig_bampton, nonlinear_dofs
 
-ELEMENTS = 60
 DT = 0.005
 
 
@@ -80,53 +80,6 @@ def test_a_nonlinear_element_off_the_boundary_is_refused() -> None:
         craig_bampton(system, [system.n_dof], cutoff_hz=100.0)
 
 
-def _beam_case(directory, method: str) -> object:
-    """The friction beam as a case file (stiffness of the pier spring and slip force fitted)."""
-    import tomllib
-
-    from femupdate.case import parse_case
-
-    nodes = ", ".join(f'{{ name = "N{i}", x = {30.0 * i / ELEMENTS} }}'
-                      for i in range(ELEMENTS + 1))
-    beams = "\n".join(f'[[model.beams]]\nnodes = ["N{i}", "N{i + 1}"]\nE = 2.1e11\nA = 0.01\n'
-                      f"I = 2e-4\nrho = 7850.0" for i in range(ELEMENTS))
-    text = f"""
-[case]
-name = "friction-beam"
-[model]
-dofs_per_node = 2
-rayleigh = {{ alpha = 0.2, beta = 1e-5 }}
-nodes = [{nodes}]
-springs = [{{ node = "N0", dof = "uy", k = 1e8 }}, {{ node = "N{ELEMENTS}", dof = "uy", k = 1e8 }},
-           {{ node = "N{ELEMENTS // 3}", dof = "uy", k = "k_pier" }}]
-frictions = [{{ node = "N{ELEMENTS // 2}", dof = "uy", k_r = 2e6, f_u = "f_u" }}]
-{beams}
-[[parameters]]
-name = "k_pier"
-lower = 1e6
-upper = 1e7
-[[parameters]]
-name = "f_u"
-lower = 500.0
-upper = 5000.0
-[data]
-format = "csv"
-directory = "{directory}"
-time_column = "t"
-unit = "m/s2"
-input = {{ file = "accelerations.csv", column = "table" }}
-outputs = [
-  {{ file = "accelerations.csv", column = "mid", node = "N{ELEMENTS // 2}", dof = "uy" }},
-  {{ file = "accelerations.csv", column = "quarter", node = "N{ELEMENTS // 4}", dof = "uy" }},
-]
-[preprocess]
-substeps = 200
-[simulation]
-method = "{method}"
-"""
-    return parse_case(tomllib.loads(text), source=directory / "case.toml")
-
-
 def test_a_friction_case_on_the_reduced_path(tmp_path) -> None:
     """``method = "reduced"`` with friction: Craig–Bampton with the damper's DOF kept, φ at the
     truth on the full model's records is the truncation error the summary reports, and φ
@@ -140,10 +93,10 @@ def test_a_friction_case_on_the_reduced_path(tmp_path) -> None:
     from femupdate.update import UpdateProblem
     from femupdate.virtual import virtual_experiment
 
-    truth = {"k_pier": 5e6, "f_u": 2e3}
-    virtual_experiment(_beam_case(tmp_path, "nonlinear"), truth, tmp_path, seed=1, snr=0.0,
+    truth = TRUTH
+    virtual_experiment(friction_beam_case(tmp_path, "nonlinear"), truth, tmp_path, seed=1, snr=0.0,
                        offset=0.0, drift=0.0, duration=4.0, rate=200.0, length_scale=1.0)
-    case = _beam_case(tmp_path, "reduced")
+    case = friction_beam_case(tmp_path, "reduced")
     problem = UpdateProblem(case, load_experiment(case))
     from femupdate.errors import FemupdateWarning
 
