@@ -631,6 +631,9 @@ def main() -> None:
     parser.add_argument("--hits", type=Path, default=None,
                         help="calibration: JSON lines of the replicates (resume, merge)")
     parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--evidence-population", type=int, default=1000,
+                        help="evidence: TMCMC's population (its ESS is measured across the "
+                        "seeds too: 6000 checks the speed section's effective samples)")
     parser.add_argument("--population", type=int, default=2000)
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--threads", type=int, default=1,
@@ -662,7 +665,7 @@ def main() -> None:
         if "friction" in sections:
             out["friction"] = friction(2000, args.steps, root)
         if "evidence" in sections:
-            out["evidence"] = evidence(1000, args.steps, root, args.seeds)
+            out["evidence"] = evidence(args.evidence_population, args.steps, root, args.seeds)
     if args.json is not None:
         args.json.write_text(json.dumps(out, indent=1, default=float))
 
