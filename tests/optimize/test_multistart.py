@@ -564,3 +564,20 @@ def test_a_rejected_step_of_an_updated_model_asks_a_difference_jacobian() -> Non
             assert opt.phase == "jacobian" and opt.pending.shape[0] == len(p.bounds)
         most = max(most, opt.updates)
     assert most == opt.broyden == 5 and refreshed >= 1
+
+
+def test_pickled_between_broyden_updates_resumes_bit_identically() -> None:
+    p = DynamicProblem()
+    state = start(p.residuals, p.bounds, "multistart-lm", seed=7, max_evals=1500,
+                  residuals=True)
+    while not (state.optimizer.updates >= 2 and state.optimizer.jac is not None):
+        state.step(p.residuals)
+    clone = pickle.loads(pickle.dumps(state))
+    nfev = state.nfev
+    for s in (state, clone):
+        while not s.done:
+            s.step(p.residuals)
+    assert state.nfev == clone.nfev == 1500 and state.best_f == clone.best_f
+    for one, other in zip(state.evaluations_since(nfev)[:2], clone.evaluations_since(nfev)[:2],
+                          strict=True):
+        assert one.tobytes() == other.tobytes()
