@@ -413,7 +413,7 @@ def test_valley_hops_find_the_deepest_ripple_sooner(monkeypatch: pytest.MonkeyPa
     ("stall_tol", 1.0), ("lambda0", 0.0), ("ftol", -1.0), ("fd_step", 0.5),
     ("coarse_step", 0.0), ("stage_gain", 1.0), ("extend", 1), ("x0", [0.5, 2.0]),
     ("x0", [0.5]), ("patience", 0), ("patience", "never"), ("polish", "yes"),
-    ("broyden", -1), ("broyden", 1.5),
+    ("broyden", -1), ("broyden", 1.5), ("broyden", "never"),
 ])
 def test_bad_options_raise_config_error(option: str, value: object) -> None:
     with pytest.raises(ConfigError, match=f"option {option!r} of method 'multistart-lm'"):
@@ -569,7 +569,7 @@ def test_a_rejected_step_of_an_updated_model_asks_a_difference_jacobian() -> Non
 def test_pickled_between_broyden_updates_resumes_bit_identically() -> None:
     p = DynamicProblem()
     state = start(p.residuals, p.bounds, "multistart-lm", seed=7, max_evals=1500,
-                  residuals=True)
+                  residuals=True, broyden=5)
     while not (state.optimizer.updates >= 2 and state.optimizer.jac is not None):
         state.step(p.residuals)
     clone = pickle.loads(pickle.dumps(state))
@@ -581,3 +581,17 @@ def test_pickled_between_broyden_updates_resumes_bit_identically() -> None:
     for one, other in zip(state.evaluations_since(nfev)[:2], clone.evaluations_since(nfev)[:2],
                           strict=True):
         assert one.tobytes() == other.tobytes()
+
+
+def test_broyden_auto_updates_with_a_target_only() -> None:
+    from femupdate.optimize.multistart import BROYDEN
+
+    p = DynamicProblem()
+
+    def broyden(**kwargs: object) -> int:
+        return start(p.residuals, p.bounds, "multistart-lm", seed=1, residuals=True,
+                     **kwargs).optimizer.broyden
+
+    assert broyden(f_target=1e-10) == BROYDEN == 5
+    assert broyden() == 0  # no target: real records, patience ends the run
+    assert broyden(broyden=3) == 3 and broyden(broyden=0, f_target=1e-10) == 0
