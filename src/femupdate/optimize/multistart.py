@@ -44,7 +44,7 @@ search ending with a stage of central differences (``polish``).
 Every simulation is an evaluation, and all state is plain arrays, floats and the Generator:
 a pickled optimizer resumes bit for bit.
 
-Why this file is long (about 630 lines): it is one state machine. Its phases (pool, noise
+Why this file is long (about 830 lines): it is one state machine. Its phases (pool, noise
 table, Jacobian, trial step, extension, stage end) read and write the same search state; the
 pure numerics they call (steps, stencils, the bounded step, BFGS) already live in ``trust``.
 """
@@ -466,6 +466,7 @@ class MultistartLM(KeepsBest):
         else:
             self.hs = step_signs(self.x, self.h)
             rows = self.x + np.diag(self.hs)
+            self.jac = None  # replaced by the differences: not held while they are evaluated
         self.with_base = with_base
         self.pending = np.vstack([self.x, rows]) if with_base else rows
 
