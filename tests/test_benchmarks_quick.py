@@ -69,6 +69,7 @@ QUICK = {
     "jacobian_cost.py": ("fd err", lambda: None),
     "jenkins_reliability.py": ("verdict: ", _shared_data_missing),
     "model_classes.py": ("β = 1 reached", _shared_data_missing),
+    "multistart_budget.py": ("by phase: pool", lambda: None),
     "optimizer_overhead.py": ("scipy-lsq", lambda: None),
     "posterior.py": ("evaluations per effective sample, emcee / TMCMC",
                      lambda: _module_missing("emcee", "arviz")),

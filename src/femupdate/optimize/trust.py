@@ -208,6 +208,15 @@ def damping_update(lam: float, nu: float, rho: float, accept: float) -> tuple[fl
     return lam * nu, 2.0 * nu
 
 
+def broyden_update(jac: np.ndarray, step: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """Broyden's rank-1 update of a Jacobian (m, n): the least change that maps ``step`` (n,)
+    to the observed ``change`` of the residuals (m,): J + (Δr − J s) sᵀ / sᵀs."""
+    ss = float(step @ step)
+    if not ss > 0.0:
+        return jac
+    return jac + np.outer(change - jac @ step, step / ss)
+
+
 def bfgs_update(hess: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Powell's damped BFGS update of a Hessian approximation (stays positive definite).
 
