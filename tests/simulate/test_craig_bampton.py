@@ -49,7 +49,7 @@ def test_every_interior_mode_kept_gives_the_full_model_frequencies() -> None:
 
 
 def test_friction_beam_converges_to_the_full_nonlinear_response() -> None:
-    """The same central differences (200 substeps) on the full model (121 DOFs) and on its
+    """The same central differences (200 substeps) on the full model (122 DOFs) and on its
     reduction: the error falls as the interior's modes reach higher (interior modes up to
     80, 160, 320 Hz for a band of 20 Hz: stick–slip excites far above it)."""
     s = friction_beam()

@@ -58,8 +58,8 @@ __all__ = [
 REDUCED_MIN_DOF = 100
 #: The default ``cutoff_factor`` of a model with friction or Bouc–Wen elements (Craig–Bampton):
 #: stick–slip forces have a broad spectrum and excite the interior's modes far above the band.
-#: Measured on tests/simulate/test_craig_bampton.py's case (a 121-DOF beam with a friction
-#: damper, an EC8 accelerogram at 200 Hz, the band to Nyquist 100 Hz): truncation error
+#: Measured by benchmarks/craig_bampton.py (femupdate.bench.friction_beam: a 122-DOF beam with
+#: a friction damper, an EC8 accelerogram at 200 Hz, the band to Nyquist 100 Hz): truncation error
 #: (φ of the reduced prediction against the full one, at the truth) 3.6e-3, 6.1e-5, 1.2e-6
 #: and 8.5e-8 at factors 4, 8, 16 and 32 (19, 28, 39 and 57 reduced DOFs).
 NONLINEAR_CUTOFF_FACTOR = 16.0
