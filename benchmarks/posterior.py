@@ -65,7 +65,7 @@ from femupdate.posterior.gls_sandwich import gls_sandwich_laplace, trial_groups
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.posterior.likelihood import AR_MAX_ORDER, residual_blocks
 from femupdate.posterior.mode import WHITENING_KINDS
-from femupdate.posterior.sandwich import sandwich_laplace
+from femupdate.posterior.sandwich import curvature_adjustment, sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
 from femupdate.problems import bridge
 from femupdate.update import UpdateProblem
@@ -79,6 +79,34 @@ SANDWICH = "sandwich"
 #: Not an error model either: the Gaussian at arp's mode with the covariance of that estimate
 #: when the whitening leaves the errors coloured (femupdate.posterior.gls_sandwich)
 GLS_SANDWICH = "gls-sandwich"
+#: The i.i.d. likelihood with the curvature adjustment (femupdate.posterior.sandwich): sampled by
+#: TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction). Measured too
+#: narrow (docs/posterior.md, "The curvature adjustment, tried")
+CURVATURE = "curvature"
+#: The same with C from the Jacobian of steps LOCAL_STEP (the curvature at the fit's own scale)
+CURVATURE_LOCAL = "curvature-local"
+
+
+class CurvatureAdjusted:
+    """The residuals of ``problem`` at ξ* + C (ξ − ξ*) (unit cube, clipped to it): the
+    curvature-adjusted likelihood is the i.i.d. one of these. ``residuals_batch`` keeps a
+    population one call."""
+
+    def __init__(self, problem: UpdateProblem, prior: Prior, centre: np.ndarray,
+                 adjustment: np.ndarray) -> None:
+        self.problem, self.prior = problem, prior
+        self.centre, self.adjustment = np.asarray(centre, dtype=float), adjustment
+
+    def _moved(self, x: np.ndarray) -> np.ndarray:
+        unit = self.prior.to_unit(x)
+        moved = self.centre + (unit - self.centre) @ self.adjustment.T
+        return self.prior.to_search(np.clip(moved, 0.0, 1.0))
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return self.problem.residuals(self._moved(np.asarray(x, dtype=float)))
+
+    def residuals_batch(self, X: np.ndarray, **options: Any) -> np.ndarray:
+        return self.problem.residuals_batch(self._moved(np.atleast_2d(X)), **options)
 #: TMCMC's moves on the bridge: independent proposals from the weighted population's Gaussian,
 #: 12 steps at β = 1 (measured across 10 seeds: 3.2× fewer evaluations per effective sample than
 #: random-walk moves with 3 steps per stage and at β = 1); since they are TMCMC's defaults, this
@@ -249,6 +277,22 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
         if kind == SANDWICH:
             _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            continue
+        if kind in (CURVATURE, CURVATURE_LOCAL):  # TMCMC only: its Laplace is the sandwich's
+            j = jac if kind == CURVATURE else jac_local
+            lap = sandwich_laplace(j, r, unit, blocks, prior)
+            wrapped = CurvatureAdjusted(problem, prior, unit, curvature_adjustment(j, r, blocks))
+            cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
+            reference = (np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap))
+            seed = np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 99))
+            post, _ = run_tmcmc(wrapped.residuals, prior, problem_error_model(problem, r, "iid"),
+                                seed=seed, population=tmcmc_population, reference=reference,
+                                **MOVES)
+            if not post.reached:
+                raise RuntimeError(f"replicate {i}: TMCMC ({kind}) did not reach β = 1")
+            q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
+            out["tmcmc"][kind] = ((q[0] <= truth_values) & (truth_values <= q[1])).tolist()
+            out["tmcmc_evals"][kind] = post.evaluations
             continue
         model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None,
                                     ar_max_order=ar_max_order)
@@ -612,8 +656,10 @@ def main() -> None:
                         help="calibration: start at this replicate (split a run over processes)")
     parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH, GLS_SANDWICH)),
                         help="calibration: the error model kinds (Laplace intervals), "
-                        "'sandwich' (the least-squares estimate's sandwich covariance) and "
-                        "'gls-sandwich' (arp's mode with its estimate's sandwich covariance)")
+                        "'sandwich' (the least-squares estimate's sandwich covariance), "
+                        "'gls-sandwich' (arp's mode with its estimate's sandwich covariance) "
+                        "and 'curvature', 'curvature-local' (TMCMC of the curvature-adjusted "
+                        "i.i.d. likelihood, C from the 1 %% or the local Jacobian)")
     parser.add_argument("--tmcmc-kinds", default="",
                         help="calibration: kinds whose TMCMC intervals are measured too")
     parser.add_argument("--tmcmc-population", type=int, default=1000)

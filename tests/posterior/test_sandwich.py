@@ -11,6 +11,7 @@ from femupdate.errors import ConfigError, DataError
 from femupdate.posterior.likelihood import error_model
 from femupdate.posterior.sandwich import (
     andrews_bandwidth,
+    curvature_adjustment,
     magnitude_adjustment,
     sandwich_covariance,
     tapered_autocovariance,
@@ -78,3 +79,27 @@ def test_sandwich_of_a_linear_fit_with_ar1_errors_matches_the_closed_form() -> N
     assert adjusted.counts == pytest.approx([(n - 2) * k] * 2, rel=1e-12)
     with pytest.raises(ConfigError, match="'adjusted' needs the Jacobian"):
         error_model(blocks, "adjusted", best_residuals=r)
+
+
+def test_the_curvature_adjusted_likelihood_has_the_sandwich_covariance() -> None:
+    """One block of AR(1) errors: the i.i.d. likelihood at ξ* + C (ξ − ξ*) has curvature
+    CᵀHC, H the i.i.d. one (weight N/‖r‖²); its inverse is the sandwich covariance, parameter
+    by parameter and in the correlations. The magnitude adjustment matches only the trace: a
+    slow and a fast regressor see the AR(1) errors' power at different frequencies, and one
+    power of the likelihood cannot widen both by their own factors."""
+    rng = np.random.default_rng(5)
+    n, rho = 3000, 0.9
+    t = np.linspace(0.0, 1.0, n)
+    design = np.column_stack([np.sin(2 * np.pi * 2 * t), t, np.cos(2 * np.pi * 1000 * t)])
+    y = design @ np.array([1.0, 0.5, -1.0]) + lfilter([1.0], [1.0, -rho], rng.standard_normal(n))
+    theta = np.linalg.lstsq(design, y, rcond=None)[0]
+    r = design @ theta - y
+    blocks = [slice(0, n)]
+    c = curvature_adjustment(design, r, blocks)
+    curvature = c.T @ ((n / (r @ r)) * design.T @ design) @ c
+    np.testing.assert_allclose(np.linalg.inv(curvature), sandwich_covariance(design, r, blocks),
+                               rtol=1e-8)
+    k = magnitude_adjustment(design, r, blocks)
+    tempered = np.linalg.inv(k * (n / (r @ r)) * design.T @ design)
+    sandwich_sd = np.sqrt(np.diag(sandwich_covariance(design, r, blocks)))
+    assert not np.allclose(np.sqrt(np.diag(tempered)), sandwich_sd, rtol=0.1)

@@ -71,14 +71,12 @@ def sandwich_laplace(jac: np.ndarray, residuals: np.ndarray, best_unit: np.ndarr
     return summarize_gaussian(np.asarray(best_unit, dtype=float).reshape(-1), cov, prior)
 
 
-def magnitude_adjustment(jac: np.ndarray, residuals: np.ndarray,
-                         blocks: tuple[slice, ...] | list[slice]) -> float:
-    """k = n / tr(H⁻¹ M) of the i.i.d. likelihood with unknown variance per block (weights
-    w_c = N_c/‖r_c‖², H = Σ w_c J_cᵀJ_c, M = Σ w_c² J_cᵀ Γ_c J_c): the power the likelihood
-    is raised to so that its curvature matches, on average over the parameters, the
-    sandwich's (Ribatet, Cooley & Davison 2012, the magnitude adjustment of a composite
-    likelihood). Exact when M ∝ H; the error model with N_c·k independent values per block
-    is that tempered likelihood."""
+def _sensitivity_variability(jac: np.ndarray, residuals: np.ndarray,
+                             blocks: tuple[slice, ...] | list[slice]
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """(H, M) of the i.i.d. likelihood with unknown variance per block (weights
+    w_c = N_c/‖r_c‖²): H = Σ w_c J_cᵀJ_c its curvature, M = Σ w_c² J_cᵀ Γ_c J_c the variance of
+    its score from the residuals' autocovariance."""
     jac = np.asarray(jac, dtype=float)
     r = np.asarray(residuals, dtype=float).reshape(-1)
     n = jac.shape[1]
@@ -90,4 +88,37 @@ def magnitude_adjustment(jac: np.ndarray, residuals: np.ndarray,
         gamma = tapered_autocovariance(rc, andrews_bandwidth(rc))
         sensitivity += w * jc.T @ jc
         variability += w ** 2 * jc.T @ matmul_toeplitz(gamma, jc)
+    return sensitivity, variability
+
+
+def magnitude_adjustment(jac: np.ndarray, residuals: np.ndarray,
+                         blocks: tuple[slice, ...] | list[slice]) -> float:
+    """k = n / tr(H⁻¹ M) of the i.i.d. likelihood with unknown variance per block (weights
+    w_c = N_c/‖r_c‖², H = Σ w_c J_cᵀJ_c, M = Σ w_c² J_cᵀ Γ_c J_c): the power the likelihood
+    is raised to so that its curvature matches, on average over the parameters, the
+    sandwich's (Ribatet, Cooley & Davison 2012, the magnitude adjustment of a composite
+    likelihood). Exact when M ∝ H; the error model with N_c·k independent values per block
+    is that tempered likelihood."""
+    sensitivity, variability = _sensitivity_variability(jac, residuals, blocks)
+    n = sensitivity.shape[0]
     return float(n / np.trace(np.linalg.pinv(sensitivity, hermitian=True) @ variability))
+
+
+def _psd_power(a: np.ndarray, power: float) -> np.ndarray:
+    """A symmetric positive semi-definite matrix to a power, its eigenvalues below 1e-12 of
+    the largest taken as that floor."""
+    w, v = np.linalg.eigh(0.5 * (a + a.T))
+    w = np.maximum(w, 1e-12 * max(float(w.max()), 1e-300))
+    return (v * w ** power) @ v.T
+
+
+def curvature_adjustment(jac: np.ndarray, residuals: np.ndarray,
+                         blocks: tuple[slice, ...] | list[slice]) -> np.ndarray:
+    """C (n, n) of the curvature adjustment of the i.i.d. likelihood (Chandler & Bate 2007;
+    Ribatet, Cooley & Davison 2012): ℓ_adj(ξ) = ℓ(ξ* + C (ξ − ξ*)) has at the best fit ξ* the
+    curvature CᵀHC = H M⁻¹ H, the inverse of the sandwich covariance, parameter by parameter
+    (where the magnitude adjustment matches only its trace). C = H^(−1/2) (H M⁻¹ H)^(1/2), in
+    the Jacobian's coordinates."""
+    sensitivity, variability = _sensitivity_variability(jac, residuals, blocks)
+    target = sensitivity @ np.linalg.pinv(variability, hermitian=True) @ sensitivity
+    return _psd_power(sensitivity, -0.5) @ _psd_power(target, 0.5)
