@@ -55,6 +55,10 @@ from frame3d_scale import (
     growth_exponent,
     members,
     node_name,
+    opensees_grid,
+    opensees_members,
+    opensees_transient,
+    sensor_reads,
 )
 from frame3d_scale import multistart as frame_multistart
 from scale import BAND_HZ, DT, ground_motion, load, median_time
@@ -137,31 +141,14 @@ def opensees_building(problem: BuildingPhi, x: np.ndarray, substeps: int = 1,
     t0 = time.perf_counter()
     ops.wipe()
     ops.model("basic", "-ndm", 3, "-ndf", 6)
-    tags: dict[str, int] = {}
-    for level in range(spec.storeys + 1):
-        for i in range(n):
-            for j in range(n):
-                tag = tags[node_name(i, j, level)] = len(tags) + 1
-                ops.node(tag, i * BAY_M, j * BAY_M, level * STOREY_M)
-                if level == 0:
-                    ops.fix(tag, 1, 1, 1, 1, 1, 1)
+    tags = opensees_grid(ops, spec)
     for node, m in floor_masses(spec).items():
         ops.mass(tags[node], m, m, 0.0, 0.0, 0.0, 0.0)
     for level in range(1, spec.storeys + 1):
         ops.rigidDiaphragm(3, tags[master(spec, level)], *[
             tags[node_name(i, j, level)] for i in range(n) for j in range(n)
             if node_name(i, j, level) != master(spec, level)])
-    transforms: dict[tuple[float, ...], int] = {}
-    for e, (a, b, param, sec, vecxz) in enumerate(members(spec), start=1):
-        key = tuple(vecxz)
-        if key not in transforms:
-            transforms[key] = len(transforms) + 1
-            ops.geomTransf("Linear", transforms[key], *vecxz)
-        E = values[param]
-        shear_area = 5 / 6 * sec["A"]
-        ops.element("ElasticTimoshenkoBeam", e, tags[a], tags[b], E, E / (2 * (1 + NU)),
-                    sec["A"], sec["J"], sec["Iy"], sec["Iz"], shear_area, shear_area,
-                    transforms[key])
+    opensees_members(ops, spec, values, tags)
     ops.constraints("Transformation")
     ops.numberer("RCM")
     ops.system("ProfileSPD")  # the fastest of UmfPack, BandGeneral, BandSPD, ProfileSPD here
@@ -169,20 +156,7 @@ def opensees_building(problem: BuildingPhi, x: np.ndarray, substeps: int = 1,
     if modes:
         w2 = np.asarray(ops.eigen("-fullGenLapack", modes))
         freqs = np.sqrt(w2) / (2 * np.pi)
-    ops.rayleigh(problem.alpha, problem.beta, 0.0, 0.0)
-    ag = problem.ag
-    ops.timeSeries("Path", 1, "-dt", DT, "-values", *np.append(ag, ag[-1]).tolist())
-    ops.pattern("UniformExcitation", 1, 1, "-accel", 1)
-    ops.algorithm("Linear", "-factorOnce")
-    ops.integrator("Newmark", 0.5, 0.25)
-    ops.analysis("Transient")
-    reads = [(tags[node], "ux uy uz".split().index(dof) + 1) for node, dof in spec.sensors()]
-    disp = np.zeros((ag.size, len(reads)))
-    for step in range(1, ag.size):
-        if ops.analyze(substeps, DT / substeps) != 0:
-            raise RuntimeError(f"OpenSees failed at step {step}")
-        for k, (tag, d) in enumerate(reads):
-            disp[step, k] = ops.nodeDisp(tag, d)
+    disp = opensees_transient(ops, problem, sensor_reads(tags, spec.sensors()), substeps)
     elapsed = time.perf_counter() - t0
     ops.wipe()
     return elapsed, disp, freqs

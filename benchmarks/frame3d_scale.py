@@ -202,17 +202,9 @@ def _km(structure: Structure, values: dict[str, float]) -> tuple:
     return system.K, system.M
 
 
-def opensees_run(problem: FramePhi, x: np.ndarray) -> tuple[float, np.ndarray]:
-    """OpenSeesPy's transient analysis of the same frame at ``x``: (build + analysis seconds,
-    the sensors' displacements relative to the base)."""
-    from femupdate.external.openseespy import import_opensees
-
-    ops = import_opensees()
-    spec, values = problem.spec, problem.values(x)
+def opensees_grid(ops: object, spec: FrameSpec) -> dict[str, int]:
+    """The frame's nodes in OpenSeesPy (the base fixed): their tags by name."""
     n = spec.bays + 1
-    t0 = time.perf_counter()
-    ops.wipe()
-    ops.model("basic", "-ndm", 3, "-ndf", 6)
     tags: dict[str, int] = {}
     for level in range(spec.storeys + 1):
         for i in range(n):
@@ -221,8 +213,12 @@ def opensees_run(problem: FramePhi, x: np.ndarray) -> tuple[float, np.ndarray]:
                 ops.node(tag, i * BAY_M, j * BAY_M, level * STOREY_M)
                 if level == 0:
                     ops.fix(tag, 1, 1, 1, 1, 1, 1)
-    for node, m in floor_masses(spec).items():
-        ops.mass(tags[node], m, m, m, ROTARY * m, ROTARY * m, ROTARY * m)
+    return tags
+
+
+def opensees_members(ops: object, spec: FrameSpec, values: dict[str, float],
+                     tags: dict[str, int]) -> None:
+    """Every member as an ``ElasticTimoshenkoBeam`` (shear areas 5/6 A, G from ν)."""
     transforms: dict[tuple[float, ...], int] = {}
     for e, (a, b, param, sec, vecxz) in enumerate(members(spec), start=1):
         key = tuple(vecxz)
@@ -230,27 +226,56 @@ def opensees_run(problem: FramePhi, x: np.ndarray) -> tuple[float, np.ndarray]:
             transforms[key] = len(transforms) + 1
             ops.geomTransf("Linear", transforms[key], *vecxz)
         E = values[param]
-        G = E / (2 * (1 + NU))
         shear_area = 5 / 6 * sec["A"]
-        ops.element("ElasticTimoshenkoBeam", e, tags[a], tags[b], E, G, sec["A"], sec["J"],
-                    sec["Iy"], sec["Iz"], shear_area, shear_area, transforms[key])
+        ops.element("ElasticTimoshenkoBeam", e, tags[a], tags[b], E, E / (2 * (1 + NU)),
+                    sec["A"], sec["J"], sec["Iy"], sec["Iz"], shear_area, shear_area,
+                    transforms[key])
+
+
+def opensees_transient(ops: object, problem: FramePhi, reads: list[tuple[int, int]],
+                       substeps: int = 1) -> np.ndarray:
+    """Rayleigh damping, the base motion, Newmark (average acceleration, a linear model
+    factored once) on the analysis already set up; the ``reads`` (tag, DOF) displacements at
+    every sample."""
     ops.rayleigh(problem.alpha, problem.beta, 0.0, 0.0)
     ag = problem.ag
     ops.timeSeries("Path", 1, "-dt", DT, "-values", *np.append(ag, ag[-1]).tolist())
     ops.pattern("UniformExcitation", 1, 1, "-accel", 1)
-    ops.constraints("Plain")
-    ops.numberer("RCM")
-    ops.system("BandSPD")
     ops.algorithm("Linear", "-factorOnce")
     ops.integrator("Newmark", 0.5, 0.25)
     ops.analysis("Transient")
-    reads = [(tags[node], "ux uy uz".split().index(dof) + 1) for node, dof in sensors(spec)]
     disp = np.zeros((ag.size, len(reads)))
     for step in range(1, ag.size):
-        if ops.analyze(1, DT) != 0:
+        if ops.analyze(substeps, DT / substeps) != 0:
             raise RuntimeError(f"OpenSees failed at step {step}")
         for k, (tag, d) in enumerate(reads):
             disp[step, k] = ops.nodeDisp(tag, d)
+    return disp
+
+
+def sensor_reads(tags: dict[str, int], sensor_list: list[tuple[str, str]]
+                 ) -> list[tuple[int, int]]:
+    return [(tags[node], "ux uy uz".split().index(dof) + 1) for node, dof in sensor_list]
+
+
+def opensees_run(problem: FramePhi, x: np.ndarray) -> tuple[float, np.ndarray]:
+    """OpenSeesPy's transient analysis of the same frame at ``x``: (build + analysis seconds,
+    the sensors' displacements relative to the base)."""
+    from femupdate.external.openseespy import import_opensees
+
+    ops = import_opensees()
+    spec, values = problem.spec, problem.values(x)
+    t0 = time.perf_counter()
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    tags = opensees_grid(ops, spec)
+    for node, m in floor_masses(spec).items():
+        ops.mass(tags[node], m, m, m, ROTARY * m, ROTARY * m, ROTARY * m)
+    opensees_members(ops, spec, values, tags)
+    ops.constraints("Plain")
+    ops.numberer("RCM")
+    ops.system("BandSPD")
+    disp = opensees_transient(ops, problem, sensor_reads(tags, sensors(spec)))
     elapsed = time.perf_counter() - t0
     ops.wipe()
     return elapsed, disp
