@@ -58,6 +58,7 @@ from frame3d_scale import (
     opensees_grid,
     opensees_members,
     opensees_transient,
+    print_rows,
     sensor_reads,
 )
 from frame3d_scale import multistart as frame_multistart
@@ -226,15 +227,7 @@ def main() -> None:
         exponent = growth_exponent(rows, min_dofs=100)
         if exponent is not None:
             print(f"growth exponent of φ above 100 DOFs: {exponent:.2f}")
-        for r in rows:
-            line = (f"{r['dofs']:>6} DOFs ({r['storeys']} storeys): φ "
-                    f"{r['phi_s'] * 1e3:.1f} ms, {r['modes']} modes")
-            line += (" (all: nothing truncated)" if r["all_modes_kept"] else
-                     f", truncation error {r['truncation_phi']:.1e}")
-            if "opensees_s" in r:
-                line += (f", OpenSeesPy {r['opensees_s'] * 1e3:.0f} ms, ratio "
-                         f"{r['opensees_s'] / r['phi_s']:.0f}x")
-            print(line)
+        print_rows(rows)
     if args.skip_optimize:
         return
     ms = multistart(105, args.runs or 2, 2000) if args.quick else multistart(

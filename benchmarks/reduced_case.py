@@ -25,7 +25,6 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads (one BLAS thread)
 
 import argparse
-import importlib.util
 import tempfile
 import time
 import tomllib
@@ -33,27 +32,18 @@ from pathlib import Path
 
 import numpy as np
 
+from femupdate.bench import large_building as MAKE
 from femupdate.case import parse_case
 from femupdate.case.reduced_path import REDUCED_MIN_DOF, simulation_record
 from femupdate.experiment import load_experiments
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 
-REPO = Path(__file__).resolve().parents[1]
 GROUPS = 10
 RATE_HZ = 100.0
 POINTS = 7
 
 
-def _make_case():
-    spec = importlib.util.spec_from_file_location(
-        "make_case", REPO / "examples" / "large" / "make_case.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-MAKE = _make_case()
 
 
 def load() -> str:

@@ -65,7 +65,25 @@ def ground_motion(seed: int = SEED) -> np.ndarray:
     return ag
 
 
-class BuildingPhi:
+class FilteredNmse:
+    """φ and its residuals from ``self.prediction(x)`` (the filtered sensors) and
+    ``self.target``: the NMSE averaged over channels (the benchmarks' problems share it)."""
+
+    target: np.ndarray
+
+    def prediction(self, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def __call__(self, x: np.ndarray) -> float:
+        return nmse(self.prediction(x), self.target)
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        d = self.prediction(x) - self.target
+        scale = np.sqrt(np.sum(self.target**2, axis=0) * self.target.shape[1])
+        return (d / scale).ravel()  # r·r = the NMSE averaged over channels = φ
+
+
+class BuildingPhi(FilteredNmse):
     """φ(x) of a uniform shear building of ``n`` storeys with ``groups`` stiffness parameters.
 
     Floor masses 1; storey stiffness ``x_g · 16 n²`` in group g of consecutive storeys (the
@@ -111,13 +129,6 @@ class BuildingPhi:
         acc = self.simulator(x).run(self.ag).acceleration
         return ss.sosfiltfilt(self.sos, acc, axis=0)
 
-    def __call__(self, x: np.ndarray) -> float:
-        return nmse(self.prediction(x), self.target)
-
-    def residuals(self, x: np.ndarray) -> np.ndarray:
-        d = self.prediction(x) - self.target
-        scale = np.sqrt(np.sum(self.target**2, axis=0) * self.target.shape[1])
-        return (d / scale).ravel()  # r·r = the NMSE averaged over channels = φ
 
 
 def median_time(fn: Callable[[], object], repeat: int) -> float:

@@ -7,7 +7,6 @@ virtual experiment of 3 s at 100 Hz, built by examples/large/make_case.py.
 
 from __future__ import annotations
 
-import importlib.util
 import tomllib
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import numpy as np
 import pytest
 
 from femupdate._parallel import single_blas_thread
+from femupdate.bench import large_building as MAKE
 from femupdate.case import CaseModel, load_case, parse_case
 from femupdate.case.reduced_path import (
     REDUCED_MIN_DOF,
@@ -37,15 +37,6 @@ STOREYS = 150
 GROUPS = 3
 
 
-def _make_case_module():
-    spec = importlib.util.spec_from_file_location(
-        "make_case", REPO / "examples" / "large" / "make_case.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-MAKE = _make_case_module()
 
 
 def _case(directory: Path, method: str | None = "reduced", extra: str = "",
@@ -252,26 +243,28 @@ def test_a_nonlinear_model_takes_the_reduced_path_only_when_asked(tmp_path: Path
 # ----------------------------------------------------------------------------- runs
 
 
-@pytest.fixture(scope="module")
-def one_worker(data_dir: Path):
-    return run_case(_case(data_dir), None, runs=2, seed=5, max_evals=40, workers=1,
+def _runs(data_dir: Path, workers: int):
+    return run_case(_case(data_dir), None, runs=2, seed=5, max_evals=40, workers=workers,
                     sensitivities=False)
 
 
-def test_same_seed_same_bits(data_dir: Path, one_worker) -> None:
-    again = run_case(_case(data_dir), None, runs=2, seed=5, max_evals=40, workers=1,
-                     sensitivities=False)
-    for a, b in zip(one_worker.outcomes, again.outcomes, strict=True):
+def _assert_same_bits(first, second) -> None:
+    for a, b in zip(first.outcomes, second.outcomes, strict=True):
         assert a.fun == b.fun and a.nfev == b.nfev
         assert np.array_equal(a.x, b.x)
+
+
+@pytest.fixture(scope="module")
+def one_worker(data_dir: Path):
+    return _runs(data_dir, workers=1)
+
+
+def test_same_seed_same_bits(data_dir: Path, one_worker) -> None:
+    _assert_same_bits(one_worker, _runs(data_dir, workers=1))
 
 
 def test_two_workers_give_the_bits_of_one(data_dir: Path, one_worker) -> None:
-    two = run_case(_case(data_dir), None, runs=2, seed=5, max_evals=40, workers=2,
-                   sensitivities=False)
-    for a, b in zip(one_worker.outcomes, two.outcomes, strict=True):
-        assert a.fun == b.fun and a.nfev == b.nfev
-        assert np.array_equal(a.x, b.x)
+    _assert_same_bits(one_worker, _runs(data_dir, workers=2))
 
 
 def test_the_summary_holds_the_truncation_error(one_worker) -> None:
