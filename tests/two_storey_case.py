@@ -1,6 +1,9 @@
 """The two-storey shear building that many tests update: its model, parameters and records,
 as pieces a test file puts together with the [search], [objective] or edits it needs."""
 
+from pathlib import Path
+from typing import Any
+
 TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
 
 MODEL = """\
@@ -47,3 +50,26 @@ dof = "ux"
 """
 
 MODEL_AND_DATA = MODEL + "\n" + parameters(log_stiffness=True) + "\n" + DATA + "\n"
+
+
+def two_storey_spec(directory: Path, **extra: Any) -> dict:
+    """The same building fitted on displacements integrated from noisy accelerations
+    (coloured errors: the error-model tests), as a case dict with its records in
+    ``directory``; ``extra`` adds sections (``trials``)."""
+    return {
+        "case": {"name": "two-storey"},
+        "model": {"shear_building": {"masses": [1.0, 0.8], "stiffnesses": ["k1", "k2"],
+                                     "dampers": ["c1", "c2"]}},
+        "parameters": [{"name": "k1", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
+                       {"name": "k2", "lower": 1000.0, "upper": 10000.0},
+                       {"name": "c1", "lower": 0.0, "upper": 5.0},
+                       {"name": "c2", "lower": 0.0, "upper": 5.0}],
+        "data": {"format": "csv", "directory": str(directory), "time_column": "t",
+                 "input": {"file": "table.csv", "column": "table"},
+                 "outputs": [{"file": "floors.csv", "column": "a1", "node": "F1", "dof": "ux"},
+                             {"file": "floors.csv", "column": "a2", "node": "F2",
+                              "dof": "ux"}]},
+        **extra,
+        "preprocess": {"highpass_hz": 0.5},
+        "objective": {"quantity": "displacement", "experimental_parameters": True},
+    }

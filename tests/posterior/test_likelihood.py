@@ -24,29 +24,13 @@ from femupdate.posterior.likelihood import (
 from femupdate.posterior.method import error_model_data, error_model_from
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
-
-TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
+from two_storey_case import TRUTH, two_storey_spec
 
 
 def _spec(root: Path) -> dict:
-    return {
-        "case": {"name": "two-storey"},
-        "model": {"shear_building": {"masses": [1.0, 0.8], "stiffnesses": ["k1", "k2"],
-                                     "dampers": ["c1", "c2"]}},
-        "parameters": [{"name": "k1", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
-                       {"name": "k2", "lower": 1000.0, "upper": 10000.0},
-                       {"name": "c1", "lower": 0.0, "upper": 5.0},
-                       {"name": "c2", "lower": 0.0, "upper": 5.0}],
-        "data": {"format": "csv", "directory": str(root / "a"), "time_column": "t",
-                 "input": {"file": "table.csv", "column": "table"},
-                 "outputs": [{"file": "floors.csv", "column": "a1", "node": "F1", "dof": "ux"},
-                             {"file": "floors.csv", "column": "a2", "node": "F2",
-                              "dof": "ux"}]},
-        "trials": [{"name": "a", "directory": str(root / "a")},
-                   {"name": "b", "directory": str(root / "b"), "weight": 3.0}],
-        "preprocess": {"highpass_hz": 0.5},
-        "objective": {"quantity": "displacement", "experimental_parameters": True},
-    }
+    return two_storey_spec(root / "a", trials=[
+        {"name": "a", "directory": str(root / "a")},
+        {"name": "b", "directory": str(root / "b"), "weight": 3.0}])
 
 
 @pytest.fixture(scope="module")

@@ -20,7 +20,7 @@ from femupdate.posterior.priors import Prior
 from femupdate.sampling.run import best_fit_gaussian
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
-from two_storey_case import TRUTH
+from two_storey_case import TRUTH, two_storey_spec
 
 RHO = 0.9
 M = 400
@@ -145,22 +145,7 @@ def test_a_start_that_cannot_be_evaluated_is_an_error() -> None:
 def _two_storey(root: Path) -> UpdateProblem:
     """The two-storey building's displacements (accelerations with 3 % noise, high-passed and
     integrated twice: coloured errors), one trial."""
-    spec = {
-        "case": {"name": "two-storey"},
-        "model": {"shear_building": {"masses": [1.0, 0.8], "stiffnesses": ["k1", "k2"],
-                                     "dampers": ["c1", "c2"]}},
-        "parameters": [{"name": "k1", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
-                       {"name": "k2", "lower": 1000.0, "upper": 10000.0},
-                       {"name": "c1", "lower": 0.0, "upper": 5.0},
-                       {"name": "c2", "lower": 0.0, "upper": 5.0}],
-        "data": {"format": "csv", "directory": str(root), "time_column": "t",
-                 "input": {"file": "table.csv", "column": "table"},
-                 "outputs": [{"file": "floors.csv", "column": "a1", "node": "F1", "dof": "ux"},
-                             {"file": "floors.csv", "column": "a2", "node": "F2",
-                              "dof": "ux"}]},
-        "preprocess": {"highpass_hz": 0.5},
-        "objective": {"quantity": "displacement", "experimental_parameters": True},
-    }
+    spec = two_storey_spec(root)
     case = parse_case(spec, source=root / "case.toml")
     virtual_experiment(case, TRUTH, root, seed=1, rate=200.0, duration=2.0, snr=0.03,
                        clean_input=True)
