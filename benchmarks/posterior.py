@@ -1,7 +1,7 @@
 """The posterior's figures: analytic check, calibration, speed beside emcee, evidence spread.
 
     python benchmarks/posterior.py                  # everything (tens of minutes)
-    python benchmarks/posterior.py --quick          # CI: analytic check + a small bridge run
+    python benchmarks/posterior.py --quick          # CI: analytic check, small bridge runs
     python benchmarks/posterior.py --only calibration --replicates 50
     python benchmarks/posterior.py --only calibration --replicates 20 --kinds neff \
         --tmcmc-kinds neff --hits tmcmc.jsonl
@@ -16,7 +16,9 @@ Sections (``--only`` takes a comma-separated list):
   fresh noise: the best fit by a local least-squares search started at the truth (where
   multistart-lm ends at this noise level, at a tenth of its cost), then the **Laplace** 90 %
   interval of every parameter for each error model kind (``--kinds``, with ``sandwich``: the
-  least-squares fit's sandwich covariance) and TMCMC's for ``--tmcmc-kinds``; the share of
+  least-squares fit's sandwich covariance, ``gls-sandwich``: ``arp``'s mode with the GLS
+  sandwich, ``eiv-sandwich``: ``eiv``'s mode with the exact covariance of its score, as the
+  Laplace record gives it) and TMCMC's for ``--tmcmc-kinds``; the share of
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
 - ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
@@ -29,6 +31,9 @@ Sections (``--only`` takes a comma-separated list):
   ``--threads`` (default 1) evaluates TMCMC's populations over that many threads of this
   process (the compiled evaluator releases the GIL; ``femupdate posterior --workers 2``
   does the same); emcee's ensemble of 36 walkers is evaluated in one thread.
+- ``real`` (not in the default list): each of the six trials of the real 1-storey specimen
+  fitted alone with the linear storey, and the Laplace record's intervals of k1 and c1 under
+  ``neff``, ``adjusted`` and ``eiv`` (skipped without the shared records).
 - ``friction``: friction bridge (13 parameters): best fit, Laplace, TMCMC: wall time.
 - ``evidence``: TMCMC's log-evidence on the viscous bridge over 10 seeds (spawned), and the
   effective sample size measured across them (posterior variance over the variance of the
@@ -57,11 +62,13 @@ import numpy as np
 
 from femupdate import minimize
 from femupdate.case import parse_case
-from femupdate.experiment import load_experiment
+from femupdate.errors import FemupdateError
+from femupdate.experiment import load_experiment, load_experiments
 from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
 from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
-from femupdate.posterior.best_fit import centred, mode_jacobians
+from femupdate.posterior.best_fit import NOT_QUADRATIC_RATIO, centred, mode_jacobians
 from femupdate.posterior.gls_sandwich import gls_sandwich_laplace, trial_groups
+from femupdate.posterior.input_noise import eiv_sandwich_laplace, magnitude_adjusted
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.posterior.likelihood import AR_MAX_ORDER, residual_blocks
 from femupdate.posterior.mode import WHITENING_KINDS
@@ -72,13 +79,16 @@ from femupdate.update import UpdateProblem
 
 SEED = 2026
 FIT_EVALS = 2000
-KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted")
+KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
 #: least-squares estimate (femupdate.posterior.sandwich), measured beside them
 SANDWICH = "sandwich"
 #: Not an error model either: the Gaussian at arp's mode with the covariance of that estimate
 #: when the whitening leaves the errors coloured (femupdate.posterior.gls_sandwich)
 GLS_SANDWICH = "gls-sandwich"
+#: eiv's Gaussian at its mode with the covariance of its score under its own noise model
+#: (femupdate.posterior.input_noise.eiv_sandwich_laplace)
+EIV_SANDWICH = "eiv-sandwich"
 #: The i.i.d. likelihood with the curvature adjustment (femupdate.posterior.sandwich): sampled by
 #: TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction). Measured too
 #: narrow (docs/posterior.md, "The curvature adjustment, tried")
@@ -201,7 +211,7 @@ def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: st
     prior = Prior.from_case(problem.case)
     # steps of 1 % of each range: the slope of the kp1 valley, not of one of its ripples
     jac = jacobian_unit(problem.residuals_batch, unit, prior, step=1e-2)
-    model = problem_error_model(problem, r, kind)
+    model = problem_error_model(problem, r, kind, point=prior.to_search(unit))
     return laplace(jac, r, unit, model, prior), model, prior
 
 
@@ -258,7 +268,12 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
         coarse_jac, local_jac = jacobians or (jac, jac_local)
         coarse, local = estimate(coarse_jac), estimate(local_jac)
         q = local.quantiles.copy()
-        use = coarse.undetermined & ~local.undetermined
+        # the product's rule (femupdate.posterior.best_fit.two_scale_record): the coarse
+        # marginal where it says undetermined, or where it is NOT_QUADRATIC_RATIO times wider
+        with np.errstate(divide="ignore", invalid="ignore"):
+            widening = coarse.spread / local.spread
+        use = (coarse.undetermined & ~local.undetermined) | (
+            ~coarse.undetermined & (widening >= NOT_QUADRATIC_RATIO))
         q[:, use] = coarse.quantiles[:, use]
         return local, q
 
@@ -271,6 +286,16 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                 problem, prior, model, unit, r, jac_local)
             _, q = two_scale(lambda j, m=model, c=centre, rc=r_c: gls_sandwich_laplace(
                 j, rc, c, m, prior, trial_groups(problem)), (coarse_c, local_c))
+            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            out["mode_evals"][kind] = evals
+            continue
+        if kind == EIV_SANDWICH:
+            point = prior.to_search(unit)
+            model = problem_error_model(problem, r, "eiv", point=point)
+            centre, ((r_c, local_c), (_, coarse_c)), evals = mode_jacobians(
+                problem, prior, model, unit, r, jac_local)
+            _, q = two_scale(lambda j, m=model, c=centre, rc=r_c, x=point: eiv_sandwich_laplace(
+                problem, m, x, r, j, rc, c, prior), (coarse_c, local_c))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
             out["mode_evals"][kind] = evals
             continue
@@ -295,7 +320,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             out["tmcmc_evals"][kind] = post.evaluations
             continue
         model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None,
-                                    ar_max_order=ar_max_order)
+                                    ar_max_order=ar_max_order, point=prior.to_search(unit))
         if kind in WHITENING_KINDS:
             # beside it, the same Gaussian at the least-squares fit, no step to the mode (as
             # the Laplace record took it before): the cost of the wrong centre
@@ -322,6 +347,13 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             # gives the same posterior, this one keeps enough of its mass inside the bounds
             cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
             reference = (np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap))
+            if kind == "eiv":  # as femupdate posterior samples it (sampling.run)
+                model = magnitude_adjusted(problem, model, prior.to_search(unit), r, coarse_c,
+                                           r_c)
+                lap = centred(laplace(coarse_c, r_c, centre, model, prior), centre, prior)
+                cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
+                reference = (np.clip(lap.mean_unit, 0.0, 1.0),
+                             lap.cov_unit * np.outer(cap, cap))
             post, _ = run_tmcmc(problem.residuals, prior, model, seed=tm_seeds[kind],
                                 population=tmcmc_population, reference=reference, **MOVES)
             if not post.reached:
@@ -485,6 +517,51 @@ def whitening(replicates: int, seeds: int, root: Path) -> dict[str, Any]:
         print(f"{'arp mode':16s}" + " ".join(f"{v:6.2f}" for v in mode_scatter))
         out["seeds"][label] = {"least_squares": fit_scatter.tolist(),
                                "arp_mode": mode_scatter.tolist()}
+    return out
+
+
+# -------------------------------------------------------------------------------- real
+
+
+def real_trials(kinds: list[str]) -> dict[str, Any]:
+    """Each of the six trials of the real 1-storey specimen (examples/minishake-1story)
+    fitted alone with the linear storey (multistart-lm, 600 evaluations), and the Laplace
+    record's 90 % intervals of k1 and c1 under each error model kind: one specimen, so the
+    trials' intervals say how far each kind's width covers what changes between trials."""
+    import copy
+    import tomllib
+
+    from femupdate.posterior.best_fit import laplace_record
+
+    source = Path(__file__).resolve().parents[1] / "examples" / "minishake-1story" / "trials.toml"
+    spec = tomllib.loads(source.read_text())
+    print(f"\n## Real trials, fitted one by one: 90 % intervals of k1 (N/m) and c1 (N·s/m) "
+          f"({load()})")
+    out: dict[str, Any] = {}
+    for trial in spec["trials"]:
+        alone = copy.deepcopy(spec)
+        alone["trials"] = [dict(trial, role="fit")]
+        case = parse_case(alone, source=source)
+        try:
+            problem = UpdateProblem(case, load_experiments(case))
+        except FemupdateError as exc:  # the shared records are not beside the repository
+            print(f"  skipped: {exc}")
+            return out
+        fit = minimize(problem.residuals, problem.bounds, "multistart-lm", residuals=True,
+                       seed=np.random.default_rng(0), max_evals=600)
+        row: dict[str, Any] = {"phi": float(fit.fun)}
+        line = f"  {trial['name']:13s} φ {fit.fun:.4f}"
+        for kind in kinds:
+            record = laplace_record(problem, fit.x, kind=kind)
+            if record.note:
+                line += f" | {kind}: {record.note}"
+                continue
+            k1, c1 = record.params["k1"], record.params["c1"]
+            row[kind] = {"k1": [k1.q05, k1.q95], "c1": [c1.q05, c1.q95]}
+            line += (f" | {kind} k1 {k1.q05:.0f}–{k1.q95:.0f} c1 "
+                     f"{c1.q05:.3f}–{c1.q95:.3f}")
+        print(line, flush=True)
+        out[trial["name"]] = row
     return out
 
 
@@ -654,7 +731,8 @@ def main() -> None:
     parser.add_argument("--replicates", type=int, default=50)
     parser.add_argument("--first-replicate", type=int, default=0,
                         help="calibration: start at this replicate (split a run over processes)")
-    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH, GLS_SANDWICH)),
+    parser.add_argument("--kinds", default=",".join((*KINDS, SANDWICH, GLS_SANDWICH,
+                                                     EIV_SANDWICH)),
                         help="calibration: the error model kinds (Laplace intervals), "
                         "'sandwich' (the least-squares estimate's sandwich covariance), "
                         "'gls-sandwich' (arp's mode with its estimate's sandwich covariance) "
@@ -693,6 +771,7 @@ def main() -> None:
     if args.quick:
         out["analytic"] = analytic(4000)
         out["speed"] = speed(400, args.steps, root, emcee_max=8000)
+        out["calibration"] = calibration(1, root, kinds=["eiv", EIV_SANDWICH])
     else:
         if "analytic" in sections:
             out["analytic"] = analytic(4000)
@@ -703,6 +782,8 @@ def main() -> None:
                 tmcmc_population=args.tmcmc_population, hits_file=args.hits,
                 coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
                 ar_max_order=args.ar_max_order)
+        if "real" in sections:
+            out["real"] = real_trials(["neff", "adjusted", "eiv"])
         if "whitening" in sections:
             out["whitening"] = whitening(args.whitening_replicates, args.noise_seeds, root)
         if "speed" in sections:

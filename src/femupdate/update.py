@@ -241,20 +241,34 @@ class TrialProblem:
         return signal.highpass(x, 1.0 / self.experiment.dt, pre.highpass_hz,
                                order=pre.highpass_order, zero_phase=pre.zero_phase)
 
-    def prediction(self, response: Response) -> np.ndarray:
+    def prediction(self, response: Response, ag: np.ndarray | None = None) -> np.ndarray:
         """What the error function compares, from a response, over the whole trial.
 
         Displacements relative to the base: by default the model's relative accelerations
         integrated twice by the trapezoidal rule, exactly as the measured ones were
         (``[objective] integrate_prediction``), else the model's displacements; or absolute
         accelerations. High-passed first when the model's input was not (``self.filter``).
+        ``ag``: the base record that drove ``response``, when not the trial's.
         """
         if self.integrate:
-            relative = response.acceleration - np.outer(self._ag, self.model.influence)
+            base = self._ag if ag is None else ag
+            relative = response.acceleration - np.outer(base, self.model.influence)
             return signal.integrate_twice(self._highpass(relative), self.experiment.dt)
         if self.experiment.quantity == "displacement":
             return self._highpass(response.displacement)
         return self._highpass(response.acceleration)
+
+    def prediction_driven_by(self, values: Mapping[str, float], ag: np.ndarray
+                             ) -> np.ndarray:
+        """The prediction (every sample, as :meth:`prediction`) of femupdate's own model at
+        ``values`` driven by the base record ``ag`` instead of the trial's, ``ag`` as the
+        model takes it (unfiltered when ``self.filter``): how a change of the table's record
+        reaches the prediction (:mod:`femupdate.posterior.input_noise`)."""
+        if self._runner is not None:
+            raise ConfigError(f"trial {self.name!r}: an external model runs the trial's own "
+                              "record only (allowed: femupdate's own models)")
+        ag = np.asarray(ag, dtype=float)
+        return self.prediction(self.model.simulate(values, ag, self.experiment.dt), ag)
 
     def scored(self, prediction: np.ndarray) -> np.ndarray:
         """The samples of a prediction the error function scores."""

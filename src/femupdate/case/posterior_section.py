@@ -57,7 +57,7 @@ class PosteriorSection(Section):
     """``[posterior]``: samples, error model, seed and budget of the sampled posterior.
 
     ``samples``: TMCMC's population, the equally weighted samples it ends with;
-    ``error_model``: "neff" (default), "tau", "iid", "ar1", "arp" or "adjusted" (the kinds of
+    ``error_model``: "neff" (default), "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
     :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ);
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
     ``modes_samples``: how many of the samples the modes and predictive bands are computed
@@ -65,7 +65,7 @@ class PosteriorSection(Section):
     first population."""
 
     samples: integer_field(ge=20, le=1_000_000) = 2000
-    error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted"] = "neff"
+    error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv"] = "neff"
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000
     modes_samples: integer_field(ge=0, le=100_000) = 200

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import FemupdateError
+from femupdate.posterior.input_noise import eiv_sandwich_laplace
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, laplace, summarize_gaussian
 from femupdate.posterior.likelihood import DEFAULT_KIND, ErrorModel, problem_error_model
@@ -48,8 +49,10 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
                    kind: str | None = None) -> LaplaceRecord:
     """The Laplace approximation at search point ``x`` (a best fit) of ``problem``, at two
     scales (:func:`two_scale_record`; 4n + 1 evaluations). A whitening error model (``"ar1"``,
-    ``"arp"``) has its maximum elsewhere than φ's minimum: its Gaussian is taken at its own
-    mode, climbed to from ``x`` (:func:`mode_jacobians`; the evaluations counted in ``nfev``).
+    ``"arp"``, ``"eiv"``) has its maximum elsewhere than φ's minimum: its Gaussian is taken at
+    its own mode, climbed to from ``x`` (:func:`mode_jacobians`; the evaluations counted in
+    ``nfev``); ``"eiv"``'s covariance is its sandwich
+    (:func:`~femupdate.posterior.input_noise.eiv_sandwich_laplace`).
 
     A failure (the model fails beside ``x``, a residual block is zero) is recorded as the
     record's ``note``, not raised: the update's results stand without it.
@@ -67,17 +70,23 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
                      for step in (LOCAL_STEP, UNIT_STEP)]
         # "adjusted" takes its count from the Jacobian over 1 % of each range (the valley's)
         model = problem_error_model(problem, r, kind,
-                                    jacobians[1][1] if kind == "adjusted" else None)
+                                    jacobians[1][1] if kind == "adjusted" else None, point=x)
         if kind in WHITENING_KINDS:  # its Gaussian sits at its own mode, not at φ's minimum
             best_unit, jacobians, extra = mode_jacobians(problem, prior, model, best_unit,
                                                          *jacobians[0])
             nfev += extra
-        results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
-                   for r_x, jac in jacobians]
+        if kind == "eiv":  # the covariance of its score, not its Whittle curvature
+            results = [eiv_sandwich_laplace(problem, model, x, r, jac, r_x, best_unit, prior)
+                       for r_x, jac in jacobians]
+        else:
+            results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
+                       for r_x, jac in jacobians]
     except FemupdateError as exc:
         return LaplaceRecord(error_model=kind, names=list(problem.names), nfev=nfev,
                              note=f"no Laplace approximation: {exc}")
-    return two_scale_record(results[0], results[1], prior, kind, nfev)
+    record = two_scale_record(results[0], results[1], prior, kind, nfev)
+    record.noise = model.to_dict().get("noise", [])
+    return record
 
 
 def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,

@@ -33,8 +33,12 @@ magnitude adjustment k = n / tr(H⁻¹M) of :func:`femupdate.posterior.sandwich.
 parameters, the likelihood's curvature to the sandwich covariance of the least-squares best fit,
 the covariance the residuals' own autocorrelation gives it with no model of that correlation;
 it needs the Jacobian at the best fit (in any coordinates: k does not depend on them). Kind
-``"known"``: Gaussian
-errors of a given standard deviation per block (analytic checks).
+``"eiv"`` (errors in the variables) adds to ``"arp"``'s prewhitening the noise of the table's
+record, which reaches every channel through the model: each trial's blocks are whitened
+together in the frequency domain by the spectrum of output noise plus the model's response to
+table noise, each sensor's offset and drift projected out (:mod:`femupdate.posterior.input_noise`;
+linear models of femupdate's own, built by :func:`problem_error_model` at the best fit). Kind
+``"known"``: Gaussian errors of a given standard deviation per block (analytic checks).
 
 Every function takes residual rows (k, m), so that a population is one call; a row with a
 non-finite value (a failed evaluation) has log L = −inf.
@@ -42,17 +46,21 @@ non-finite value (a failed evaluation) has log L = −inf.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.special import gammaln
 
 from femupdate.errors import ConfigError, DataError
 
+if TYPE_CHECKING:
+    from femupdate.posterior.input_noise import TrialWhitening
+
 #: The kinds of error model, the default first.
-KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known")
+KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
 DEFAULT_KIND = "neff"
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
@@ -144,7 +152,7 @@ class ErrorModel:
     Attributes
     ----------
     kind : str
-        ``"neff"``, ``"iid"``, ``"ar1"`` or ``"known"`` (module docstring).
+        One of :data:`KINDS` (module docstring).
     starts, stops : ndarray of int (c,)
         The blocks of r.
     counts : ndarray (c,)
@@ -154,7 +162,11 @@ class ErrorModel:
     sigma : ndarray (c,) or None
         Known error standard deviation per block (kind ``"known"``), in units of r.
     ar : ndarray (c, p) or None
-        AR coefficients a_1 … a_p of each block (kind ``"arp"``).
+        AR coefficients a_1 … a_p of each block (kinds ``"arp"`` and ``"eiv"``).
+    spectral : tuple of TrialWhitening or None
+        Kind ``"eiv"``: each fitted trial's whitening of its AR-prewhitened blocks in the
+        frequency domain (:mod:`femupdate.posterior.input_noise`); ``counts`` then has one
+        entry per trial.
     """
 
     kind: str
@@ -164,6 +176,7 @@ class ErrorModel:
     rho: np.ndarray
     sigma: np.ndarray | None = None
     ar: np.ndarray | None = None
+    spectral: tuple[TrialWhitening, ...] | None = None
 
     @property
     def size(self) -> int:
@@ -172,7 +185,8 @@ class ErrorModel:
 
     @property
     def lag(self) -> int:
-        """The samples each block loses to whitening: 1 for ``"ar1"``, p for ``"arp"``."""
+        """The samples each block loses to whitening: 1 for ``"ar1"``, p for ``"arp"`` and
+        ``"eiv"``."""
         if self.kind == "ar1":
             return 1
         return 0 if self.ar is None else int(self.ar.shape[1])
@@ -180,16 +194,21 @@ class ErrorModel:
     def whiten(self, rows: np.ndarray) -> np.ndarray:
         """The rows (k, m) as the errors the model takes independent: themselves, or for
         ``"ar1"`` each block's innovations r_t − ρ_c r_{t−1} (the first sample dropped), for
-        ``"arp"`` r_t − Σ_k a_k r_{t−k} (the first p dropped). A linear map: apply it to a
-        Jacobian's columns too (``whiten(J.T).T``)."""
+        ``"arp"`` r_t − Σ_k a_k r_{t−k} (the first p dropped), for ``"eiv"`` those of each
+        trial whitened across its channels and frequencies
+        (:meth:`~femupdate.posterior.input_noise.TrialWhitening.apply`). A linear map: apply
+        it to a Jacobian's columns too (``whiten(J.T).T``)."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
-        if self.kind == "arp" and self.ar is not None:
+        if self.ar is not None:
             from scipy.signal import lfilter
 
             p = self.lag
-            return np.concatenate(
-                [lfilter(np.concatenate([[1.0], -a]), [1.0], rows[:, s:b], axis=1)[:, p:]
-                 for s, b, a in zip(self.starts, self.stops, self.ar, strict=True)], axis=1)
+            blocks = [lfilter(np.concatenate([[1.0], -a]), [1.0], rows[:, s:b], axis=1)[:, p:]
+                      for s, b, a in zip(self.starts, self.stops, self.ar, strict=True)]
+            if self.spectral is None:
+                return np.concatenate(blocks, axis=1)
+            return np.concatenate([trial.apply([blocks[b] for b in trial.blocks])
+                                   for trial in self.spectral], axis=1)
         if self.kind != "ar1":
             return rows
         parts = [rows[:, a + 1:b] - rho * rows[:, a:b - 1]
@@ -197,8 +216,9 @@ class ErrorModel:
         return np.concatenate(parts, axis=1)
 
     def _white_blocks(self) -> list[tuple[int, int]]:
-        """The blocks of :meth:`whiten`'s output."""
-        lengths = self.stops - self.starts - self.lag
+        """The blocks of :meth:`whiten`'s output (for ``"eiv"``, one per trial)."""
+        lengths = (self.stops - self.starts - self.lag if self.spectral is None
+                   else np.array([trial.size for trial in self.spectral]))
         ends = np.cumsum(lengths)
         return [(int(e - n), int(e)) for e, n in zip(ends, lengths, strict=True)]
 
@@ -258,7 +278,11 @@ class ErrorModel:
         return {"kind": self.kind, "counts": self.counts.tolist(), "rho": self.rho.tolist(),
                 "block_lengths": (self.stops - self.starts).tolist(),
                 **({} if self.sigma is None else {"sigma": self.sigma.tolist()}),
-                **({} if self.ar is None else {"ar": self.ar.tolist()})}
+                **({} if self.ar is None else {"ar": self.ar.tolist()}),
+                **({} if self.spectral is None else
+                   {"noise": [{"sigma_outputs": t.sigma_outputs.tolist(),
+                               "sigma_input": t.sigma_input, "input_share": t.input_share,
+                               "frequencies": int(t.bins.size)} for t in self.spectral]})}
 
 
 def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIND, *,
@@ -289,6 +313,9 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
     """
     if kind not in KINDS:
         raise ConfigError(f"error model kind: got {kind!r} (allowed: {', '.join(KINDS)})")
+    if kind == "eiv":
+        raise ConfigError("error model 'eiv' needs the case's model and processing: build it "
+                          "with problem_error_model(problem, r, 'eiv', point=x)")
     blocks = list(blocks)
     if not blocks:
         raise ConfigError("error model: no residual block (allowed: at least one)")
@@ -352,9 +379,25 @@ def error_model(blocks: tuple[slice, ...] | list[slice], kind: str = DEFAULT_KIN
 
 def problem_error_model(problem: Any, best_residuals: np.ndarray,
                         kind: str = DEFAULT_KIND, jacobian: np.ndarray | None = None,
-                        ar_max_order: int = AR_MAX_ORDER) -> ErrorModel:
+                        ar_max_order: int = AR_MAX_ORDER, *,
+                        point: np.ndarray | None = None) -> ErrorModel:
     """The error model of an UpdateProblem, fixed at its best fit's residuals (and, for kind
-    ``"adjusted"``, its Jacobian there)."""
+    ``"adjusted"``, its Jacobian there; for ``"eiv"``, the model at that search ``point``:
+    :mod:`femupdate.posterior.input_noise`)."""
     blocks, removed = residual_blocks(problem)
-    return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed,
-                       jacobian=jacobian, ar_max_order=ar_max_order)
+    if kind != "eiv":
+        return error_model(blocks, kind, best_residuals=best_residuals, dof_removed=removed,
+                           jacobian=jacobian, ar_max_order=ar_max_order)
+    if point is None:
+        raise ConfigError("error model 'eiv' needs the best fit's search point (point)")
+    from femupdate.posterior.input_noise import input_noise_whitening
+
+    prewhitening = error_model(blocks, "arp", best_residuals=best_residuals,
+                               dof_removed=removed, ar_max_order=ar_max_order)
+    spectral = input_noise_whitening(problem, point, best_residuals, prewhitening.starts,
+                                     prewhitening.stops, prewhitening.ar)
+    lost = np.asarray(removed, dtype=float)
+    counts = np.array([max(t.size - lost[list(t.blocks)].sum()
+                           - (0 if t.nuisance is None else t.nuisance.shape[1]), 1.0)
+                       for t in spectral])
+    return dataclasses.replace(prewhitening, kind="eiv", counts=counts, spectral=spectral)

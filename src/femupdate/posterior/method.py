@@ -22,6 +22,7 @@ import numpy as np
 
 from femupdate.errors import ConfigError
 from femupdate.optimize.minimize import METHODS
+from femupdate.posterior.input_noise import TrialWhitening
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.tmcmc import TMCMC
@@ -52,16 +53,20 @@ def error_model_data(model: ErrorModel) -> dict[str, Any]:
     return {"kind": model.kind, "starts": model.starts.tolist(), "stops": model.stops.tolist(),
             "counts": model.counts.tolist(), "rho": model.rho.tolist(),
             "sigma": None if model.sigma is None else model.sigma.tolist(),
-            "ar": None if model.ar is None else model.ar.tolist()}
+            "ar": None if model.ar is None else model.ar.tolist(),
+            "spectral": None if model.spectral is None else [t.to_dict()
+                                                             for t in model.spectral]}
 
 
 def error_model_from(data: Mapping[str, Any]) -> ErrorModel:
-    sigma, ar = data.get("sigma"), data.get("ar")
+    sigma, ar, spectral = data.get("sigma"), data.get("ar"), data.get("spectral")
     return ErrorModel(str(data["kind"]), np.asarray(data["starts"], dtype=int),
                       np.asarray(data["stops"], dtype=int), np.asarray(data["counts"], float),
                       np.asarray(data["rho"], float),
                       None if sigma is None else np.asarray(sigma, float),
-                      None if ar is None else np.asarray(ar, float))
+                      None if ar is None else np.asarray(ar, float),
+                      None if spectral is None else tuple(TrialWhitening.from_dict(t)
+                                                          for t in spectral))
 
 
 def prior_data(prior: Prior, specs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:

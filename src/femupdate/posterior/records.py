@@ -38,7 +38,10 @@ class LaplaceRecord(_Record):
     a parameter has no variance the data fix); ``undetermined``: the parameters whose 90 %
     interval covers most of their bounds (``sentences`` says so in words); ``not_quadratic``:
     the determined ones whose φ is far from quadratic over their interval, for which the
-    Gaussian is not to be trusted (said in words too); ``note``: why it is missing, if it is.
+    Gaussian is not to be trusted (said in words too); ``note``: why it is missing, if it is;
+    ``noise``: for error model ``"eiv"``, per fitted trial the noise levels it fitted (each
+    output sensor's and the table's, in the records' units) and the share of the residual the
+    table's noise explains.
     """
 
     error_model: str = ""
@@ -50,6 +53,7 @@ class LaplaceRecord(_Record):
     sentences: list[str] = Field(default_factory=list)
     nfev: int = 0
     note: str | None = None
+    noise: list[dict[str, Any]] = Field(default_factory=list)
 
     def flagged_sentences(self) -> list[str]:
         """The sentences worth saying: of the parameters the data do not determine, and of

@@ -33,6 +33,7 @@ from femupdate.case.posterior_section import (
 from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.posterior.best_fit import case_priors, centred, mode_jacobians
+from femupdate.posterior.input_noise import magnitude_adjusted
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
 from femupdate.posterior.likelihood import ErrorModel, problem_error_model
@@ -107,7 +108,12 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
             raise ConfigError(f"{problem.case.label}: [posterior] error_model = 'adjusted' "
                               f"needs the Jacobian at the best fit: {exc} (allowed: another "
                               "error_model)") from exc
-    model = problem_error_model(problem, r, kind, jac_adjusted)
+    if kind == "eiv" and counts_from is not None:
+        raise ConfigError(f"{problem.case.label}: error_model 'eiv' whitens each model class's "
+                          "residual by that class's own response to the table's noise, so the "
+                          "evidences of different classes are not of one likelihood (allowed: "
+                          "another error_model for model-class selection)")
+    model = problem_error_model(problem, r, kind, jac_adjusted, point=x)
     if counts_from is not None:
         if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
                 or model.stops.tolist() != counts_from.stops.tolist()):
@@ -120,10 +126,13 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
     best_unit = prior.to_unit(x)
     try:
         if model.kind in WHITENING_KINDS:  # TMCMC starts from the Gaussian at its mode
+            r_fit = r
             best_unit, ((r, jac),), _ = mode_jacobians(
                 problem, prior, model, best_unit,
                 *residual_jacobian(problem.residuals_batch, problem.bounds, x,
                                    step=LOCAL_STEP), steps=(UNIT_STEP,))
+            if model.kind == "eiv":  # sampled with the magnitude of its score's variance
+                model = magnitude_adjusted(problem, model, x, r_fit, jac, r)
             return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                          prior), None
         r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)

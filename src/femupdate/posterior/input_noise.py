@@ -1,0 +1,585 @@
+"""Errors in the variables: the table's record is measured with noise too (error model ``"eiv"``).
+
+A shake-table model is driven by the table's *measured* acceleration, so the noise n_u of that
+sensor reaches every channel's residual through the model. For a linear model and a linear
+processing of the records (high-pass, integration to displacement), a trial's residual is, to
+first order in the noise,
+
+    r = G n_y − T n_u + (what the fit absorbs),
+
+G the processing of each output sensor's own noise n_y (its residual block only), T the
+model's response to the table's noise through the same processing: narrow-band at the
+resonances, where the parameters' sensitivities are, and one signal in every channel of the
+trial. A per-channel AR filter (kind ``"arp"``) whitens G n_y but not T n_u, which is why
+``"arp"`` is calibrated when the table's record is clean and too confident when it is not
+(docs/posterior.md, section 6).
+
+This module gives the likelihood of that structure in the frequency domain (Whittle 1953).
+Each block is first prewhitened by the fixed AR filter A_c of ``"arp"`` (it flattens the
+steep spectrum of displacement noise, so that the transform of a finite record leaks little
+from one frequency to another); then, at each frequency ω_k = 2πk/n of the n prewhitened
+samples, the C channels' coefficients E_k = rfft(A r)(ω_k) are complex Gaussian with
+
+    S_k = n [ diag(σ_c² |A_c(ω_k) G_c(ω_k)|²) + σ_u² t_k t_kᴴ ],   t_k,c = A_c(ω_k) T_c(ω_k),
+
+independent across frequencies. G and T are not modelled by hand: they are the transforms of
+the responses of the case's own processing (:func:`femupdate.experiment.process`) and model
+(:meth:`~femupdate.update.TrialProblem.prediction_driven_by`) to a unit impulse in each raw
+record, at the best fit, folded onto the n-point grid (so they hold whatever the case's
+processing and model are, as long as both are linear). The noise levels σ_c (each output
+sensor) and σ_u (the table's sensor), in the records' units, are fitted by maximising Whittle's
+likelihood of the residual at the best fit (:func:`fit_noise_levels`). Then everything is fixed
+and the likelihood of a residual vector is that of its whitened coefficients
+w_k = W_k E_k, W_k = (I − β u uᴴ) D_k^{−1/2} (D_k the diagonal part, g = D_k^{−1/2} t_k,
+u = g/‖g‖, β = 1 − (1 + nσ_u²‖g‖²)^{−1/2}, so that W_kᴴ W_k = S_k⁻¹), real and imaginary parts
+each scaled by √2 to unit variance: a fixed linear map of r, like the AR filters, so the mode,
+the Laplace Gaussian and TMCMC treat it as they treat ``"arp"``
+(:mod:`femupdate.posterior.mode`). Frequencies 0 and n/2 are left out (real coefficients), and
+so are those where the processing's gain to a channel's own noise is below :data:`GAIN_RANGE`
+of its largest (they carry only rounding, which their whitening would amplify: on the bridge,
+the few next to the Nyquist frequency, where the trapezoidal integration's gain is 0), and
+those where the record's finite length moves the expected periodogram more than
+:data:`LEAKAGE_TOLERANCE` from S_k (:func:`expected_periodogram`: on the bridge, the lowest
+three, deep in the high-pass's stop band, where their neighbours' power leaks in).
+
+Two more things real records have. Accelerometers have offsets and drifts, which the high-pass
+turns into transients at the record's start; on the table's record they drive the model at its
+resonances. The responses of the residual to a constant and to a ramp in each raw record
+(:func:`offset_regressors`) are projected out of the whitened values, their amplitudes being
+unknown. And the resonances are narrow enough that neighbouring frequencies of a short record
+are correlated, which Whittle's likelihood ignores: its curvature then overstates what the
+record determines. The covariance of its score under the fitted noise model is computed
+exactly (:func:`score_covariance`, from the transpose of the whitening,
+:func:`whitening_adjoint`), and gives the Laplace record its sandwich covariance
+(:func:`eiv_sandwich_laplace`) and TMCMC's likelihood its magnitude
+(:func:`magnitude_adjusted`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize
+
+from femupdate.data.measurement import Measurement
+from femupdate.errors import ConfigError, DataError
+
+#: Frequencies where a channel's output-noise gain is below this share of its largest are left
+#: out (near 0 Hz the high-pass, near the Nyquist frequency the trapezoidal integration, whose
+#: gain is 0 there, leave only rounding in the residual).
+GAIN_RANGE = 1e-4
+#: Frequencies where the record's finite length moves the expected periodogram of a channel by
+#: more than this share from the spectrum there are left out (leakage rules them).
+LEAKAGE_TOLERANCE = 0.1
+#: Offset and drift responses whose whitened singular value is below this share of the largest
+#: add nothing to the span projected out.
+NUISANCE_RANK_TOLERANCE = 1e-8
+#: The impulse responses are computed over this many times the trial's samples, then longer
+#: (doubling, up to :data:`MAX_LENGTH_FACTOR`) until they have decayed.
+LENGTH_FACTOR = 4
+MAX_LENGTH_FACTOR = 64
+#: Decayed: the record's first and last tenths hold less than this share of the response's
+#: energy.
+DECAY_TOLERANCE = 1e-8
+
+
+@dataclass(frozen=True)
+class TrialWhitening:
+    """The fixed spectral whitening of one trial's residual blocks (module docstring).
+
+    Attributes
+    ----------
+    blocks : tuple of int
+        The residual blocks (channels) of the trial, in order.
+    bins : ndarray of int (F,)
+        The frequencies k of the n-point transform that are kept.
+    matrices : ndarray of complex (F, C, C)
+        W_k.
+    sigma_outputs : ndarray (C,)
+        The fitted noise standard deviation of each output sensor (records' units).
+    sigma_input : float
+        The fitted noise standard deviation of the table's sensor.
+    input_share : float
+        The share of the residual's modelled variance that the table's noise explains.
+    nuisance : ndarray (size, q) or None
+        Orthonormal basis of the whitened responses to each sensor's offset and drift
+        (:func:`offset_regressors`), projected out of the whitened values.
+    """
+
+    blocks: tuple[int, ...]
+    bins: np.ndarray
+    matrices: np.ndarray
+    sigma_outputs: np.ndarray
+    sigma_input: float
+    input_share: float
+    nuisance: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        """The whitened values: real and imaginary parts of C channels at F frequencies."""
+        return 2 * self.matrices.shape[0] * self.matrices.shape[1]
+
+    def apply(self, blocks: list[np.ndarray]) -> np.ndarray:
+        """The whitened rows (k, :attr:`size`) of the trial's prewhitened blocks, each
+        (k, n)."""
+        coefficients = np.fft.rfft(np.stack(blocks, axis=1), axis=2)[:, :, self.bins]
+        white = np.einsum("fij,kjf->kif", self.matrices, coefficients)
+        rows = white.shape[0]
+        out = math.sqrt(2.0) * np.concatenate(
+            [white.real.reshape(rows, -1), white.imag.reshape(rows, -1)], axis=1)
+        if self.nuisance is not None:
+            out -= (out @ self.nuisance) @ self.nuisance.T
+        return out
+
+    def adjoint(self, rows: np.ndarray, n: int) -> np.ndarray:
+        """The transpose of :meth:`apply`: rows (k, :attr:`size`) of whitened values to rows
+        (k, C, n) of prewhitened blocks of n samples, with ⟨apply(x), v⟩ = ⟨x, adjoint(v)⟩."""
+        rows = np.atleast_2d(np.asarray(rows, dtype=float))
+        if self.nuisance is not None:  # the projection is symmetric
+            rows = rows - (rows @ self.nuisance) @ self.nuisance.T
+        k, (n_bins, n_channels, _) = rows.shape[0], self.matrices.shape
+        half = n_channels * n_bins
+        z = (rows[:, :half] + 1j * rows[:, half:]).reshape(k, n_channels, n_bins)
+        spectrum = np.zeros((k, n_channels, n // 2 + 1), dtype=complex)
+        spectrum[:, :, self.bins] = math.sqrt(2.0) * np.einsum(
+            "fij,kif->kjf", np.conj(self.matrices), z)
+        # Re Σ_f q_f e^{iω_f t} over bins 0 < f < n/2 is n/2 · irfft
+        return 0.5 * n * np.fft.irfft(spectrum, n, axis=2)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (:meth:`from_dict` rebuilds it bit for bit)."""
+        return {"blocks": list(self.blocks), "bins": self.bins.tolist(),
+                "matrices_real": self.matrices.real.tolist(),
+                "matrices_imag": self.matrices.imag.tolist(),
+                "sigma_outputs": self.sigma_outputs.tolist(), "sigma_input": self.sigma_input,
+                "input_share": self.input_share,
+                "nuisance": None if self.nuisance is None else self.nuisance.tolist()}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> TrialWhitening:
+        matrices = (np.asarray(data["matrices_real"], dtype=float)
+                    + 1j * np.asarray(data["matrices_imag"], dtype=float))
+        nuisance = data.get("nuisance")
+        return cls(tuple(int(b) for b in data["blocks"]), np.asarray(data["bins"], dtype=int),
+                   matrices, np.asarray(data["sigma_outputs"], dtype=float),
+                   float(data["sigma_input"]), float(data["input_share"]),
+                   None if nuisance is None else np.asarray(nuisance, dtype=float))
+
+
+def folded_transfer(response: np.ndarray, centre: int, n: int) -> np.ndarray:
+    """The transfer function (n//2 + 1, C) on the n-point grid of the impulse responses
+    ``response`` (L, C) to an impulse at sample ``centre``: Σ_j h_j e^{−iω_k j} over every lag
+    j (negative ones too, for a zero-phase filter), the lags folded modulo n."""
+    response = np.asarray(response, dtype=float)
+    lags = (np.arange(response.shape[0]) - centre) % n
+    folded = np.zeros((n, response.shape[1]))
+    np.add.at(folded, lags, response)
+    return np.fft.rfft(folded, axis=0)
+
+
+def _filtered(responses: np.ndarray, ar: np.ndarray) -> np.ndarray:
+    """Each column of ``responses`` (L, C) through its AR prewhitening filter 1 − Σ a_j z^−j
+    (rows of ``ar``, (C, p))."""
+    from scipy.signal import lfilter
+
+    return np.column_stack([lfilter(np.concatenate([[1.0], -a]), [1.0], column)
+                            for column, a in zip(responses.T, ar, strict=True)])
+
+
+def expected_periodogram(responses: np.ndarray, variances: np.ndarray, n: int) -> np.ndarray:
+    """E|rfft(x)_k|² (n//2 + 1,) of n consecutive samples of the stationary sum x of
+    independent white noises of ``variances`` (m,) through the filters ``responses`` (L, m):
+    Σ_{|τ|<n} (n − |τ|) γ(τ) e^{−iω_k τ}, γ the autocovariance of x, the spectrum smoothed by
+    the record's finite length (Fejér's kernel), which the spectrum at ω_k alone ignores."""
+    length = responses.shape[0]
+    size = 1 << math.ceil(math.log2(length + n))
+    power = np.abs(np.fft.rfft(responses, size, axis=0)) ** 2 @ variances
+    autocovariance = np.fft.irfft(power, size)
+    lags = np.arange(-(n - 1), n)
+    weighted = (n - np.abs(lags)) * autocovariance[lags % size]
+    folded = np.zeros(n)
+    np.add.at(folded, lags % n, weighted)
+    return np.fft.rfft(folded).real
+
+
+def whittle_nll(log_sigma: np.ndarray, power: np.ndarray, coefficients: np.ndarray,
+                output_gain: np.ndarray, input_transfer: np.ndarray, n: int) -> float:
+    """−log of Whittle's likelihood (constants dropped) of the coefficients (F, C) under the
+    spectra of the module docstring, ``log_sigma`` = (ln σ_1 … ln σ_C, ln σ_u); ``power`` is
+    |coefficients|², ``output_gain`` |A G|² (F, C), ``input_transfer`` A T (F, C)."""
+    d = n * np.exp(2.0 * log_sigma[:-1]) * output_gain
+    v = n * math.exp(2.0 * log_sigma[-1])
+    gamma = np.sum(np.abs(input_transfer) ** 2 / d, axis=1)
+    projection = np.sum(np.conj(input_transfer) * coefficients / d, axis=1)
+    return float(np.sum(np.log(d)) + np.sum(np.log1p(v * gamma)) + np.sum(power / d)
+                 - np.sum(v * np.abs(projection) ** 2 / (1.0 + v * gamma)))
+
+
+def fit_noise_levels(coefficients: np.ndarray, output_gain: np.ndarray,
+                     input_transfer: np.ndarray, n: int) -> tuple[np.ndarray, float]:
+    """(σ_outputs (C,), σ_u): the noise levels of greatest Whittle likelihood
+    (:func:`whittle_nll`), from a start that gives every channel's power to its own sensor
+    and the best of a few table noise levels from 10⁻⁴ to 10 times theirs."""
+    power = np.abs(coefficients) ** 2
+    own = 0.5 * np.log(np.mean(power / (n * output_gain), axis=0))
+    args = (power, coefficients, output_gain, input_transfer, n)
+    starts = [np.append(own, own.max() + math.log(ratio))
+              for ratio in (1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)]
+    start = min(starts, key=lambda s: whittle_nll(s, *args))
+    lowest = own.min() + math.log(1e-8)
+    bounds = [(o - 10.0, o + 10.0) for o in own] + [(lowest, own.max() + 10.0)]
+    result = minimize(whittle_nll, start, args=args, method="L-BFGS-B", bounds=bounds)
+    return np.exp(result.x[:-1]), float(math.exp(result.x[-1]))
+
+
+def whitening_matrices(output_gain: np.ndarray, input_transfer: np.ndarray,
+                       sigma_outputs: np.ndarray, sigma_input: float, n: int) -> np.ndarray:
+    """W_k (F, C, C) with W_kᴴ W_k = S_k⁻¹ (module docstring)."""
+    d = n * sigma_outputs ** 2 * output_gain
+    scaled = input_transfer / np.sqrt(d)
+    norm2 = np.sum(np.abs(scaled) ** 2, axis=1)
+    v = n * sigma_input ** 2
+    beta = 1.0 - 1.0 / np.sqrt(1.0 + v * norm2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(norm2[:, None] > 0.0, scaled / np.sqrt(norm2)[:, None], 0.0)
+    inv_root = 1.0 / np.sqrt(d)
+    eye = np.eye(d.shape[1])
+    return (eye[None, :, :] - beta[:, None, None] * u[:, :, None] * np.conj(u)[:, None, :]
+            ) * inv_root[:, None, :]
+
+
+def _processed(trial: Any, raw_input: np.ndarray, raw_outputs: np.ndarray) -> Any:
+    """The trial's processing (high-pass, relative motion, integration) of raw records."""
+    from femupdate.experiment import process
+
+    experiment, pre = trial.experiment, trial.case.preprocess
+    length = raw_input.size
+    channels = {"input": raw_input, **dict(zip(experiment.channels, raw_outputs.T,
+                                               strict=True))}
+    measurement = Measurement(np.arange(length) * experiment.dt, channels)
+    return process(measurement, experiment.channels, np.ones(len(experiment.channels)),
+                   quantity=experiment.quantity, highpass_hz=pre.highpass_hz,
+                   highpass_order=pre.highpass_order, zero_phase=pre.zero_phase,
+                   influence=trial.model.influence)
+
+
+def path_responses(trial: Any, values: dict[str, float], record: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(input path (L, C), output paths (L, C)): the change of the trial's prediction − target
+    (every sample, unscaled) when the table's raw record is ``record`` (L,) and the others are
+    zero, and, column c, when output channel c's raw record is ``record`` and the others are
+    zero (its own channel only: the others do not change)."""
+    n_channels = len(trial.experiment.channels)
+    length = record.size
+    zeros = np.zeros((length, n_channels))
+    driven = _processed(trial, record, zeros)
+    ag = record if trial.filter else driven.ag
+    input_path = trial.prediction_driven_by(values, ag) - driven.target
+    output_paths = np.empty((length, n_channels))
+    for c in range(n_channels):
+        raw = zeros.copy()
+        raw[:, c] = record
+        output_paths[:, c] = -_processed(trial, np.zeros(length), raw).target[:, c]
+    return input_path, output_paths
+
+
+def impulse_responses(trial: Any, values: dict[str, float], length: int
+                      ) -> tuple[np.ndarray, np.ndarray, int]:
+    """(input path, output paths, centre): :func:`path_responses` to a unit impulse at sample
+    ``centre`` of a record of ``length`` samples."""
+    centre = length // 2  # a zero-phase high-pass responds before the impulse too
+    impulse = np.zeros(length)
+    impulse[centre] = 1.0
+    return (*path_responses(trial, values, impulse), centre)
+
+
+def offset_regressors(trial: Any, values: dict[str, float], scales: np.ndarray,
+                      samples: int) -> np.ndarray:
+    """(N, C, 2 (C + 1)): each residual block's response (scaled, projected as the residual
+    is) to a constant and to a linear drift in each raw record, the table's and each output
+    channel's: the offsets and drifts of real accelerometers, which the high-pass leaves as
+    transients at the record's start that no white noise explains (on the table's record they
+    drive the model at its resonances). Their amplitudes are unknown: the likelihood projects
+    them out."""
+    score = trial.experiment.score
+    start = 0 if score.start is None else int(score.start)
+    stop = start + samples
+    time = np.arange(stop) * trial.experiment.dt
+    columns = []
+    for record in (np.ones(stop), time):
+        input_path, output_paths = path_responses(trial, values, record)
+        columns.append(input_path)
+        for c in range(output_paths.shape[1]):
+            own = np.zeros_like(output_paths)
+            own[:, c] = output_paths[:, c]
+            columns.append(own)
+    regressors = np.stack(columns, axis=2)[start:stop] * scales[None, :, None]
+    if trial.objective.with_experimental_parameters:
+        for q in range(regressors.shape[2]):
+            regressors[:, :, q] = _projected_out(regressors[:, :, q], trial.objective.t)
+    return regressors
+
+
+def _decayed(response: np.ndarray, centre: int) -> bool:
+    """Whether the responses (L, C) are negligible at both ends of the record."""
+    energy = float(np.sum(response ** 2))
+    tail = max(1, response.shape[0] // 10)
+    ends = float(np.sum(response[:tail] ** 2) + np.sum(response[-tail:] ** 2))
+    return energy > 0.0 and ends <= DECAY_TOLERANCE * energy
+
+
+def decayed_impulse_responses(trial: Any, values: dict[str, float]
+                              ) -> tuple[np.ndarray, np.ndarray, int]:
+    """:func:`impulse_responses` over a record long enough for them to decay, at most
+    :data:`MAX_LENGTH_FACTOR` times the trial's: a mode with next to no damping (a damper at
+    its bound 0) rings longer, and is cut there, its line in the spectrum then far sharper
+    than the record's frequency resolution."""
+    samples = trial.objective.target.shape[0]
+    factor = LENGTH_FACTOR
+    while True:
+        paths = impulse_responses(trial, values, factor * samples)
+        if factor >= MAX_LENGTH_FACTOR or (_decayed(paths[0], paths[2])
+                                           and _decayed(paths[1], paths[2])):
+            return paths
+        factor *= 2
+
+
+def _projected_out(d: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """d (n, C) less its least-squares fit by a + b t, per column."""
+    basis = np.column_stack([np.ones_like(t), t - t.mean()])
+    return d - basis @ np.linalg.lstsq(basis, d, rcond=None)[0]
+
+
+def block_scales(trial: Any, values: dict[str, float], residuals: np.ndarray) -> np.ndarray:
+    """The constant by which each of the trial's residual blocks (``residuals`` (n, C), from
+    the case's residual vector) scales the trial's prediction − target (with experimental
+    parameters, its part off span{1, t})."""
+    prediction = trial.scored(trial.prediction(trial.simulate(values)))
+    d = prediction - trial.objective.target
+    if trial.objective.with_experimental_parameters:
+        d = _projected_out(d, trial.objective.t)
+    norms = np.linalg.norm(d, axis=0)
+    if np.any(norms == 0.0):
+        raise DataError(f"error model 'eiv': trial {trial.name!r}: a channel is fitted "
+                        "exactly: no noise to model")
+    return np.linalg.norm(residuals, axis=0) / norms
+
+
+def _prewhitened(blocks: np.ndarray, ar: np.ndarray) -> np.ndarray:
+    """Blocks (N, C) through their AR filters, the first p samples dropped: (N − p, C)."""
+    return _filtered(blocks, ar)[ar.shape[1]:]
+
+
+def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
+                    residuals: np.ndarray, ar: np.ndarray) -> TrialWhitening:
+    """The whitening of one trial (module docstring) from its residual blocks at the best
+    fit, ``residuals`` (N, C), and their AR prewhitening filters ``ar`` (C, p)."""
+    system = trial.model.system(values) if trial.model.external is None else None
+    if system is None:
+        raise ConfigError(f"error model 'eiv': trial {trial.name!r} runs an external model, "
+                          "whose response to the table's noise femupdate cannot compute "
+                          "(allowed: femupdate's own models; another error_model)")
+    if not system.is_linear:
+        raise ConfigError(f"error model 'eiv': the model of trial {trial.name!r} has "
+                          f"{system.nonlinear_elements}: its response to the table's noise "
+                          "is not a transfer function (allowed: linear models; another "
+                          "error_model)")
+    samples, n_channels = residuals.shape
+    scales = block_scales(trial, values, residuals)
+    regressors = offset_regressors(trial, values, scales, samples)
+    # the noise levels are fitted to the residual less its offsets' and drifts' transients
+    flat = regressors.reshape(samples * n_channels, -1)
+    amplitudes = np.linalg.lstsq(flat, residuals.reshape(-1), rcond=None)[0]
+    prewhitened = _prewhitened(residuals - (flat @ amplitudes).reshape(samples, n_channels),
+                               ar)
+    n = prewhitened.shape[0]
+    input_path, output_paths, centre = decayed_impulse_responses(trial, values)
+    # the paths as the prewhitened residual sees them: scaled, then through each AR filter
+    input_path = _filtered(input_path * scales, ar)
+    output_paths = _filtered(output_paths * scales, ar)
+    input_transfer = folded_transfer(input_path, centre, n)
+    output_gain = np.abs(folded_transfer(output_paths, centre, n)) ** 2
+    coefficients = np.fft.rfft(prewhitened, axis=0)
+    bins = np.arange(1, (n + 1) // 2)  # not 0 nor n/2: their coefficients are real
+    relative_gain = output_gain[bins] / output_gain[bins].max(axis=0)
+    bins = bins[np.all(relative_gain >= GAIN_RANGE, axis=1)]
+    # twice: fit the noise levels, then leave out the frequencies where, with those levels,
+    # leakage rules (the second pass refits without the first's)
+    for _ in range(2):
+        sigma_outputs, sigma_input = fit_noise_levels(
+            coefficients[bins], output_gain[bins], input_transfer[bins], n)
+        modelled = n * (sigma_outputs ** 2 * output_gain + sigma_input ** 2
+                        * np.abs(input_transfer) ** 2)
+        expected = np.column_stack([
+            expected_periodogram(np.column_stack([output_paths[:, c], input_path[:, c]]),
+                                 np.array([sigma_outputs[c] ** 2, sigma_input ** 2]), n)
+            for c in range(n_channels)])
+        leaked = np.any(np.abs(expected[bins] / modelled[bins] - 1.0) > LEAKAGE_TOLERANCE,
+                        axis=1)
+        bins = bins[~leaked]
+    from_outputs = np.sum(sigma_outputs ** 2 * output_gain[bins])
+    from_input = sigma_input ** 2 * np.sum(np.abs(input_transfer[bins]) ** 2)
+    share = float(from_input / (from_input + from_outputs))
+    matrices = whitening_matrices(output_gain[bins], input_transfer[bins], sigma_outputs,
+                                  sigma_input, n)
+    whitening = TrialWhitening(tuple(blocks), bins, matrices, sigma_outputs, sigma_input,
+                               share)
+    prewhitened_regressors = np.stack([_prewhitened(regressors[:, :, q], ar)
+                                       for q in range(regressors.shape[2])])  # (q, n, C)
+    white_regressors = whitening.apply([prewhitened_regressors[:, :, c]
+                                        for c in range(n_channels)])
+    basis, singular, _ = np.linalg.svd(white_regressors.T, full_matrices=False)
+    nuisance = basis[:, singular > NUISANCE_RANK_TOLERANCE * singular[0]]
+    return dataclasses.replace(whitening, nuisance=nuisance)
+
+
+def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray,
+                          starts: np.ndarray, stops: np.ndarray, ar: np.ndarray
+                          ) -> tuple[TrialWhitening, ...]:
+    """The spectral whitening of every fitted trial of an UpdateProblem at search point
+    ``point`` (the best fit), its residual vector there ``residuals`` and the blocks' AR
+    prewhitening filters ``ar`` (c, p)."""
+    from femupdate.posterior.gls_sandwich import trial_groups
+
+    values = problem.values(np.asarray(point, dtype=float))
+    r = np.asarray(residuals, dtype=float)
+    out = []
+    for trial, group in zip(problem.fitted, trial_groups(problem), strict=True):
+        raw = np.column_stack([r[starts[b]:stops[b]] for b in group])
+        out.append(trial_whitening(trial, values, group, raw, ar[group]))
+    return tuple(out)
+
+
+def ar_adjoint(rows: np.ndarray, ar: np.ndarray, length: int) -> np.ndarray:
+    """The transpose of a block's AR prewhitening (filter by 1 − Σ a_j z^−j, drop the first p
+    samples): rows (k, length − p) to rows (k, length)."""
+    from scipy.signal import lfilter
+
+    rows = np.atleast_2d(np.asarray(rows, dtype=float))
+    padded = np.zeros((rows.shape[0], length))
+    padded[:, length - rows.shape[1]:] = rows
+    return lfilter(np.concatenate([[1.0], -ar]), [1.0], padded[:, ::-1], axis=1)[:, ::-1]
+
+
+def whitening_adjoint(model: Any, rows: np.ndarray) -> np.ndarray:
+    """The transpose of ``model.whiten`` (kind ``"eiv"``): rows (k, whitened size) to rows
+    (k, m) of residual vectors."""
+    rows = np.atleast_2d(np.asarray(rows, dtype=float))
+    out = np.zeros((rows.shape[0], model.size))
+    start = 0
+    for trial in model.spectral:
+        part = rows[:, start:start + trial.size]
+        start += trial.size
+        first = trial.blocks[0]
+        n = int(model.stops[first] - model.starts[first]) - model.lag
+        blocks = trial.adjoint(part, n)
+        for j, b in enumerate(trial.blocks):
+            a, z = int(model.starts[b]), int(model.stops[b])
+            out[:, a:z] = ar_adjoint(blocks[:, j], model.ar[b], z - a)
+    return out
+
+
+def _correlated(rows: np.ndarray, response: np.ndarray, centre: int, start: int,
+                stop: int) -> np.ndarray:
+    """Σ_t rows[:, t] h(start + t − s) for s in [0, stop): how each noise sample of the record
+    reaches the rows' inner product with the residual, h the impulse response (lag 0 at
+    ``centre``)."""
+    from scipy.signal import fftconvolve
+
+    embedded = np.zeros((rows.shape[0], stop))
+    embedded[:, start:] = rows
+    full = fftconvolve(embedded, response[None, ::-1], axes=1)
+    first = response.shape[0] - 1 - centre
+    return full[:, first:first + stop]
+
+
+def score_covariance(problem: Any, model: Any, point: np.ndarray, residuals: np.ndarray,
+                     directions: np.ndarray) -> np.ndarray:
+    """Var(Dᵀ r) (n, n) of the residual vector r under the fitted noise model, exactly: each
+    sensor's white noise over its record, from rest, through the case's processing and model
+    at search ``point`` (where ``model`` was built; ``residuals`` r there), with the projection
+    off span{1, t} of experimental parameters; ``directions`` D (m, n).
+
+    The Whittle likelihood takes the frequencies of a finite record independent; where the
+    spectrum has features as narrow as the record's resolution (a lightly damped mode) they are
+    not, and its curvature overstates what the record determines. The score of the error model
+    is Dᵀr with D = Mᵀ W M J (M its whitening, W its weights), so this gives the covariance of
+    the score, the meat of the sandwich (:func:`eiv_sandwich_laplace`).
+    """
+    from femupdate.posterior.gls_sandwich import trial_groups
+
+    values = problem.values(np.asarray(point, dtype=float))
+    r = np.asarray(residuals, dtype=float)
+    directions = np.asarray(directions, dtype=float).T  # (n, m)
+    meat = np.zeros((directions.shape[0], directions.shape[0]))
+    for trial, group, fitted in zip(problem.fitted, trial_groups(problem), model.spectral,
+                                    strict=True):
+        raw = np.column_stack([r[model.starts[b]:model.stops[b]] for b in group])
+        scales = block_scales(trial, values, raw)
+        input_path, output_paths, centre = decayed_impulse_responses(trial, values)
+        score = trial.experiment.score
+        start = 0 if score.start is None else int(score.start)
+        stop = start + raw.shape[0]
+        through_input = np.zeros((directions.shape[0], stop))
+        for j, b in enumerate(group):
+            rows = directions[:, model.starts[b]:model.stops[b]]
+            if trial.objective.with_experimental_parameters:
+                rows = _projected_out(rows.T, trial.objective.t).T
+            through_input += _correlated(rows, input_path[:, j] * scales[j], centre, start,
+                                         stop)
+            own = _correlated(rows, output_paths[:, j] * scales[j], centre, start, stop)
+            meat += fitted.sigma_outputs[j] ** 2 * own @ own.T
+        meat += fitted.sigma_input ** 2 * through_input @ through_input.T
+    return 0.5 * (meat + meat.T)
+
+
+def score_meat(problem: Any, model: Any, point: np.ndarray, point_residuals: np.ndarray,
+               jac: np.ndarray, residuals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(H, Var(score)) at a point of Jacobian ``jac`` and residuals ``residuals`` (the mode):
+    H the likelihood's Gauss–Newton precision J_wᵀ W J_w, Var(score) that of its score
+    J_wᵀ W w under the fitted noise model (:func:`score_covariance`; ``model`` built at search
+    ``point``, ``point_residuals`` its residuals there)."""
+    from femupdate.posterior.laplace import gaussian_precision
+
+    precision, _ = gaussian_precision(jac, residuals, model)
+    weighted = model.weights(residuals)[:, None] * model.whiten(np.asarray(jac).T).T
+    directions = whitening_adjoint(model, weighted.T).T
+    return precision, score_covariance(problem, model, point, point_residuals, directions)
+
+
+def eiv_sandwich_laplace(problem: Any, model: Any, point: np.ndarray,
+                         point_residuals: np.ndarray, jac: np.ndarray,
+                         residuals: np.ndarray, mode_unit: np.ndarray, prior: Any) -> Any:
+    """The Gaussian at the error model's mode ``mode_unit`` (``jac``, ``residuals`` there)
+    with the sandwich covariance B Var(score) B, B the inverse of the Laplace precision (the
+    likelihood's Gauss–Newton curvature less the prior's), Var(score) by :func:`score_meat`
+    (``model`` built at search ``point``, ``point_residuals`` its residuals there)."""
+    from femupdate.posterior.laplace import summarize_gaussian
+
+    mode_unit = np.asarray(mode_unit, dtype=float).reshape(-1)
+    precision, meat = score_meat(problem, model, point, point_residuals, jac, residuals)
+    _, prior_hess = prior.curvature_unit(mode_unit)
+    bread = np.linalg.pinv(precision - np.diag(prior_hess), hermitian=True)
+    cov = bread @ meat @ bread
+    return summarize_gaussian(mode_unit, 0.5 * (cov + cov.T), prior)
+
+
+def magnitude_adjusted(problem: Any, model: Any, point: np.ndarray,
+                       point_residuals: np.ndarray, jac: np.ndarray,
+                       residuals: np.ndarray) -> Any:
+    """``model`` with its likelihood raised to k = n / tr(H⁻¹ Var(score)) (:func:`score_meat`
+    at the mode: ``jac``, ``residuals``), the magnitude adjustment of Ribatet, Cooley & Davison
+    (2012) with the score's exact variance under the fitted noise model: the curvature that
+    TMCMC samples then matches the sandwich's on average over the parameters (the likelihood
+    whose neighbouring frequencies Whittle takes independent is otherwise too sharp where they
+    are not). Its counts carry k."""
+    precision, meat = score_meat(problem, model, point, point_residuals, jac, residuals)
+    inflation = float(np.trace(np.linalg.pinv(precision, hermitian=True) @ meat))
+    if not inflation > 0.0 or not math.isfinite(inflation):
+        raise DataError("error model 'eiv': the variance of its score is not positive at the "
+                        "mode: no magnitude adjustment")
+    return dataclasses.replace(model, counts=model.counts * (precision.shape[0] / inflation))
