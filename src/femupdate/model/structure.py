@@ -604,6 +604,11 @@ class Structure:
         f[self.dof_index(node, dof)] = 1.0
         return f
 
+    def nonlinear_elements(self) -> list[str]:
+        """The names of the friction and Bouc–Wen elements (none: the model is linear in its
+        base motion)."""
+        return [r.name for r in self._records if r.kind in ("friction", "bouc_wen")]
+
     def influence_vector(self, direction: str | None = None) -> np.ndarray:
         """Rigid-body displacement of the free DOFs for a unit base displacement.
 

@@ -15,10 +15,12 @@ trial. A per-channel AR filter (kind ``"arp"``) whitens G n_y but not T n_u, whi
 (docs/posterior.md, section 6).
 
 This module gives the likelihood of that structure in the frequency domain (Whittle 1953).
-Each block is first prewhitened by the fixed AR filter A_c of ``"arp"`` (it flattens the
-steep spectrum of displacement noise, so that the transform of a finite record leaks little
-from one frequency to another); then, at each frequency ω_k = 2πk/n of the n prewhitened
-samples, the C channels' coefficients E_k = rfft(A r)(ω_k) are complex Gaussian with
+Each block is first prewhitened by a fixed AR filter A_c of ``"arp"``'s order, fitted to the
+impulse response of the channel's own noise path G_c (it flattens the steep spectrum of
+displacement noise, so that the transform of a finite record leaks little from one frequency
+to another, without notching the resonances as a filter fitted to the residual would);
+then, at each frequency ω_k = 2πk/n of the n prewhitened samples, the C channels'
+coefficients E_k = rfft(A r)(ω_k) are complex Gaussian with
 
     S_k = n [ diag(σ_c² |A_c(ω_k) G_c(ω_k)|²) + σ_u² t_k t_kᴴ ],   t_k,c = A_c(ω_k) T_c(ω_k),
 
@@ -375,21 +377,29 @@ def _prewhitened(blocks: np.ndarray, ar: np.ndarray) -> np.ndarray:
 
 
 def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
-                    residuals: np.ndarray, ar: np.ndarray) -> TrialWhitening:
+                    residuals: np.ndarray, order: int) -> tuple[TrialWhitening, np.ndarray]:
     """The whitening of one trial (module docstring) from its residual blocks at the best
-    fit, ``residuals`` (N, C), and their AR prewhitening filters ``ar`` (C, p)."""
-    system = trial.model.system(values) if trial.model.external is None else None
-    if system is None:
+    fit, ``residuals`` (N, C), and the AR prewhitening filters (C, ``order``) it uses: those
+    that flatten the processing of each channel's own noise (least squares on the impulse
+    response of that path), so that they do not notch the resonances, where the table's noise
+    and the information are."""
+    from femupdate.posterior.likelihood import ar_fit
+
+    structure = trial.model.structure
+    if structure is None:
         raise ConfigError(f"error model 'eiv': trial {trial.name!r} runs an external model, "
                           "whose response to the table's noise femupdate cannot compute "
                           "(allowed: femupdate's own models; another error_model)")
-    if not system.is_linear:
+    nonlinear = structure.nonlinear_elements()
+    if nonlinear:
         raise ConfigError(f"error model 'eiv': the model of trial {trial.name!r} has "
-                          f"{system.nonlinear_elements}: its response to the table's noise "
-                          "is not a transfer function (allowed: linear models; another "
-                          "error_model)")
+                          f"nonlinear elements ({', '.join(nonlinear)}): its response to the "
+                          "table's noise is not a transfer function (allowed: linear models; "
+                          "another error_model)")
     samples, n_channels = residuals.shape
     scales = block_scales(trial, values, residuals)
+    input_path, output_paths, centre = decayed_impulse_responses(trial, values)
+    ar = np.array([ar_fit(output_paths[:, c], order)[0] for c in range(n_channels)])
     regressors = offset_regressors(trial, values, scales, samples)
     # the noise levels are fitted to the residual less its offsets' and drifts' transients
     flat = regressors.reshape(samples * n_channels, -1)
@@ -397,7 +407,6 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
     prewhitened = _prewhitened(residuals - (flat @ amplitudes).reshape(samples, n_channels),
                                ar)
     n = prewhitened.shape[0]
-    input_path, output_paths, centre = decayed_impulse_responses(trial, values)
     # the paths as the prewhitened residual sees them: scaled, then through each AR filter
     input_path = _filtered(input_path * scales, ar)
     output_paths = _filtered(output_paths * scales, ar)
@@ -434,24 +443,26 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
                                         for c in range(n_channels)])
     basis, singular, _ = np.linalg.svd(white_regressors.T, full_matrices=False)
     nuisance = basis[:, singular > NUISANCE_RANK_TOLERANCE * singular[0]]
-    return dataclasses.replace(whitening, nuisance=nuisance)
+    return dataclasses.replace(whitening, nuisance=nuisance), ar
 
 
 def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray,
-                          starts: np.ndarray, stops: np.ndarray, ar: np.ndarray
-                          ) -> tuple[TrialWhitening, ...]:
+                          starts: np.ndarray, stops: np.ndarray, order: int
+                          ) -> tuple[tuple[TrialWhitening, ...], np.ndarray]:
     """The spectral whitening of every fitted trial of an UpdateProblem at search point
-    ``point`` (the best fit), its residual vector there ``residuals`` and the blocks' AR
-    prewhitening filters ``ar`` (c, p)."""
+    ``point`` (the best fit) and its residual vector there ``residuals`` (blocks ``starts``
+    to ``stops``), and the blocks' AR prewhitening filters (c, ``order``)."""
     from femupdate.posterior.gls_sandwich import trial_groups
 
     values = problem.values(np.asarray(point, dtype=float))
     r = np.asarray(residuals, dtype=float)
-    out = []
+    whitenings, filters = [], np.zeros((len(starts), order))
     for trial, group in zip(problem.fitted, trial_groups(problem), strict=True):
         raw = np.column_stack([r[starts[b]:stops[b]] for b in group])
-        out.append(trial_whitening(trial, values, group, raw, ar[group]))
-    return tuple(out)
+        whitening, ar = trial_whitening(trial, values, group, raw, order)
+        whitenings.append(whitening)
+        filters[group] = ar
+    return tuple(whitenings), filters
 
 
 def ar_adjoint(rows: np.ndarray, ar: np.ndarray, length: int) -> np.ndarray:

@@ -394,10 +394,11 @@ def problem_error_model(problem: Any, best_residuals: np.ndarray,
 
     prewhitening = error_model(blocks, "arp", best_residuals=best_residuals,
                                dof_removed=removed, ar_max_order=ar_max_order)
-    spectral = input_noise_whitening(problem, point, best_residuals, prewhitening.starts,
-                                     prewhitening.stops, prewhitening.ar)
+    spectral, ar = input_noise_whitening(problem, point, best_residuals, prewhitening.starts,
+                                         prewhitening.stops, prewhitening.ar.shape[1])
     lost = np.asarray(removed, dtype=float)
     counts = np.array([max(t.size - lost[list(t.blocks)].sum()
                            - (0 if t.nuisance is None else t.nuisance.shape[1]), 1.0)
                        for t in spectral])
-    return dataclasses.replace(prewhitening, kind="eiv", counts=counts, spectral=spectral)
+    return dataclasses.replace(prewhitening, kind="eiv", counts=counts, ar=ar,
+                               spectral=spectral)
