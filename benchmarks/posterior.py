@@ -234,7 +234,8 @@ def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
 
 def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
               tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False,
-              clean_input: bool = False, ar_max_order: int = AR_MAX_ORDER) -> dict[str, Any]:
+              clean_input: bool = False, ar_max_order: int = AR_MAX_ORDER,
+              search_fit: bool = False, tmcmc_from_prior: bool = False) -> dict[str, Any]:
     """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
@@ -253,7 +254,11 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
     problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
                              int(rng.integers(2 ** 31)), clean_input)
-    unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
+    if search_fit:  # as a user's update ends: multistart-lm from nowhere in particular
+        unit, r, _ = best_fit(problem, np.random.default_rng(
+            np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 98))))
+    else:
+        unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
     # the Laplace record's two scales (femupdate.posterior.best_fit.two_scale_record): the
     # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
     # over 1 % of each range (the kp1 valley's slope, not a ripple's) for those that one
@@ -355,7 +360,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                 reference = (np.clip(lap.mean_unit, 0.0, 1.0),
                              lap.cov_unit * np.outer(cap, cap))
             post, _ = run_tmcmc(problem.residuals, prior, model, seed=tm_seeds[kind],
-                                population=tmcmc_population, reference=reference, **MOVES)
+                                population=tmcmc_population,
+                                reference=None if tmcmc_from_prior else reference, **MOVES)
             if not post.reached:
                 raise RuntimeError(f"replicate {i}: TMCMC ({kind}) did not reach β = 1")
             q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
@@ -368,7 +374,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                 kinds: list[str] | None = None, tmcmc_kinds: list[str] | None = None,
                 tmcmc_population: int = 1000, hits_file: Path | None = None,
                 coarse_only: bool = False, clean_input: bool = False,
-                ar_max_order: int = AR_MAX_ORDER) -> dict[str, Any]:
+                ar_max_order: int = AR_MAX_ORDER, search_fit: bool = False,
+                tmcmc_from_prior: bool = False) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -389,14 +396,16 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
           f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
           f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
-          f"best fit of a local least-squares search started at the truth (ar1, arp: at "
+          + ("best fit of multistart-lm" if search_fit else
+             "best fit of a local least-squares search started at the truth")
+          + f" (ar1, arp: at "
           f"their own mode from there; arp orders up to {ar_max_order})"
           + ("; the table's record without noise" if clean_input else ""))
     for i, child in enumerate(children):
         if i < first or i in done:
             continue
         row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only,
-                        clean_input, ar_max_order)
+                        clean_input, ar_max_order, search_fit, tmcmc_from_prior)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -744,6 +753,12 @@ def main() -> None:
     parser.add_argument("--coarse-jacobian", action="store_true",
                         help="calibration: the Jacobian over 1 %% of each range for every "
                         "parameter (before: the Laplace record's two scales)")
+    parser.add_argument("--search-fit", action="store_true",
+                        help="calibration: the best fit of multistart-lm (2,000 evaluations) "
+                        "instead of a local search started at the truth")
+    parser.add_argument("--tmcmc-from-prior", action="store_true",
+                        help="calibration: TMCMC's first population from the prior, not from "
+                        "the Laplace Gaussian")
     parser.add_argument("--clean-input", action="store_true",
                         help="calibration: the table's record without noise (outputs only)")
     parser.add_argument("--ar-max-order", type=int, default=AR_MAX_ORDER,
@@ -781,7 +796,8 @@ def main() -> None:
                 tmcmc_kinds=[k for k in args.tmcmc_kinds.split(",") if k],
                 tmcmc_population=args.tmcmc_population, hits_file=args.hits,
                 coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
-                ar_max_order=args.ar_max_order)
+                ar_max_order=args.ar_max_order, search_fit=args.search_fit,
+                tmcmc_from_prior=args.tmcmc_from_prior)
         if "real" in sections:
             out["real"] = real_trials(["neff", "adjusted", "eiv"])
         if "whitening" in sections:

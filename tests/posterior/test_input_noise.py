@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.signal import fftconvolve
+from two_storey import write_case
 
 from femupdate.case import load_case, parse_case
 from femupdate.errors import ConfigError
@@ -23,7 +24,6 @@ from femupdate.results import read_summary
 from femupdate.sampling.run import run_posterior
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
-from two_storey import write_case
 from two_storey_case import TRUTH, two_storey_spec
 
 

@@ -33,11 +33,12 @@ magnitude adjustment k = n / tr(H⁻¹M) of :func:`femupdate.posterior.sandwich.
 parameters, the likelihood's curvature to the sandwich covariance of the least-squares best fit,
 the covariance the residuals' own autocorrelation gives it with no model of that correlation;
 it needs the Jacobian at the best fit (in any coordinates: k does not depend on them). Kind
-``"eiv"`` (errors in the variables) adds to ``"arp"``'s prewhitening the noise of the table's
-record, which reaches every channel through the model: each trial's blocks are whitened
-together in the frequency domain by the spectrum of output noise plus the model's response to
-table noise, each sensor's offset and drift projected out (:mod:`femupdate.posterior.input_noise`;
-linear models of femupdate's own, built by :func:`problem_error_model` at the best fit). Kind
+``"eiv"`` (errors in the variables) models the noise of the table's record too, which reaches
+every channel through the model: each block prewhitened by an AR filter (``"arp"``'s order) of
+its own noise path, each trial's blocks are whitened together in the frequency domain by the
+spectrum of output noise plus the model's response to table noise, each sensor's offset and
+drift projected out (:mod:`femupdate.posterior.input_noise`; linear models of femupdate's own,
+built by :func:`problem_error_model` at the best fit). Kind
 ``"known"``: Gaussian errors of a given standard deviation per block (analytic checks).
 
 Every function takes residual rows (k, m), so that a population is one call; a row with a
