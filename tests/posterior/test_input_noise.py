@@ -236,3 +236,13 @@ def test_the_magnitude_adjustment_matches_the_score_variance_on_average(
     precision, meat = input_noise.score_meat(problem, adjusted, truth_point, r, jac, r)
     assert np.trace(np.linalg.solve(precision, meat)) == pytest.approx(truth_point.size,
                                                                       rel=1e-6)
+
+
+def test_a_sharp_error_model_says_when_the_runs_found_several_minima() -> None:
+    from femupdate.posterior.best_fit import basin_sentences
+    from femupdate.posterior.records import LaplaceRecord
+
+    sharp, wide = LaplaceRecord(error_model="eiv"), LaplaceRecord(error_model="neff")
+    (said,) = basin_sentences(sharp, 2)
+    assert "2 different minima" in said and "'eiv'" in said
+    assert basin_sentences(sharp, 1) == [] and basin_sentences(wide, 3) == []

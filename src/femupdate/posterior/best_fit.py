@@ -89,6 +89,22 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
     return record
 
 
+#: The error models wide enough to span the minima a search can end in (measured on the
+#: bridge with fits by multistart-lm: docs/posterior.md, section 6, "in a user's update").
+SPANNING_KINDS: tuple[str, ...] = ("neff", "tau")
+
+
+def basin_sentences(record: LaplaceRecord, minima: int) -> list[str]:
+    """What to say when the runs ended in several minima and the record's error model is
+    one of the sharp ones: its Gaussian holds within the best minimum's basin only."""
+    if minima <= 1 or record.error_model in SPANNING_KINDS or record.note is not None:
+        return []
+    return [f"The runs ended in {minima} different minima, and error model "
+            f"{record.error_model!r} is sharp: its intervals hold within the best one's "
+            "basin and can miss the truth with confidence if it lies in another (error model "
+            "'neff' spans them; or sample the posterior from the prior)"]
+
+
 def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,
                    start_unit: np.ndarray, r: np.ndarray, jac: np.ndarray,
                    steps: tuple[float, ...] = (LOCAL_STEP, UNIT_STEP)

@@ -41,7 +41,8 @@ class LaplaceRecord(_Record):
     Gaussian is not to be trusted (said in words too); ``note``: why it is missing, if it is;
     ``noise``: for error model ``"eiv"``, per fitted trial the noise levels it fitted (each
     output sensor's and the table's, in the records' units) and the share of the residual the
-    table's noise explains.
+    table's noise explains; ``caveats``: what else to know before trusting the intervals (the
+    runs ended in several minima and the error model is a sharp one).
     """
 
     error_model: str = ""
@@ -54,6 +55,7 @@ class LaplaceRecord(_Record):
     nfev: int = 0
     note: str | None = None
     noise: list[dict[str, Any]] = Field(default_factory=list)
+    caveats: list[str] = Field(default_factory=list)
 
     def flagged_sentences(self) -> list[str]:
         """The sentences worth saying: of the parameters the data do not determine, and of

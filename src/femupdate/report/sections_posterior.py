@@ -52,6 +52,7 @@ def section_laplace(record: LaplaceRecord | None) -> str:
               caption=f"Laplace approximation at the best fit (error model "
                       f"{record.error_model!r}; lognormal on a log scale; quantiles clipped "
                       f"to the bounds; {record.nfev} evaluations)"),
+        *[warn(caveat + ".", "laplace-caveat") for caveat in record.caveats],
         _sentences(record.sentences, [*record.undetermined, *record.not_quadratic],
                    "laplace-undetermined"),
     ])

@@ -33,7 +33,7 @@ def print_laplace(record: LaplaceRecord | None, best: dict[str, float], out: Con
         table.add_row(name, f"{best.get(name, float('nan')):.4g}", f"{m.sd:.2g}",
                       _interval(m), determined)
     out.print(table)
-    for sentence in record.flagged_sentences():
+    for sentence in [*record.caveats, *record.flagged_sentences()]:
         out.print(Text(sentence + "."))
 
 
