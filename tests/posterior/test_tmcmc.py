@@ -4,6 +4,7 @@ budget too small gives no posterior, the stages' rules."""
 from __future__ import annotations
 
 import builtins
+import dataclasses
 import pickle
 
 import numpy as np
@@ -158,7 +159,7 @@ def test_reported_ess_matches_the_variance_of_the_mean_across_seeds() -> None:
 @pytest.mark.parametrize("options, match", [
     ({"population": 5}, r"'population' of method 'tmcmc' must be in \[20, inf\]"),
     ({"cov_target": 0.0}, r"'cov_target' of method 'tmcmc' must be in \(0, 10\]"),
-    ({"proposal": "hmc"}, r"'proposal' of method 'tmcmc' must be one of rw, independent"),
+    ({"proposal": "hmc"}, r"'proposal' of method 'tmcmc' must be one of rw, independent, mixture"),
     ({"speed": 2}, r"unknown option\(s\) 'speed' for method 'tmcmc'"),
     ({"reference": (np.full(3, 0.5), 1e2 * np.eye(3))}, r"less than 1 % of the Gaussian"),
 ])
@@ -168,13 +169,17 @@ def test_bad_options(options: dict, match: str) -> None:
                    **options)
 
 
-def test_a_last_step_with_every_proposal_outside_ends_the_run() -> None:
-    state, sampler = _state(4, steps=1)
+@pytest.mark.parametrize("proposal", ["mixture", "independent"])
+def test_a_last_step_with_every_proposal_outside_ends_the_run(proposal: str) -> None:
+    state, sampler = _state(4, steps=1, proposal=proposal)
     fun = Residuals(CASE).residuals
     while sampler.beta < 1.0:
         state.step(fun)
     # the final stage's only step: every proposal outside the cube
-    sampler._move = (sampler._move[0], sampler._move[1] * 1e6)
+    if proposal == "mixture":
+        sampler._move = dataclasses.replace(sampler._move, chols=sampler._move.chols * 1e6)
+    else:
+        sampler._move = (sampler._move[0], sampler._move[1] * 1e6)
     while not state.done:
         state.step(fun)
     post = sampler.posterior()
