@@ -6,6 +6,8 @@
     python benchmarks/posterior.py --only calibration --replicates 20 --kinds neff \
         --tmcmc-kinds neff --hits tmcmc.jsonl
     python benchmarks/posterior.py --only speed --population 6000 [--threads 2]
+    python benchmarks/posterior.py --only evidence --evidence-population 4000 --seeds 20 \
+        --threads 2
 
 Sections (``--only`` takes a comma-separated list):
 
@@ -30,9 +32,13 @@ Sections (``--only`` takes a comma-separated list):
   process (the compiled evaluator releases the GIL; ``femupdate posterior --workers 2``
   does the same); emcee's ensemble of 36 walkers is evaluated in one thread.
 - ``friction``: friction bridge (13 parameters): best fit, Laplace, TMCMC: wall time.
-- ``evidence``: TMCMC's log-evidence on the viscous bridge over 10 seeds (spawned), and the
-  effective sample size measured across them (posterior variance over the variance of the
-  seeds' means: no autocorrelation model needed).
+- ``evidence``: TMCMC's log-evidence on the viscous bridge (``--evidence-model friction``:
+  the friction bridge) over ``--seeds`` seeds (spawned), and the effective sample size
+  measured across them (posterior variance over the variance of the seeds' means: no
+  autocorrelation model needed), with its 90 % χ² interval, the wall time per run
+  (``--threads``) and how often the truth lies inside each 90 % interval.
+  ``--proposal``, ``--components``, ``--final-steps`` change TMCMC's moves (MOVES) in the
+  speed, friction and evidence sections.
 
 Wall times are of this machine at its load (printed beside them). BLAS runs one thread (set
 before numpy loads): the residuals' small products cost 200 times more when a busy machine's

@@ -233,10 +233,10 @@ class TMCMC:
     proposal : {"mixture", "independent", "rw"}
         Independent draws from a Gaussian mixture of the population's k-means clusters
         (inflated), the default; from the weighted population's single Gaussian (inflated);
-        or a random walk. On the viscous bridge the mixture needs about half the evaluations
-        per effective sample of the single Gaussian for the parameters the data barely
-        determine, which the random walk needs 3× more (docs/posterior.md, "Effective
-        samples, measured across seeds").
+        or a random walk. On the viscous bridge the mixture needs a third to a quarter of
+        the single Gaussian's evaluations per effective sample (ESS measured across seeds,
+        worst parameter), which needed a third of the random walk's (docs/posterior.md,
+        "Effective samples, measured across seeds").
     components : int
         The mixture's k-means clusters (fewer when the population has fewer than
         ``MEMBERS_PER_PARAMETER`` · n members for each).
