@@ -4,6 +4,8 @@ analytic check."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -65,6 +67,20 @@ def test_fit_mixture_finds_separate_clusters_and_merges_small_ones() -> None:
     one = fit_mixture(x[:15], 12, 1.5, np.random.default_rng(3), safe_cholesky)
     assert one.means.shape == (1, 2)
     assert np.allclose(one.chols[0] @ one.chols[0].T, 1.5 ** 2 * np.cov(x[:15].T))
+
+
+def test_fit_mixture_of_a_population_of_few_distinct_particles() -> None:
+    """A resampled population that repeats a few particles: no more clusters than distinct
+    rows, and no component of zero width (those take the population's covariance)."""
+    rng = np.random.default_rng(7)
+    x = np.repeat(rng.random((10, 3)), 40, axis=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mix = fit_mixture(x, 16, 1.5, np.random.default_rng(8), safe_cholesky)
+    assert mix.means.shape[0] <= 10
+    whole = 1.5 * np.linalg.cholesky(np.cov(x.T))
+    assert all(np.allclose(chol, whole) for chol in mix.chols)
+    assert np.all(np.isfinite(mix.logpdf(x)))
 
 
 def test_tmcmc_with_the_single_gaussian_still_meets_the_analytic_check() -> None:

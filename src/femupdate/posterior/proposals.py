@@ -12,6 +12,7 @@ population's whitened coordinates, scipy's ``kmeans2``), follows their shape.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -85,13 +86,16 @@ def fit_mixture(x: np.ndarray, components: int, inflate: float, rng: np.random.G
     """
     n_rows, n = x.shape
     minimum = MEMBERS_PER_PARAMETER * n
-    k = max(1, min(components, n_rows // minimum))
+    # no more clusters than distinct rows (a resampled population repeats its particles)
+    k = max(1, min(components, n_rows // minimum, np.unique(x, axis=0).shape[0]))
     mean = x.mean(axis=0)
     whole = cholesky(np.cov(x.T).reshape(n, n))
     if k == 1:
         return GaussianMixture(np.zeros(1), mean[None, :], (inflate * whole)[None, :, :])
     z = np.linalg.solve(whole, (x - mean).T).T
-    centroids, labels = kmeans2(z, k, minit="++", rng=rng)
+    with warnings.catch_warnings():  # an empty cluster is dropped below: no need to say so
+        warnings.filterwarnings("ignore", message="One of the clusters is empty")
+        centroids, labels = kmeans2(z, k, minit="++", rng=rng)
     counts = np.bincount(labels, minlength=k)
     # small clusters join their nearest large one, smallest first
     for c in np.argsort(counts):
@@ -104,8 +108,19 @@ def fit_mixture(x: np.ndarray, components: int, inflate: float, rng: np.random.G
         counts[c] = 0
     kept = np.flatnonzero(counts)
     means = np.array([x[labels == c].mean(axis=0) for c in kept])
-    chols = np.array([inflate * cholesky(np.cov(x[labels == c].T).reshape(n, n))
+    chols = np.array([inflate * component_cholesky(x[labels == c], whole, cholesky)
                       for c in kept])
     log_weights = np.log(counts[kept] / n_rows)
     return GaussianMixture(log_weights, means, chols)
 
+
+
+def component_cholesky(members: np.ndarray, whole: np.ndarray,
+                       cholesky: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """The Cholesky factor of a cluster's covariance, or the population's (``whole``) when the
+    cluster has too few distinct members (n or fewer) to span the space: copies of a few
+    particles would give a component of zero width."""
+    n = members.shape[1]
+    if np.unique(members, axis=0).shape[0] <= n:
+        return whole
+    return cholesky(np.cov(members.T).reshape(n, n))
