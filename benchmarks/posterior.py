@@ -81,6 +81,7 @@ from femupdate.posterior.mode import WHITENING_KINDS
 from femupdate.posterior.sandwich import curvature_adjustment, sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
 from femupdate.problems import bridge
+from femupdate.sampling.run import start_reference
 from femupdate.update import UpdateProblem
 
 SEED = 2026
@@ -366,6 +367,9 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                 cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
                 reference = (np.clip(lap.mean_unit, 0.0, 1.0),
                              lap.cov_unit * np.outer(cap, cap))
+            # as femupdate posterior: the prior where even the capped one is mostly outside
+            reference, _ = start_reference(*reference, np.random.default_rng(
+                np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 97))))
             post, _ = run_tmcmc(problem.residuals, prior, model, seed=tm_seeds[kind],
                                 population=tmcmc_population,
                                 reference=None if tmcmc_from_prior else reference, **MOVES)

@@ -282,3 +282,22 @@ def test_the_command_says_when_it_did_not_reach_the_posterior(case_path: Path,
                                    "--quiet"], terminal_width=100)
     assert got.exit_code == 0, got.output
     assert "NOT A POSTERIOR: the sampler stopped at tempering exponent β =" in got.output
+
+
+def test_a_laplace_gaussian_mostly_outside_the_bounds_is_capped_or_left_for_the_prior(
+        ) -> None:
+    from femupdate.sampling.run import start_reference
+
+    rng = np.random.default_rng(0)
+    inside = (np.full(3, 0.5), np.diag([0.01, 0.02, 0.01]))
+    reference, note = start_reference(*inside, rng)
+    assert note is None and reference[1] is inside[1]
+    # three coordinates the data do not determine, their Gaussian far wider than the range,
+    # centred at a bound: capped at half the range, it holds enough of its mass inside
+    wide = (np.array([0.0, 1.0, 0.0]), np.diag([25.0, 16.0, 9.0]))
+    reference, note = start_reference(*wide, rng)
+    assert "capped" in note and np.allclose(np.sqrt(np.diag(reference[1])), 0.5)
+    # twelve at their bounds: even capped, too little of it is inside
+    corner = (np.zeros(12), np.eye(12) * 25.0)
+    reference, note = start_reference(*corner, rng)
+    assert reference is None and note.startswith("the prior")

@@ -145,6 +145,20 @@ def gaussian_logpdf(x: np.ndarray, mean: np.ndarray, chol: np.ndarray) -> np.nda
             - 0.5 * n * math.log(2 * math.pi))
 
 
+#: The default widening of the reference's and the independent proposals' covariance.
+INFLATE = 1.5
+#: A reference Gaussian with less of its mass inside the unit cube is refused.
+MIN_REFERENCE_MASS = 0.01
+
+
+def mass_inside(mean: np.ndarray, chol: np.ndarray, rng: np.random.Generator,
+                draws: int = 20_000) -> float:
+    """The share of the Gaussian (``mean``, ``chol`` its covariance's Cholesky factor) inside
+    the unit cube, by drawing (the truncated Gaussian's normaliser)."""
+    x = mean + rng.standard_normal((draws, mean.size)) @ chol.T
+    return float(np.all((x >= 0) & (x <= 1), axis=1).mean())
+
+
 def safe_cholesky(cov: np.ndarray) -> np.ndarray:
     """The Cholesky factor of a covariance, with a growing jitter on its diagonal if it is
     not positive definite (a population that collapsed along some direction)."""
@@ -254,7 +268,8 @@ class TMCMC:
                  steps: int = 3, final_steps: int | None = None,
                  proposal: str = "mixture",
                  reference: tuple[np.ndarray, np.ndarray] | None = None,
-                 inflate: float = 1.5, max_stages: int = 100, components: int = COMPONENTS) -> None:
+                 inflate: float = INFLATE, max_stages: int = 100,
+                 components: int = COMPONENTS) -> None:
         method = "tmcmc"
         if not isinstance(error_model, ErrorModel):
             raise ConfigError(f"option 'error_model' of method 'tmcmc' must be an ErrorModel, "
@@ -327,11 +342,8 @@ class TMCMC:
                               f"({self.n},), cov ({self.n}, {self.n})) pair in the unit cube")
         mean = np.clip(mean, 0.0, 1.0)
         chol = safe_cholesky(cov * self.inflate ** 2)
-        # its mass inside the cube, by drawing (the truncated Gaussian's normaliser)
-        z = self.rng.standard_normal((20_000, self.n))
-        inside = np.all(((mean + z @ chol.T) >= 0) & ((mean + z @ chol.T) <= 1), axis=1)
-        mass = float(inside.mean())
-        if mass < 0.01:
+        mass = mass_inside(mean, chol, self.rng)
+        if mass < MIN_REFERENCE_MASS:
             raise ConfigError("option 'reference' of method 'tmcmc': less than 1 % of the "
                               "Gaussian lies inside the bounds (allowed: a Gaussian centred in "
                               "the bounds)")

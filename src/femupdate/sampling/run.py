@@ -46,6 +46,7 @@ from femupdate.posterior.records import (
     correlation_rows,
     marginals,
 )
+from femupdate.posterior.tmcmc import INFLATE, MIN_REFERENCE_MASS, mass_inside, safe_cholesky
 from femupdate.results import POSTERIOR_FILE, Summary, write_summary
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
@@ -197,8 +198,11 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     model, prior, gaussian, why = best_fit_gaussian(problem, best_x, settings.error_model,
                                                     counts_from)
     specs = {n: p.spec() for n, p in settings.priors.items()}
-    reference = (None if gaussian is None or settings.start == "prior"
-                 else (gaussian.mean_unit, gaussian.cov_unit))
+    reference, start_note = None, None
+    if gaussian is not None and settings.start != "prior":
+        reference, start_note = start_reference(
+            gaussian.mean_unit, gaussian.cov_unit,
+            np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
     options = sampler_options(model, prior, specs, population, reference)
     workers = case.search.workers if workers is None else workers
     outcome = run_all(
@@ -212,6 +216,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                                         outcome.wall_s, population)
     if why is not None:
         record.message += f"; started from the prior: no Laplace approximation ({why})"
+    elif start_note is not None:
+        record.message += f"; started from {start_note}"
     bands: list[Bands] = []
     (out_dir / POSTERIOR_FILE).unlink(missing_ok=True)  # never an earlier run's samples
     if physical.shape[0]:
@@ -226,6 +232,31 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     summary = search.summary.model_copy(update={"posterior": record})
     write_summary(summary, out_dir)
     return PosteriorResult(summary, record, physical, bands, search, model)
+
+
+def start_reference(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator,
+                    inflate: float = INFLATE) -> tuple[tuple[np.ndarray, np.ndarray] | None,
+                                                       str | None]:
+    """TMCMC's first population's Gaussian (unit cube) from the Laplace one, and why it is not
+    that one when it is not. A Gaussian wider than the bounds (a parameter the data do not
+    determine) centred near one can hold less than :data:`MIN_REFERENCE_MASS` of its mass
+    inside, which TMCMC refuses: its standard deviations are then capped at half the range
+    (any normalised start density gives the same posterior), and if even that one is mostly
+    outside, the walk starts from the prior."""
+    mean, cov = np.asarray(mean, dtype=float), np.asarray(cov, dtype=float)
+    centre = np.clip(mean, 0.0, 1.0)  # where TMCMC puts it
+    candidates = [cov]
+    cap = np.minimum(1.0, 0.5 / np.sqrt(np.clip(np.diag(cov), 1e-300, None)))
+    if np.any(cap < 1.0):
+        candidates.append(cov * np.outer(cap, cap))
+    for number, candidate in enumerate(candidates):
+        chol = safe_cholesky(candidate * inflate ** 2)
+        if mass_inside(centre, chol, rng) >= MIN_REFERENCE_MASS:
+            return (mean, candidate), (None if number == 0 else
+                                       "the Laplace Gaussian with its standard deviations "
+                                       "capped at half the range (it lies mostly outside the "
+                                       "bounds)")
+    return None, "the prior: the Laplace Gaussian lies mostly outside the bounds, even capped"
 
 
 def thinned(samples: np.ndarray, count: int) -> np.ndarray:
