@@ -240,7 +240,8 @@ def start_reference(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator,
     """TMCMC's first population's Gaussian (unit cube) from the Laplace one, and why it is not
     that one when it is not. A Gaussian wider than the bounds (a parameter the data do not
     determine) centred near one can hold less than :data:`MIN_REFERENCE_MASS` of its mass
-    inside, which TMCMC refuses: its standard deviations are then capped at half the range
+    inside, which TMCMC refuses (twice that is asked here, TMCMC estimating it by other
+    draws): its standard deviations are then capped at half the range
     (any normalised start density gives the same posterior), and if even that one is mostly
     outside, the walk starts from the prior."""
     mean, cov = np.asarray(mean, dtype=float), np.asarray(cov, dtype=float)
@@ -251,7 +252,8 @@ def start_reference(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator,
         candidates.append(cov * np.outer(cap, cap))
     for number, candidate in enumerate(candidates):
         chol = safe_cholesky(candidate * inflate ** 2)
-        if mass_inside(centre, chol, rng) >= MIN_REFERENCE_MASS:
+        # twice TMCMC's threshold: its own estimate, by other draws, must not fall below it
+        if mass_inside(centre, chol, rng) >= 2.0 * MIN_REFERENCE_MASS:
             return (mean, candidate), (None if number == 0 else
                                        "the Laplace Gaussian with its standard deviations "
                                        "capped at half the range (it lies mostly outside the "
