@@ -74,7 +74,7 @@ from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_mod
 from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
 from femupdate.posterior.best_fit import NOT_QUADRATIC_RATIO, centred, mode_jacobians
 from femupdate.posterior.gls_sandwich import gls_sandwich_laplace, trial_groups
-from femupdate.posterior.input_noise import eiv_sandwich_laplace, magnitude_adjusted
+from femupdate.posterior.input_noise import eiv_sandwich_laplaces, magnitude_adjusted
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.posterior.likelihood import AR_MAX_ORDER, residual_blocks
 from femupdate.posterior.mode import WHITENING_KINDS
@@ -94,7 +94,7 @@ SANDWICH = "sandwich"
 #: when the whitening leaves the errors coloured (femupdate.posterior.gls_sandwich)
 GLS_SANDWICH = "gls-sandwich"
 #: eiv's Gaussian at its mode with the covariance of its score under its own noise model
-#: (femupdate.posterior.input_noise.eiv_sandwich_laplace)
+#: (femupdate.posterior.input_noise.eiv_sandwich_laplaces)
 EIV_SANDWICH = "eiv-sandwich"
 #: The i.i.d. likelihood with the curvature adjustment (femupdate.posterior.sandwich): sampled by
 #: TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction). Measured too
@@ -307,8 +307,11 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             model = problem_error_model(problem, r, "eiv", point=point)
             centre, ((r_c, local_c), (_, coarse_c)), evals = mode_jacobians(
                 problem, prior, model, unit, r, jac_local)
-            _, q = two_scale(lambda j, m=model, c=centre, rc=r_c, x=point: eiv_sandwich_laplace(
-                problem, m, x, r, j, rc, c, prior), (coarse_c, local_c))
+            # both scales' Gaussians in one pass over the noise paths, then the product's rule
+            gaussians = eiv_sandwich_laplaces(problem, model, point, r,
+                                              [(r_c, coarse_c), (r_c, local_c)], centre, prior)
+            by_jacobian = {id(coarse_c): gaussians[0], id(local_c): gaussians[1]}
+            _, q = two_scale(lambda j, g=by_jacobian: g[id(j)], (coarse_c, local_c))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
             out["mode_evals"][kind] = evals
             continue

@@ -233,7 +233,8 @@ def test_the_magnitude_adjustment_matches_the_score_variance_on_average(
     adjusted = input_noise.magnitude_adjusted(problem, model, truth_point, r, jac, r)
     k = adjusted.counts / model.counts
     assert np.allclose(k, k[0]) and 0.0 < k[0] < 2.0
-    precision, meat = input_noise.score_meat(problem, adjusted, truth_point, r, jac, r)
+    ((precision, meat),) = input_noise.score_meats(problem, adjusted, truth_point, r,
+                                                   [(r, jac)])
     assert np.trace(np.linalg.solve(precision, meat)) == pytest.approx(truth_point.size,
                                                                       rel=1e-6)
 

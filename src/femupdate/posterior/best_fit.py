@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import FemupdateError
-from femupdate.posterior.input_noise import eiv_sandwich_laplace
+from femupdate.posterior.input_noise import eiv_sandwich_laplaces
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, laplace, summarize_gaussian
 from femupdate.posterior.likelihood import DEFAULT_KIND, ErrorModel, problem_error_model
@@ -52,7 +52,7 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
     ``"arp"``, ``"eiv"``) has its maximum elsewhere than φ's minimum: its Gaussian is taken at
     its own mode, climbed to from ``x`` (:func:`mode_jacobians`; the evaluations counted in
     ``nfev``); ``"eiv"``'s covariance is its sandwich
-    (:func:`~femupdate.posterior.input_noise.eiv_sandwich_laplace`).
+    (:func:`~femupdate.posterior.input_noise.eiv_sandwich_laplaces`).
 
     A failure (the model fails beside ``x``, a residual block is zero) is recorded as the
     record's ``note``, not raised: the update's results stand without it.
@@ -76,8 +76,7 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
                                                          *jacobians[0])
             nfev += extra
         if kind == "eiv":  # the covariance of its score, not its Whittle curvature
-            results = [eiv_sandwich_laplace(problem, model, x, r, jac, r_x, best_unit, prior)
-                       for r_x, jac in jacobians]
+            results = eiv_sandwich_laplaces(problem, model, x, r, jacobians, best_unit, prior)
         else:
             results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
                        for r_x, jac in jacobians]

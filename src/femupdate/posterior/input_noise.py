@@ -53,7 +53,7 @@ are correlated, which Whittle's likelihood ignores: its curvature then overstate
 record determines. The covariance of its score under the fitted noise model is computed
 exactly (:func:`score_covariance`, from the transpose of the whitening,
 :func:`whitening_adjoint`), and gives the Laplace record its sandwich covariance
-(:func:`eiv_sandwich_laplace`) and TMCMC's likelihood its magnitude
+(:func:`eiv_sandwich_laplaces`) and TMCMC's likelihood its magnitude
 (:func:`magnitude_adjusted`).
 """
 
@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -519,7 +520,7 @@ def score_covariance(problem: Any, model: Any, point: np.ndarray, residuals: np.
     spectrum has features as narrow as the record's resolution (a lightly damped mode) they are
     not, and its curvature overstates what the record determines. The score of the error model
     is Dᵀr with D = Mᵀ W M J (M its whitening, W its weights), so this gives the covariance of
-    the score, the meat of the sandwich (:func:`eiv_sandwich_laplace`).
+    the score, the meat of the sandwich (:func:`eiv_sandwich_laplaces`).
     """
     from femupdate.posterior.gls_sandwich import trial_groups
 
@@ -548,47 +549,59 @@ def score_covariance(problem: Any, model: Any, point: np.ndarray, residuals: np.
     return 0.5 * (meat + meat.T)
 
 
-def score_meat(problem: Any, model: Any, point: np.ndarray, point_residuals: np.ndarray,
-               jac: np.ndarray, residuals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(H, Var(score)) at a point of Jacobian ``jac`` and residuals ``residuals`` (the mode):
-    H the likelihood's Gauss–Newton precision J_wᵀ W J_w, Var(score) that of its score
-    J_wᵀ W w under the fitted noise model (:func:`score_covariance`; ``model`` built at search
-    ``point``, ``point_residuals`` its residuals there)."""
+def score_meats(problem: Any, model: Any, point: np.ndarray, point_residuals: np.ndarray,
+                at: Sequence[tuple[np.ndarray, np.ndarray]]
+                ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(H, Var(score)) at each (residuals, Jacobian) pair of ``at`` (the mode, by differences
+    over one or more steps): H the likelihood's Gauss–Newton precision J_wᵀ W J_w, Var(score)
+    that of its score J_wᵀ W w under the fitted noise model (:func:`score_covariance`, one
+    pass for all the pairs; ``model`` built at search ``point``, ``point_residuals`` its
+    residuals there)."""
     from femupdate.posterior.laplace import gaussian_precision
 
-    precision, _ = gaussian_precision(jac, residuals, model)
-    weighted = model.weights(residuals)[:, None] * model.whiten(np.asarray(jac).T).T
-    directions = whitening_adjoint(model, weighted.T).T
-    return precision, score_covariance(problem, model, point, point_residuals, directions)
+    precisions, directions = [], []
+    for residuals, jac in at:
+        precisions.append(gaussian_precision(jac, residuals, model)[0])
+        weighted = model.weights(residuals)[:, None] * model.whiten(np.asarray(jac).T).T
+        directions.append(whitening_adjoint(model, weighted.T).T)
+    meat = score_covariance(problem, model, point, point_residuals, np.hstack(directions))
+    n = precisions[0].shape[0]
+    return [(precision, meat[i * n:(i + 1) * n, i * n:(i + 1) * n])
+            for i, precision in enumerate(precisions)]
 
 
-def eiv_sandwich_laplace(problem: Any, model: Any, point: np.ndarray,
-                         point_residuals: np.ndarray, jac: np.ndarray,
-                         residuals: np.ndarray, mode_unit: np.ndarray, prior: Any) -> Any:
-    """The Gaussian at the error model's mode ``mode_unit`` (``jac``, ``residuals`` there)
-    with the sandwich covariance B Var(score) B, B the inverse of the Laplace precision (the
-    likelihood's Gauss–Newton curvature less the prior's), Var(score) by :func:`score_meat`
-    (``model`` built at search ``point``, ``point_residuals`` its residuals there)."""
+def eiv_sandwich_laplaces(problem: Any, model: Any, point: np.ndarray,
+                          point_residuals: np.ndarray,
+                          at: Sequence[tuple[np.ndarray, np.ndarray]], mode_unit: np.ndarray,
+                          prior: Any) -> list[Any]:
+    """The Gaussian at the error model's mode ``mode_unit`` for each (residuals, Jacobian)
+    pair of ``at`` there, with the sandwich covariance B Var(score) B, B the inverse of the
+    Laplace precision (the likelihood's Gauss–Newton curvature less the prior's), Var(score)
+    by :func:`score_meats` (``model`` built at search ``point``, ``point_residuals`` its
+    residuals there)."""
     from femupdate.posterior.laplace import summarize_gaussian
 
     mode_unit = np.asarray(mode_unit, dtype=float).reshape(-1)
-    precision, meat = score_meat(problem, model, point, point_residuals, jac, residuals)
     _, prior_hess = prior.curvature_unit(mode_unit)
-    bread = np.linalg.pinv(precision - np.diag(prior_hess), hermitian=True)
-    cov = bread @ meat @ bread
-    return summarize_gaussian(mode_unit, 0.5 * (cov + cov.T), prior)
+    out = []
+    for precision, meat in score_meats(problem, model, point, point_residuals, at):
+        bread = np.linalg.pinv(precision - np.diag(prior_hess), hermitian=True)
+        cov = bread @ meat @ bread
+        out.append(summarize_gaussian(mode_unit, 0.5 * (cov + cov.T), prior))
+    return out
 
 
 def magnitude_adjusted(problem: Any, model: Any, point: np.ndarray,
                        point_residuals: np.ndarray, jac: np.ndarray,
                        residuals: np.ndarray) -> Any:
-    """``model`` with its likelihood raised to k = n / tr(H⁻¹ Var(score)) (:func:`score_meat`
+    """``model`` with its likelihood raised to k = n / tr(H⁻¹ Var(score)) (:func:`score_meats`
     at the mode: ``jac``, ``residuals``), the magnitude adjustment of Ribatet, Cooley & Davison
     (2012) with the score's exact variance under the fitted noise model: the curvature that
     TMCMC samples then matches the sandwich's on average over the parameters (the likelihood
     whose neighbouring frequencies Whittle takes independent is otherwise too sharp where they
     are not). Its counts carry k."""
-    precision, meat = score_meat(problem, model, point, point_residuals, jac, residuals)
+    ((precision, meat),) = score_meats(problem, model, point, point_residuals,
+                                       [(residuals, jac)])
     inflation = float(np.trace(np.linalg.pinv(precision, hermitian=True) @ meat))
     if not inflation > 0.0 or not math.isfinite(inflation):
         raise DataError("error model 'eiv': the variance of its score is not positive at the "
