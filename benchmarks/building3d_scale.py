@@ -52,17 +52,17 @@ from frame3d_scale import (
     FramePhi,
     FrameSpec,
     floor_masses,
-    growth_exponent,
     members,
     node_name,
     opensees_grid,
     opensees_members,
     opensees_transient,
-    print_rows,
+    report,
     sensor_reads,
+    timed_phi,
 )
 from frame3d_scale import multistart as frame_multistart
-from scale import BAND_HZ, DT, ground_motion, load, median_time
+from scale import BAND_HZ, DT, ground_motion, load
 
 from femupdate.model import Structure
 from femupdate.model.sparse import lowest_modes
@@ -185,18 +185,13 @@ def phi_rows(sizes: list[int], repeat: int) -> list[dict]:
         bays, storeys = SIZES[dofs]
         spec = Building(bays, storeys, min(storeys, 7), min(storeys, 3))
         problem = BuildingPhi(spec, ag)
-        x = np.ones(len(spec.names))
-        x_eval = x * np.linspace(0.95, 1.05, x.size)
-        sim = problem.simulator(x)
-        problem.target = problem.prediction(x, sim)
-        row: dict = {"dofs": problem.structure.n_dof, "storeys": storeys,
-                     "modes": sim.n_modes}
-        row["phi_s"] = median_time(lambda p=problem, xe=x_eval: p(xe), repeat)
+        x, row = timed_phi(problem, repeat)
+        row["storeys"] = storeys
         system = problem.structure.assemble(problem.values(x), sparse=True, direction="x")
         every = ReducedSimulator(system, DT, problem.outputs, n_modes=3 * storeys)
         reference = ss.sosfiltfilt(problem.sos, every.run(ag).acceleration, axis=0)
         row["truncation_phi"] = nmse(problem.target, reference)
-        row["all_modes_kept"] = sim.n_modes == 3 * storeys  # then nothing was truncated
+        row["all_modes_kept"] = row["modes"] == 3 * storeys  # then nothing was truncated
         if row["dofs"] <= OPENSEES_MAX:
             row["opensees_s"] = opensees_building(problem, x)[0]
         if dofs == sizes[0]:
@@ -221,18 +216,8 @@ def main() -> None:
     print(f"femupdate benchmarks/building3d_scale.py: 3-D buildings with rigid floors, "
           f"{ground_motion().size} samples, 3 sensors, band {BAND_HZ} Hz, modes to "
           f"{2 * BAND_HZ} Hz, floor nodes of {NODE_MASS / 1e3:.0f} t; {load()}", flush=True)
-    if not args.skip_phi:
-        sizes = [15, 105] if args.quick else list(SIZES)
-        rows = phi_rows(sizes, repeat=3 if args.quick else 7)
-        exponent = growth_exponent(rows, min_dofs=100)
-        if exponent is not None:
-            print(f"growth exponent of φ above 100 DOFs: {exponent:.2f}")
-        print_rows(rows)
-    if args.skip_optimize:
-        return
-    ms = multistart(105, args.runs or 2, 2000) if args.quick else multistart(
-        999, args.runs or 10, 5000)
-    print(json.dumps(ms), f"({load()})", flush=True)
+    report(args, phi_rows, [15, 105] if args.quick else list(SIZES), multistart,
+           105 if args.quick else 999, min_dofs=100)
 
 
 if __name__ == "__main__":

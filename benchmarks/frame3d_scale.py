@@ -43,6 +43,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads (pitfal
 import argparse
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -282,6 +283,18 @@ def same_model_check(problem: FramePhi, x: np.ndarray) -> float:
     return float(np.linalg.norm(ours.displacement - theirs) / np.linalg.norm(theirs))
 
 
+def timed_phi(problem: FramePhi, repeat: int) -> tuple[np.ndarray, dict]:
+    """(x, the row): the problem's target made its own prediction at the
+    nominal point x (all ones), and φ timed beside it, ±5 % off, ``repeat`` times."""
+    x = np.ones(len(problem.spec.names))
+    x_eval = x * np.linspace(0.95, 1.05, x.size)
+    sim = problem.simulator(x)
+    problem.target = problem.prediction(x, sim)
+    row: dict = {"dofs": problem.structure.n_dof, "modes": sim.n_modes,
+                 "phi_s": median_time(lambda: problem(x_eval), repeat)}
+    return x, row
+
+
 def phi_rows(sizes: list[int], repeat: int) -> list[dict]:
     ag = ground_motion()
     rows = []
@@ -289,12 +302,7 @@ def phi_rows(sizes: list[int], repeat: int) -> list[dict]:
         bays, storeys = SIZES[dofs]
         spec = FrameSpec(bays, storeys, min(storeys, 7), min(storeys, 3))
         problem = FramePhi(spec, ag)
-        x = np.ones(len(spec.names))
-        x_eval = x * np.linspace(0.95, 1.05, x.size)
-        sim = problem.simulator(x)
-        problem.target = problem.prediction(x, sim)
-        row: dict = {"dofs": problem.structure.n_dof, "modes": sim.n_modes}
-        row["phi_s"] = median_time(lambda p=problem, xe=x_eval: p(xe), repeat)
+        x, row = timed_phi(problem, repeat)
         if row["dofs"] <= FULL_MAX:
             system = problem.structure.assemble(problem.values(x), direction="x")
             full = ExactSimulator(system, DT, problem.outputs)
@@ -358,17 +366,24 @@ def main() -> None:
     args = parser.parse_args()
     print(f"femupdate benchmarks/frame3d_scale.py: 3-D frames, {ground_motion().size} samples, "
           f"3 sensors, band {BAND_HZ} Hz, modes to {2 * BAND_HZ} Hz; {load()}", flush=True)
+    report(args, phi_rows, [24, 96] if args.quick else [n for n in SIZES if n <= args.max_dofs],
+           multistart, 96 if args.quick else 1050)
+
+
+def report(args: argparse.Namespace, rows_of: Callable[..., list[dict]], sizes: list[int],
+           optimize: Callable[[int, int, int], dict], dofs: int, min_dofs: int = 96) -> None:
+    """The φ rows of ``sizes`` with their growth exponent from ``min_dofs`` up (unless
+    ``--skip-phi``), then multistart-lm on the ``dofs`` model (unless ``--skip-optimize``):
+    2 runs of 2,000 evaluations with ``--quick``, else 10 of 5,000 (``--runs`` overrides)."""
     if not args.skip_phi:
-        sizes = [24, 96] if args.quick else [n for n in SIZES if n <= args.max_dofs]
-        rows = phi_rows(sizes, repeat=3 if args.quick else 7)
-        exponent = growth_exponent(rows)
+        rows = rows_of(sizes, repeat=3 if args.quick else 7)
+        exponent = growth_exponent(rows, min_dofs=min_dofs)
         if exponent is not None:
             print(f"growth exponent of φ above 100 DOFs: {exponent:.2f}")
         print_rows(rows)
     if args.skip_optimize:
         return
-    ms = multistart(96, args.runs or 2, 2000) if args.quick else multistart(
-        1050, args.runs or 10, 5000)
+    ms = optimize(dofs, args.runs or (2 if args.quick else 10), 2000 if args.quick else 5000)
     print(json.dumps(ms), f"({load()})", flush=True)
 
 

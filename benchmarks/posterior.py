@@ -226,6 +226,14 @@ def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: st
 # -------------------------------------------------------------------------------- calibration
 
 
+def capped_reference(lap: Any) -> tuple[np.ndarray, np.ndarray]:
+    """TMCMC's first population's Gaussian: the Laplace one, its sd capped at half the range
+    (neff's exceeds the range for kp1, c1, c4): any normalised start density gives the same
+    posterior, this one keeps enough of its mass inside the bounds."""
+    cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
+    return np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap)
+
+
 def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
     """(share, low, high) per parameter of boolean hits (replicates, n): the share of
     replicates whose interval holds the truth and its 95 % Clopper–Pearson interval (the
@@ -323,8 +331,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             j = jac if kind == CURVATURE else jac_local
             lap = sandwich_laplace(j, r, unit, blocks, prior)
             wrapped = CurvatureAdjusted(problem, prior, unit, curvature_adjustment(j, r, blocks))
-            cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
-            reference = (np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap))
+            reference = capped_reference(lap)
             seed = np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 99))
             post, _ = run_tmcmc(wrapped.residuals, prior, problem_error_model(problem, r, "iid"),
                                 seed=seed, population=tmcmc_population, reference=reference,
@@ -358,18 +365,11 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
         inside = (q[0] <= truth_values) & (truth_values <= q[2])
         out["laplace"][kind] = inside.tolist()
         if kind in tmcmc_kinds:
-            # TMCMC's first population from the Laplace Gaussian, its sd capped at half the
-            # range (neff's exceeds the range for kp1, c1, c4): any normalised start density
-            # gives the same posterior, this one keeps enough of its mass inside the bounds
-            cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
-            reference = (np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap))
             if kind == "eiv":  # as femupdate posterior samples it (sampling.run)
                 model = magnitude_adjusted(problem, model, prior.to_search(unit), r, coarse_c,
                                            r_c)
                 lap = centred(laplace(coarse_c, r_c, centre, model, prior), centre, prior)
-                cap = np.minimum(1.0, 0.5 / np.sqrt(np.diag(lap.cov_unit)))
-                reference = (np.clip(lap.mean_unit, 0.0, 1.0),
-                             lap.cov_unit * np.outer(cap, cap))
+            reference = capped_reference(lap)
             # as femupdate posterior: the prior where even the capped one is mostly outside
             reference, _ = start_reference(*reference, np.random.default_rng(
                 np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 97))))

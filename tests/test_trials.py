@@ -20,8 +20,8 @@ from femupdate.experiment import load_experiment, load_experiments
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 from femupdate.workflow import run_case, validate_case
+from two_storey_case import TRUTH, data_section, model_section, parameter_list
 
-TRUTH = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
 OFF = {"k1": 3600.0, "k2": 2700.0, "c1": 1.0, "c2": 0.7}
 
 
@@ -29,17 +29,9 @@ def _spec(directory: Path, trials: list[dict[str, Any]] | None = None, **data: A
           ) -> dict[str, Any]:
     spec: dict[str, Any] = {
         "case": {"name": "two-storey"},
-        "model": {"shear_building": {"masses": [1.0, 0.8], "stiffnesses": ["k1", "k2"],
-                                     "dampers": ["c1", "c2"]}},
-        "parameters": [{"name": "k1", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
-                       {"name": "k2", "lower": 1000.0, "upper": 10000.0, "scale": "log"},
-                       {"name": "c1", "lower": 0.0, "upper": 5.0},
-                       {"name": "c2", "lower": 0.0, "upper": 5.0}],
-        "data": {"format": "csv", "directory": str(directory), "time_column": "t",
-                 "input": {"file": "table.csv", "column": "table"},
-                 "outputs": [{"file": "floors.csv", "column": "a1", "node": "F1", "dof": "ux"},
-                             {"file": "floors.csv", "column": "a2", "node": "F2",
-                              "dof": "ux"}], **data},
+        "model": model_section(),
+        "parameters": parameter_list(log_k2=True),
+        "data": data_section(directory, **data),
         "preprocess": {"highpass_hz": 0.5},
         "search": {"method": "ab", "runs": 1, "seed": 1, "max_evals": 60},
     }
