@@ -55,6 +55,11 @@ exactly (:func:`score_covariance`, from the transpose of the whitening,
 :func:`whitening_adjoint`), and gives the Laplace record its sandwich covariance
 (:func:`eiv_sandwich_laplaces`) and TMCMC's likelihood its magnitude
 (:func:`magnitude_adjusted`).
+
+Why this file is long (about 610 lines): it is one error model. Its whitening and the exact
+variance of its score are built from the same noise paths (the impulse responses of the case's
+processing and model), and the score's variance needs the whitening's transpose line by line;
+split, each half would carry the other's conventions (bins, prewhitening, nuisance projection).
 """
 
 from __future__ import annotations
