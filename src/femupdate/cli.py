@@ -625,7 +625,10 @@ def posterior(
     out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
     seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.")] = None,
     samples: Annotated[int | None, typer.Option(
-        min=20, help="Override [posterior] samples (TMCMC's population).")] = None,
+        min=20, help="Override [posterior] samples (TMCMC's population, per run).")] = None,
+    runs: Annotated[int | None, typer.Option(
+        min=1, max=64, help="Override [posterior] runs (independent sampler runs, pooled; "
+        "their agreement checks the effective samples).")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
     resume: Annotated[bool, typer.Option(
@@ -649,8 +652,9 @@ def posterior(
     correlations, frequency posteriors, predictive bands, log-evidence.
 
     The case's search runs first (a finished one in OUT is reused); then the sampler, with
-    its settings from [posterior], checkpointed in OUT/posterior (--resume continues it to
-    the same samples). The results go into OUT/summary.json (posterior) and
+    its settings from [posterior]: independent runs (default 4), pooled, and their verdict
+    (do they agree on each parameter?), checkpointed in OUT/posterior (--resume continues
+    them to the same samples). The results go into OUT/summary.json (posterior) and
     OUT/posterior.npz; `femupdate report OUT` draws them.
     """
     from femupdate.runs import Execution
@@ -666,11 +670,13 @@ def posterior(
         case = with_data_directory(case, data)
     execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
     try:
-        result = run_posterior(case, out, seed=seed, samples=samples, workers=workers,
-                               resume=resume, restart=restart, execution=execution)
+        result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
+                               workers=workers, resume=resume, restart=restart,
+                               execution=execution)
     except KeyboardInterrupt:
         words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
-        for flag, value in (("--seed", seed), ("--samples", samples), ("--data", data)):
+        for flag, value in (("--seed", seed), ("--samples", samples), ("--runs", runs),
+                            ("--data", data)):
             if value is not None:
                 words += [flag, str(value)]
         _resume_hint([*words, "--resume"])

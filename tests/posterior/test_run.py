@@ -49,7 +49,13 @@ def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
     record = result.record
     assert record.reached and record.log_evidence is not None and math.isfinite(
         record.log_evidence)
-    assert record.samples == 200 and result.samples.shape == (200, 4)
+    assert record.runs == 4 and record.samples == 800 and result.samples.shape == (800, 4)
+    # four independent runs of a well-posed posterior agree (docs/posterior-usage.md)
+    assert record.unsettled == [] and record.agreement.startswith("the 4 independent runs agree")
+    assert set(record.ess_params) == set(TRUTH) and record.ess == min(record.ess_params.values())
+    assert all(abs(r - 1.0) < 0.05 for r in record.rhat.values())
+    assert len(record.log_evidence_runs) == 4 and min(record.log_evidence_runs) <= (
+        record.log_evidence) <= max(record.log_evidence_runs)
     for name, value in TRUTH.items():  # 2 % noise: the truth is a few sd from the mean
         m = record.params[name]
         assert m.q05 < m.q50 < m.q95 and abs(m.mean - value) < 4.0 * m.sd, (name, m, value)
@@ -72,6 +78,37 @@ def test_the_report_renders_the_posterior(result: PosteriorResult, case_path: Pa
                   'id="figure-frequency-posteriors"', 'id="coverage"', 'id="figure-bands-0"',
                   'id="figure-posterior-correlation"'):
         assert ident in html, ident
+
+
+def test_the_report_and_console_say_when_the_runs_disagree(result: PosteriorResult,
+                                                           case_path: Path,
+                                                           tmp_path: Path) -> None:
+    import shutil
+
+    from rich.console import Console
+
+    from femupdate.report.html import render_report
+    from femupdate.results import write_summary
+    from femupdate.sampling.console import print_posterior
+
+    out = tmp_path / "unsettled"
+    shutil.copytree(case_path.parent / "out", out)
+    words = "UNSETTLED: the 4 runs do not pin down k1 (the runs disagree: ...)"
+    record = result.record.model_copy(update={"unsettled": ["k1"], "agreement": words})
+    write_summary(result.summary.model_copy(update={"posterior": record}), out)
+    html = render_report(out)
+    assert 'id="posterior-agreement"' in html and "UNSETTLED" in html
+    console = Console(record=True, width=200)
+    print_posterior(record, console)
+    assert f"verdict: {words}" in console.export_text()
+
+
+def test_one_run_says_it_cannot_check_itself(case_path: Path, tmp_path: Path) -> None:
+    got = run_posterior(load_case(case_path), tmp_path / "one", runs=1)
+    assert got.record.runs == 1 and got.record.samples == 200
+    assert all(r is None for r in got.record.rhat.values())
+    assert got.record.agreement.startswith("one run: whether independent runs agree was not "
+                                           "checked")
 
 
 # The killed run evaluates the same residuals slowed down (same values), so that it is still
@@ -123,7 +160,7 @@ def test_sigkill_then_resume_gives_the_identical_samples(result: PosteriorResult
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and child.poll() is None:
             evals, ckpts = _progress(store)
-            if evals >= 500 and ckpts >= 1:  # past the first stage, before the end (1,400)
+            if evals >= 500 and ckpts >= 1:  # past the first stage, before the end (4 × 3,200)
                 os.killpg(child.pid, signal.SIGKILL)
                 break
             time.sleep(0.01)
@@ -281,7 +318,8 @@ def test_the_command_says_when_it_did_not_reach_the_posterior(case_path: Path,
     got = CliRunner().invoke(app, ["posterior", str(path), "--out", str(folder / "out"),
                                    "--quiet"], terminal_width=100)
     assert got.exit_code == 0, got.output
-    assert "NOT A POSTERIOR: the sampler stopped at tempering exponent β =" in got.output
+    assert ("NOT A POSTERIOR: 4 of 4 sampler runs stopped before tempering exponent β = 1"
+            in " ".join(got.output.split()))
 
 
 def test_a_laplace_gaussian_mostly_outside_the_bounds_is_capped_or_left_for_the_prior(

@@ -120,7 +120,8 @@ def test_systematic_resampling_keeps_the_expected_counts() -> None:
 def test_ess_of_a_population() -> None:
     rng = np.random.default_rng(0)
     start = rng.standard_normal((100, 2))
-    assert ess_of_population(start, rng.standard_normal((100, 2)), np.ones(100)) == 100.0
+    assert np.all(ess_of_population(start, rng.standard_normal((100, 2)), np.ones(100))
+                  == 100.0)
     copies = np.zeros(100)
     copies[:10] = 10.0
     # unmoved copies of 10 parents: 10 independent values (ρ = 1)

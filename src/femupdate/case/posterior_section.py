@@ -56,7 +56,9 @@ PRIOR_FIELDS = {"uniform": (), "log-uniform": (), "normal": ("mean", "sd"),
 class PosteriorSection(Section):
     """``[posterior]``: samples, error model, seed and budget of the sampled posterior.
 
-    ``samples``: TMCMC's population, the equally weighted samples it ends with;
+    ``samples``: TMCMC's population, the equally weighted samples each run ends with;
+    ``runs``: independent runs (seeds: the children of ``seed``), pooled, whose agreement
+    checks each parameter's effective samples (one run cannot check itself);
     ``error_model``: "neff" (default), "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
     :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ);
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
@@ -64,7 +66,8 @@ class PosteriorSection(Section):
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
     first population."""
 
-    samples: integer_field(ge=20, le=1_000_000) = 2000
+    samples: integer_field(ge=20, le=1_000_000) = 1000
+    runs: integer_field(ge=1, le=64) = 4
     error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv"] = "neff"
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000

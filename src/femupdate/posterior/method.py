@@ -44,6 +44,7 @@ class CaseTMCMC(TMCMC):
             "loglike": None if post.loglike is None else post.loglike.tolist(),
             "log_evidence": None if not post.reached else post.log_evidence,
             "ess": None if not post.reached else post.ess,
+            "ess_params": None if post.ess_params is None else post.ess_params.tolist(),
             "stages": post.stages, "evaluations": post.evaluations, "failures": post.failures,
         }
 

@@ -81,9 +81,17 @@ class PosteriorRecord(_Record):
     and damping ratios over the ``modes_from`` samples whose modes were computed, in
     ``joint_names`` order.
 
-    ``reached`` is False when the sampler ran out of budget before the tempering exponent
-    reached 1: then the marginals are those of the last tempered stage, said in ``message``,
-    and no evidence is reported.
+    ``reached`` is False when a sampler run ran out of budget before the tempering exponent
+    reached 1: then ``message`` says so, and no samples, marginals or evidence are reported.
+
+    ``runs`` independent runs are pooled: ``samples`` counts all their samples, ``nfev`` and
+    ``wall_s`` (the runs' own times) are summed, ``stages`` are the first run's,
+    ``log_evidence`` is the log of the mean of the runs' evidences (``log_evidence_runs``).
+    ``ess_params``: each parameter's effective samples, the smaller of the runs' own
+    estimates and what the scatter of their means shows (``ess`` is the smallest); ``rhat``:
+    Gelman–Rubin's R̂ (None with one run); ``unsettled``: the parameters with too few
+    effective samples for their intervals to be trusted, and ``agreement`` the verdict in
+    words (:mod:`femupdate.sampling.agreement`).
     """
 
     method: str
@@ -109,6 +117,20 @@ class PosteriorRecord(_Record):
     sentences: list[str] = Field(default_factory=list)
     failed_evaluations: int = 0
     failure: str | None = None
+    runs: int = 1
+    log_evidence_runs: list[float] = Field(default_factory=list)
+    ess_params: dict[str, float | None] = Field(default_factory=dict)
+    rhat: dict[str, float | None] = Field(default_factory=dict)
+    unsettled: list[str] = Field(default_factory=list)
+    agreement: str = ""
+
+    def evidence_spread(self) -> str:
+        """" (runs: LOW to HIGH, sd S)" of the log-evidence over several runs, else ""."""
+        runs = np.asarray(self.log_evidence_runs, dtype=float)
+        if runs.size < 2:
+            return ""
+        return (f" (runs: {runs.min():.6g} to {runs.max():.6g}, sd "
+                f"{runs.std(ddof=1):.2g})")
 
 
 def marginals(samples: np.ndarray, names: list[str]) -> dict[str, Marginal]:

@@ -79,8 +79,9 @@ class TMCMCPosterior:
         Per stage: beta, acceptance, weights_ess, scale, evaluations, failures.
     ess : float
         Effective sample size of the final population for the posterior mean: the minimum
-        over the parameters of the smaller of :func:`ess_by_ancestry` and
-        :func:`ess_of_population` (NaN if not reached).
+        over the parameters of ``ess_params`` (NaN if not reached).
+    ess_params : ndarray (n,) or None
+        Per parameter, the smaller of :func:`ess_by_ancestry` and :func:`ess_of_population`.
     evaluations : int
     failures : int
     """
@@ -94,6 +95,7 @@ class TMCMCPosterior:
     ess: float = math.nan
     evaluations: int = 0
     failures: int = 0
+    ess_params: np.ndarray | None = None
 
 
 def next_beta(loglike_ratio: np.ndarray, beta: float, cov_target: float) -> float:
@@ -202,9 +204,9 @@ def ess_by_ancestry(samples: np.ndarray, ancestors: np.ndarray) -> np.ndarray:
     return np.minimum(np.where(np.isfinite(ess), ess, float(n)), float(n))
 
 
-def ess_of_population(start: np.ndarray, end: np.ndarray, copies: np.ndarray) -> float:
-    """Effective sample size of a final population, the minimum over the parameters, from
-    the last resampling alone (a model of the correlation it leaves).
+def ess_of_population(start: np.ndarray, end: np.ndarray, copies: np.ndarray) -> np.ndarray:
+    """Effective sample size of a final population per parameter, from the last resampling
+    alone (a model of the correlation it leaves).
 
     The N particles at the end of the last stage descend from the resampled population
     ``start`` (N, n), in which parent k appears ``copies[k]`` times. Two particles of the same
@@ -216,12 +218,11 @@ def ess_of_population(start: np.ndarray, end: np.ndarray, copies: np.ndarray) ->
     """
     n = start.shape[0]
     pairs = float(np.sum(copies * (copies - 1.0))) / n
-    a = start - start.mean(axis=0)
-    b = end - end.mean(axis=0)
+    a, b = start - start.mean(axis=0), end - end.mean(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         rho = np.sum(a * b, axis=0) / np.sqrt(np.sum(a * a, axis=0) * np.sum(b * b, axis=0))
     rho = np.where(np.isfinite(rho), rho, 1.0)
-    return float(np.min(n / (1.0 + rho ** 2 * pairs)))
+    return n / (1.0 + rho ** 2 * pairs)
 
 
 class TMCMC:
@@ -544,11 +545,11 @@ class TMCMC:
         if self.phase != "done":
             return TMCMCPosterior(False, self.beta, None, None, math.nan, stages,
                                   evaluations=self.evaluations, failures=self.failures)
-        ess = min(ess_of_population(self._final_start, self.x, self._final_copies),
-                  float(np.min(ess_by_ancestry(self.x, self._eve))))
+        ess = np.minimum(ess_of_population(self._final_start, self.x, self._final_copies),
+                         ess_by_ancestry(self.x, self._eve))
         return TMCMCPosterior(True, 1.0, self.x.copy(), self.ll.copy(), self.log_evidence,
-                              stages, ess=ess, evaluations=self.evaluations,
-                              failures=self.failures)
+                              stages, ess=float(np.min(ess)), evaluations=self.evaluations,
+                              failures=self.failures, ess_params=ess)
 
 
 def make_tmcmc(n: int, rng: np.random.Generator, **options: Any) -> TMCMC:

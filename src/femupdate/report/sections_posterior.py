@@ -12,6 +12,7 @@ from femupdate.posterior.records import LaplaceRecord, Marginal, PosteriorRecord
 from femupdate.report.facts import Context
 from femupdate.report.markup import Page, esc, note, num, pairs, table, td, warn
 from femupdate.results import POSTERIOR_FILE
+from femupdate.sampling.agreement import MIN_ESS
 
 #: Predictive bands of at most this many trials are drawn (all are in the coverage table).
 MAX_BAND_FIGURES = 6
@@ -28,6 +29,12 @@ def _marginal_rows(items: list[tuple[str, Marginal]], undetermined: set[str],
              td(num(m.q05), "num"), td(num(m.q50), "num"), td(num(m.q95), "num"),
              determined(name)]
             for name, m in items]
+
+
+def _ess_cell(value: float | None) -> str:
+    if value is None:
+        return "–"
+    return "∞" if value >= 1e300 else f"{value:,.0f}"
 
 
 def _sentences(sentences: list[str], flagged: list[str], ident: str) -> str:
@@ -76,33 +83,45 @@ def section_posterior(ctx: Context, page: Page) -> str:
                     "it (TMCMC) and adds it to this report.")
     out = []
     if not record.reached:
-        out.append(warn(f"Not a posterior: {record.message}. The figures below are of the "
-                        "last tempered stage.", "not-reached"))
+        out.append(warn(f"Not a posterior: {record.message}. No samples are reported.",
+                        "not-reached"))
+    elif record.unsettled:
+        out.append(warn(record.agreement + ".", "posterior-agreement"))
+    elif record.agreement:
+        out.append(note(record.agreement + "."))
     out.append(pairs([
-        ("sampler", esc(f"{record.method}, {record.samples:,} samples, error model "
+        ("sampler", esc(f"{record.method}, {record.runs} independent run(s), "
+                        f"{record.samples:,} samples in all, error model "
                         f"{record.error_model!r}, "
                         + (f"seed {record.seed}" if record.seed is not None
                            else "no seed given (fresh entropy)"))),
         ("evaluations", esc(f"{record.nfev:,} ({record.failed_evaluations:,} failed) in "
-                            f"{record.wall_s:.1f} s")),
-        ("log-evidence", num(record.log_evidence, 8) if record.log_evidence is not None
-         else "–"),
+                            f"{record.wall_s:.1f} s (the runs' times summed)")),
+        ("log-evidence", (num(record.log_evidence, 8) + esc(record.evidence_spread()))
+         if record.log_evidence is not None else "–"),
         ("effective sample size", num(record.ess, 4) if record.ess is not None else "–"),
     ], table_id="posterior-facts"))
     undetermined = set(record.undetermined)
     items = [*record.params.items(),
              *((f"{k} [Hz]", m) for k, m in record.frequencies_hz.items()),
              *((k, m) for k, m in record.damping_ratios.items())]
-    out.append(table(["quantity", "mean", "sd", "5 %", "50 %", "95 %", "determined"],
-                     _marginal_rows(items, undetermined), table_id="posterior",
+    rows = [[*row, td(_ess_cell(record.ess_params.get(name)), "num"),
+             td(num(record.rhat[name], 4) if record.rhat.get(name) is not None else "–", "num"),
+             td("no", "fail") if name in record.unsettled else td("yes", "ok")]
+            for row, (name, _) in zip(_marginal_rows(items, undetermined), items, strict=True)]
+    out.append(table(["quantity", "mean", "sd", "5 %", "50 %", "95 %", "determined", "ESS",
+                      "R̂", "settled"], rows, table_id="posterior",
                      caption="Posterior mean, standard deviation and quantiles (frequencies "
-                             f"and damping ratios over {record.modes_from} of the samples)"))
+                             f"and damping ratios over {record.modes_from} of the samples); "
+                             "ESS: effective samples, the smaller of the runs' own estimates "
+                             "and what the scatter of their means shows; settled: ESS ≥ "
+                             f"{MIN_ESS:.0f}"))
     out.append(_sentences(record.sentences, record.undetermined, "posterior-undetermined"))
     stages = [[td(str(i + 1)), td(num(s.beta, 4), "num"), td(num(s.acceptance, 3), "num"),
                td(num(s.ess, 4), "num")] for i, s in enumerate(record.stages)]
     out.append(table(["stage", "β", "acceptance", "ESS"], stages, table_id="stages",
-                     caption="TMCMC stages: tempering exponent, acceptance rate of the moves, "
-                             "effective sample size of the weights"))
+                     caption="TMCMC stages of the first run: tempering exponent, acceptance "
+                             "rate of the moves, effective sample size of the weights"))
     if record.joint_correlations:
         out.append(page.figure(plot_correlation(np.array(record.joint_correlations, dtype=float),
                                                 record.joint_names), "posterior-correlation",

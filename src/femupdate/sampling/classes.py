@@ -87,10 +87,11 @@ def compare_classes(cases: Mapping[str, Case], out_dir: Path, *, samples: int | 
 
 def format_classes(rows: Sequence[ClassRow]) -> str:
     """The comparison as a markdown table."""
-    lines = ["| class | parameters | best NMSE % | log-evidence | P(class given data) | "
-             "evaluations | wall s |", "|---|---|---|---|---|---|---|"]
+    lines = ["| class | parameters | best NMSE % | log-evidence (over the runs) | "
+             "P(class given data) | evaluations | wall s |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        logz = "not reached" if r.log_evidence is None else f"{r.log_evidence:.2f}"
+        logz = ("not reached" if r.log_evidence is None
+                else f"{r.log_evidence:.2f}{r.record.evidence_spread()}")
         prob = "–" if not np.isfinite(r.probability) else f"{r.probability:.3g}"
         lines.append(f"| {r.name} | {r.parameters} | {r.best_nmse_percent:.3g} | {logz} | "
                      f"{prob} | {r.nfev:,} | {r.wall_s:.1f} |")

@@ -39,29 +39,36 @@ def print_laplace(record: LaplaceRecord | None, best: dict[str, float], out: Con
 
 def print_posterior(record: PosteriorRecord, out: Console) -> None:
     """The sampled posterior: stages, evidence, marginals of parameters and modes."""
-    words = (f"TMCMC, {record.samples:,} samples, error model {record.error_model!r}: "
-             f"{record.nfev:,} evaluations in {record.wall_s:.1f} s; {len(record.stages)} "
-             "stages")
-    if record.reached:
-        words += (f"; log-evidence {record.log_evidence:.6g}; ESS "
-                  f"{record.ess:,.0f}" if record.log_evidence is not None and record.ess
-                  is not None else "")
+    words = (f"TMCMC, {record.runs} run(s), {record.samples:,} samples in all, error model "
+             f"{record.error_model!r}: {record.nfev:,} evaluations in {record.wall_s:.1f} s "
+             "(the runs' times summed)")
+    if record.reached and record.log_evidence is not None and record.ess is not None:
+        words += (f"; {record.message}; log-evidence {record.log_evidence:.6g}"
+                  f"{record.evidence_spread()}")
     out.print(Text(words))
     if not record.reached:
         out.print(Text(f"NOT A POSTERIOR: {record.message}", style="bold yellow"))
+    elif record.agreement:
+        out.print(Text(f"verdict: {record.agreement}",
+                       style="bold yellow" if record.unsettled else "green"))
     if record.failed_evaluations:
         out.print(Text(f"{record.failed_evaluations:,} evaluations failed (zero likelihood): "
                        f"{record.failure}"))
     title = "posterior" if record.reached else "last tempered stage (not the posterior)"
-    table = Table(title=Text(f"{title}: mean, sd and 5/50/95 % quantiles"))
-    for col in ("quantity", "mean", "sd", "5 %", "50 %", "95 %"):
+    table = Table(title=Text(f"{title}: mean, sd and 5/50/95 % quantiles"),
+                  caption=Text("ESS: effective samples, the smaller of the runs' own estimates "
+                               "and what the scatter of their means shows; R̂: Gelman–Rubin"))
+    for col in ("quantity", "mean", "sd", "5 %", "50 %", "95 %", "ESS", "R̂"):
         table.add_column(col, justify="right")
     rows = [*record.params.items(),
             *((f"{k} [Hz]", m) for k, m in record.frequencies_hz.items()),
             *((k, m) for k, m in record.damping_ratios.items())]
     for name, m in rows:
+        ess, rhat = record.ess_params.get(name), record.rhat.get(name)
         table.add_row(name, f"{m.mean:.4g}", f"{m.sd:.2g}", f"{m.q05:.4g}", f"{m.q50:.4g}",
-                      f"{m.q95:.4g}")
+                      f"{m.q95:.4g}", "–" if ess is None else f"{min(ess, 1e9):,.0f}",
+                      "–" if rhat is None else f"{rhat:.3f}",
+                      style="yellow" if name in record.unsettled else None)
     out.print(table)
     for sentence in record.sentences:
         if any(sentence.startswith(f"{n} ") for n in record.undetermined):

@@ -4,10 +4,14 @@
    already there is reused; ``--restart`` discards it). It fixes the error model (each
    channel's residual correlation is measured there) and gives the Laplace approximation,
    TMCMC's starting Gaussian.
-2. TMCMC through ``run_all`` (method ``"tmcmc"``, :mod:`femupdate.posterior.method`): its own
-   results store in ``DIR/posterior`` (checkpointed: ``--resume`` after a kill continues to the
-   identical samples), workers or Dask, seeded by ``[posterior] seed``.
-3. What the samples say: marginals and correlations of the parameters, the natural
+2. ``[posterior] runs`` independent TMCMC runs through ``run_all`` (method ``"tmcmc"``,
+   :mod:`femupdate.posterior.method`): their own results store in ``DIR/posterior``
+   (checkpointed: ``--resume`` after a kill continues to the identical samples), workers or
+   Dask, seeded by ``[posterior] seed`` (run i by its child i).
+3. Whether the runs agree (:mod:`femupdate.sampling.agreement`): each parameter's effective
+   samples, the smaller of the runs' own estimates and what the scatter of their means shows;
+   a parameter with too few is called unsettled, in words.
+4. What the pooled samples say: marginals and correlations of the parameters, the natural
    frequencies and damping ratios over a thinned subset, predictive bands on every trial with
    the share of each measured record they cover; into ``DIR/summary.json`` (``posterior``)
    and ``DIR/posterior.npz``, read by the report.
@@ -23,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.special import logsumexp
 
 from femupdate.case import Case
 from femupdate.case.posterior_section import (
@@ -51,6 +56,7 @@ from femupdate.results import POSTERIOR_FILE, Summary, write_summary
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
 from femupdate.runs.store import FILENAME
+from femupdate.sampling.agreement import runs_agreement
 from femupdate.sampling.bands import Bands, predictive_bands, save_bands
 from femupdate.sampling.modes import sample_modes
 from femupdate.update import UpdateProblem
@@ -144,8 +150,8 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
 
 
 def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
-                  samples: int | None = None, workers: int | None = None,
-                  resume: bool = False, restart: bool = False,
+                  samples: int | None = None, runs: int | None = None,
+                  workers: int | None = None, resume: bool = False, restart: bool = False,
                   execution: Execution | None = None,
                   experiments: Sequence[Experiment] | None = None,
                   counts_from: ErrorModel | None = None) -> PosteriorResult:
@@ -156,8 +162,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     case : Case
     out_dir : Path
         Results directory (the search's results, ``posterior/`` and ``posterior.npz``).
-    seed, samples : int or None
-        Override ``[posterior] seed`` and ``samples``.
+    seed, samples, runs : int or None
+        Override ``[posterior] seed``, ``samples`` and ``runs``.
     workers : int or None
         Override ``[search] workers`` (for the search and the sampler).
     resume : bool
@@ -174,6 +180,11 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         likelihood of the data (:mod:`femupdate.sampling.classes`).
     """
     settings = posterior_settings(case)
+    if runs is not None:
+        if isinstance(runs, bool) or not isinstance(runs, int) or not 1 <= runs <= 64:
+            raise ConfigError(f"{case.label}: runs: got {runs!r} (allowed: an integer in "
+                              "[1, 64])")
+        settings = settings.model_copy(update={"runs": runs})
     seed = settings.seed if seed is None else seed
     population = settings.samples if samples is None else samples
     need = SAMPLES_PER_PARAMETER * len(case.parameters)
@@ -205,15 +216,13 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
             np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
     options = sampler_options(model, prior, specs, population, reference)
     workers = case.search.workers if workers is None else workers
-    outcome = run_all(
-        problem.residuals, problem.bounds, METHOD, runs=1, seed=seed,
+    outcomes = run_all(
+        problem.residuals, problem.bounds, METHOD, runs=settings.runs, seed=seed,
         max_evals=settings.max_evals, options=options, store_dir=sampler_dir, resume=resume,
         identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
                               data=file_hashes(data_files(case))),
-        execution=dataclasses.replace(execution, workers=workers), residuals=True)[0]
-    # The run's own time over every session (a resumed run counts its earlier ones).
-    record, physical = posterior_record(problem, prior, outcome, settings, seed,
-                                        outcome.wall_s, population)
+        execution=dataclasses.replace(execution, workers=workers), residuals=True)
+    record, physical = posterior_record(problem, prior, outcomes, settings, seed, population)
     if why is not None:
         record.message += f"; started from the prior: no Laplace approximation ({why})"
     elif start_note is not None:
@@ -270,42 +279,68 @@ def thinned(samples: np.ndarray, count: int) -> np.ndarray:
     return samples[np.linspace(0, samples.shape[0] - 1, count).round().astype(int)]
 
 
-def posterior_record(problem: UpdateProblem, prior: Prior, outcome: RunOutcome,
-                     settings: PosteriorSection, seed: int | None, wall_s: float,
-                     population: int) -> tuple[PosteriorRecord, np.ndarray]:
-    """The summary's record of a TMCMC run and its samples in physical units (none when
-    β = 1 was not reached: it never reports a posterior it did not reach)."""
-    extras: dict[str, Any] = outcome.extras or {}
+def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[RunOutcome],
+                     settings: PosteriorSection, seed: int | None, population: int
+                     ) -> tuple[PosteriorRecord, np.ndarray]:
+    """The summary's record of independent TMCMC runs and their pooled samples in physical
+    units (none unless every run reached β = 1: it never reports a posterior it did not
+    reach), with the runs' agreement (:mod:`femupdate.sampling.agreement`)."""
+    extras: list[dict[str, Any]] = [o.extras or {} for o in outcomes]
     names = list(problem.names)
     stages = [StageRecord(beta=s["beta"], acceptance=_finite(s.get("acceptance")),
-                          ess=s["weights_ess"]) for s in extras.get("stages", [])]
-    reached = bool(extras.get("reached"))
-    common = dict(method=METHOD, error_model=settings.error_model,
-                  samples=population if not reached else len(extras["samples_unit"]),
-                  seed=seed, nfev=outcome.nfev, wall_s=wall_s, stages=stages, names=names,
-                  failed_evaluations=int(extras.get("failures", outcome.nfail)),
-                  failure=outcome.failure)
-    if not reached:
-        beta = float(extras.get("beta", 0.0))
-        message = (f"the sampler stopped at tempering exponent β = {beta:.4g} < 1 "
-                   f"({outcome.message}; {outcome.nfev:,} evaluations): raise [posterior] "
-                   "max_evals and resume")
-        return PosteriorRecord(**common, reached=False, message=message, log_evidence=None,
+                          ess=s["weights_ess"]) for s in extras[0].get("stages", [])]
+    reached = [bool(e.get("reached")) for e in extras]
+    failures = [o.failure for o in outcomes if o.failure]
+    common = dict(method=METHOD, error_model=settings.error_model, seed=seed,
+                  nfev=sum(o.nfev for o in outcomes),
+                  # the runs' own times over every session (a resumed run counts its earlier)
+                  wall_s=sum(o.wall_s for o in outcomes), stages=stages, names=names,
+                  runs=len(outcomes),
+                  failed_evaluations=sum(int(e.get("failures", o.nfail))
+                                         for e, o in zip(extras, outcomes, strict=True)),
+                  failure=failures[0] if failures else None)
+    if not all(reached):
+        betas = [float(e.get("beta", 0.0)) for e in extras]
+        short = [i for i, r in enumerate(reached) if not r]
+        message = (f"{len(short)} of {len(outcomes)} sampler runs stopped before tempering "
+                   f"exponent β = 1 (lowest β = {min(betas):.4g}; "
+                   f"{outcomes[short[0]].message}; {common['nfev']:,} evaluations): raise "
+                   "[posterior] max_evals and resume")
+        return PosteriorRecord(**common, samples=population * len(outcomes), reached=False,
+                               message=message, log_evidence=None,
                                ess=None), np.empty((0, len(names)))
-    unit = np.asarray(extras["samples_unit"], dtype=float)
-    search = prior.to_search(unit)
+    units = [np.asarray(e["samples_unit"], dtype=float) for e in extras]
+    searches = [prior.to_search(u) for u in units]
+    own = [np.asarray(e.get("ess_params") or [e["ess"]] * len(names), dtype=float)
+           for e in extras]
+    agreement = runs_agreement(searches, own, names)
+    search = np.vstack(searches)
     physical = prior.search_to_physical(search)
     q = np.quantile(search, [0.05, 0.5, 0.95], axis=0)
     spread = interval_spread(q[0], q[2], prior)
     words = sentences(prior, prior.search_to_physical(q), spread)
     undetermined = [n for n, s in zip(names, spread, strict=True) if s >= 0.5]
     corr = np.corrcoef(search, rowvar=False) if len(names) > 1 else np.ones((1, 1))
+    log_z = np.array([float(e["log_evidence"]) for e in extras])
     record = PosteriorRecord(
-        **common, reached=True, message=f"β = 1 reached in {len(stages)} stages",
-        log_evidence=float(extras["log_evidence"]), ess=float(extras["ess"]),
+        **common, samples=search.shape[0], reached=True,
+        message=f"β = 1 reached by {len(outcomes)} independent run(s) in "
+                f"{'–'.join(sorted({str(len(e['stages'])) for e in extras}, key=int))} stages",
+        # the mean of the runs' unbiased estimates of Z
+        log_evidence=float(logsumexp(log_z) - math.log(log_z.size)),
+        log_evidence_runs=log_z.tolist(), ess=float(np.min(agreement.ess)),
+        ess_params=_by_name(names, agreement.ess), rhat=_by_name(names, agreement.rhat),
+        unsettled=agreement.unsettled, agreement=agreement.words,
         params=marginals(physical, names), correlations=correlation_rows(np.atleast_2d(corr)),
         undetermined=undetermined, sentences=words)
     return record, physical
+
+
+def _by_name(names: Sequence[str], values: np.ndarray) -> dict[str, float | None]:
+    """Per-parameter figures as JSON (None where not defined, e.g. R̂ of one run; a huge
+    number for ∞)."""
+    return {n: None if math.isnan(v) else float(min(v, 1e300)) for n, v in
+            zip(names, values.tolist(), strict=True)}
 
 
 def _finite(value: Any) -> float:
