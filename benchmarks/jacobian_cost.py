@@ -70,7 +70,7 @@ def sensitivity_jacobian(problem, low: np.ndarray, span: np.ndarray,
         sens = sim.run(None, force)
         acc = sens.acceleration[:, trial.outputs]  # relative: no base motion here
         # the prediction's processing is linear: high-pass (if any), integrate, score
-        dyhat = trial.scored(signal.integrate_twice(trial._highpass(acc), problem.experiment.dt))
+        dyhat = trial.scored(signal.integrate_twice(trial._filtered(acc), problem.experiment.dt))
         dproj = dyhat - q @ (q.T @ dyhat)
         denergy = 2.0 * np.sum(qty * (q.T @ dyhat), axis=0)
         dscale = -0.5 * scale * denergy / energy

@@ -675,3 +675,17 @@ def test_format_value_writes_toml_like_numbers() -> None:
     assert format_value(1234.5) == "1234.5"
     assert format_value(math.inf) == "inf"
     assert format_value(True) == "true"
+
+
+def test_a_low_pass_not_above_the_high_pass_is_refused(tmp_path: Path) -> None:
+    message = problems(tmp_path, BASE + "\n[preprocess]\nhighpass_hz = 5.0\nlowpass_hz = 2.0\n")
+    assert_names(message, tmp_path / "case.toml", "preprocess.lowpass_hz", "2",
+                 "highpass_hz = 5", "a low-pass above the high-pass")
+
+
+def test_a_case_without_a_low_pass_saves_none(tmp_path: Path) -> None:
+    # so the fingerprints (and stores) of cases written before the low-pass existed hold
+    plain = load_case(write(tmp_path, BASE)).to_dict()["preprocess"]
+    assert "lowpass_hz" not in plain and "lowpass_order" not in plain
+    given = load_case(write(tmp_path, BASE + "\n[preprocess]\nlowpass_hz = 80.0\n"))
+    assert given.to_dict()["preprocess"]["lowpass_hz"] == 80.0

@@ -145,10 +145,13 @@ VISCOUS_OPTIONS = {
     "model-displacements": _set("objective.integrate_prediction", False),
     "accelerations": _accelerations,
     "weights": _weights,
+    "low-passed": _set("preprocess.lowpass_hz", 100.0),
 }
 FILTERED_VISCOUS_OPTIONS = {
     "filtered-prediction": _set("preprocess.filter_prediction", True),
     "zero-phase-filtered-prediction": _zero_phase_filtered,
+    "low-passed-prediction": lambda spec: (_set("preprocess.filter_prediction", True)(spec),
+                                           _set("preprocess.lowpass_hz", 100.0)(spec)),
 }
 
 
@@ -173,6 +176,7 @@ FRICTION_OPTIONS = {
         _accelerations(spec), _set("preprocess.filter_prediction", False)(spec)),
     "weights-no-experimental-parameters": lambda spec: (
         _weights(spec), _set("objective.experimental_parameters", False)(spec)),
+    "low-passed": _set("preprocess.lowpass_hz", 100.0),
 }
 
 

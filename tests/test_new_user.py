@@ -362,14 +362,15 @@ def test_missing_samples_offer_a_fix_a_case_file_user_can_make(tmp_path: Path,
     assert "on_nan" not in message and "fill_gaps" not in message
 
 
-def test_a_high_pass_above_nyquist_names_file_field_and_range(tmp_path: Path,
-                                                              records: Path) -> None:
+@pytest.mark.parametrize("field", ["highpass_hz", "lowpass_hz"])
+def test_a_filter_above_nyquist_names_file_field_and_range(tmp_path: Path, records: Path,
+                                                           field: str) -> None:
     # The rate comes from the files' time column: known once they are read.
-    path = _case(tmp_path, records, CASE + "\n[preprocess]\nhighpass_hz = 150.0\n")
+    path = _case(tmp_path, records, CASE + f"\n[preprocess]\n{field} = 150.0\n")
     with pytest.raises(ConfigError) as info:
         run_case(load_case(path), None, runs=1, max_evals=5)
     message = str(info.value)
-    assert str(path) in message and "preprocess.highpass_hz" in message
+    assert str(path) in message and f"preprocess.{field}" in message
     assert "150 Hz" in message and "200 Hz" in message and "table.csv" in message
     assert "below the Nyquist frequency 100 Hz" in message
 

@@ -381,8 +381,11 @@ def process(
     zero_phase: bool = False,
     delays: Mapping[str, float] | None = None,
     influence: np.ndarray | None = None,
+    lowpass_hz: float | None = None,
+    lowpass_order: int = 4,
 ) -> Experiment:
-    """Filter and (for displacements) integrate the measured accelerations.
+    """Filter (high-pass, then low-pass) and (for displacements) integrate the measured
+    accelerations.
 
     ``delays`` (those `apply_delays` removed) are only recorded in the `Experiment`.
     ``influence`` (one per channel, default all 1): how far a unit table displacement moves
@@ -392,10 +395,10 @@ def process(
     rate = measurement.rate
     acc = measurement.array(("input", *channels))
     ag_unfiltered = None
-    if highpass_hz > 0.0:
+    if highpass_hz > 0.0 or lowpass_hz is not None:
         ag_unfiltered = acc[:, 0].copy()
-        acc = signal.highpass(acc, rate, highpass_hz, order=highpass_order,
-                              zero_phase=zero_phase)
+        acc = signal.band(acc, rate, highpass_hz, lowpass_hz, highpass_order=highpass_order,
+                          lowpass_order=lowpass_order, zero_phase=zero_phase)
     ag, outputs = acc[:, 0], acc[:, 1:]
     if quantity == "displacement":
         relative = (signal.relative(outputs, ag) if influence is None
@@ -448,7 +451,7 @@ def load_experiment(case: Case, trial: TrialSpec | None = None) -> Experiment:
 
 
 def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Experiment:
-    """The delays, the high-pass and the quantity of a trial's checked record."""
+    """The delays, the filters and the quantity of a trial's checked record."""
     data = spec.data
     start_record = float(measurement.t[0])
     notes: list[str] = list(measurement.notes)
@@ -459,6 +462,11 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
                           f"for data at {rate:.6g} Hz (the rate of "
                           f"{case.data_path(data.input)}) (allowed: 0 (off) or below the "
                           f"Nyquist frequency {rate / 2:.6g} Hz)")
+    if pre.lowpass_hz is not None and pre.lowpass_hz >= rate / 2:
+        raise ConfigError(f"{case.label}: preprocess.lowpass_hz: got {pre.lowpass_hz:g} Hz "
+                          f"for data at {rate:.6g} Hz (the rate of "
+                          f"{case.data_path(data.input)}) (allowed: below the Nyquist "
+                          f"frequency {rate / 2:.6g} Hz)")
     labels = tuple(c.label for c in data.outputs)
     wanted = {c.label: c.delay for c in data.outputs}
     low, high = pre.delay_band_hz
@@ -477,7 +485,8 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
         measurement, labels, np.array([c.weight for c in data.outputs]),
         quantity=case.objective.quantity, highpass_hz=pre.highpass_hz,
         highpass_order=pre.highpass_order, zero_phase=pre.zero_phase, delays=delays,
-        influence=_channel_influence(case, data),
+        influence=_channel_influence(case, data), lowpass_hz=pre.lowpass_hz,
+        lowpass_order=pre.lowpass_order,
     )
     # apply_delays trims samples at both ends and restarts the time at 0: the record time of
     # the first sample kept

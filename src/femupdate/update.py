@@ -233,13 +233,15 @@ class TrialProblem:
         if self._runner is not None:
             self._runner.close()
 
-    def _highpass(self, x: np.ndarray) -> np.ndarray:
-        """The measured data's high-pass, applied to a prediction when ``self.filter``."""
+    def _filtered(self, x: np.ndarray) -> np.ndarray:
+        """The measured data's filters (high-pass, low-pass), applied to a prediction when
+        ``self.filter``."""
         if not self.filter:
             return x
         pre = self.case.preprocess
-        return signal.highpass(x, 1.0 / self.experiment.dt, pre.highpass_hz,
-                               order=pre.highpass_order, zero_phase=pre.zero_phase)
+        return signal.band(x, 1.0 / self.experiment.dt, pre.highpass_hz, pre.lowpass_hz,
+                           highpass_order=pre.highpass_order, lowpass_order=pre.lowpass_order,
+                           zero_phase=pre.zero_phase)
 
     def prediction(self, response: Response, ag: np.ndarray | None = None) -> np.ndarray:
         """What the error function compares, from a response, over the whole trial.
@@ -247,16 +249,16 @@ class TrialProblem:
         Displacements relative to the base: by default the model's relative accelerations
         integrated twice by the trapezoidal rule, exactly as the measured ones were
         (``[objective] integrate_prediction``), else the model's displacements; or absolute
-        accelerations. High-passed first when the model's input was not (``self.filter``).
+        accelerations. Filtered first when the model's input was not (``self.filter``).
         ``ag``: the base record that drove ``response``, when not the trial's.
         """
         if self.integrate:
             base = self._ag if ag is None else ag
             relative = response.acceleration - np.outer(base, self.model.influence)
-            return signal.integrate_twice(self._highpass(relative), self.experiment.dt)
+            return signal.integrate_twice(self._filtered(relative), self.experiment.dt)
         if self.experiment.quantity == "displacement":
-            return self._highpass(response.displacement)
-        return self._highpass(response.acceleration)
+            return self._filtered(response.displacement)
+        return self._filtered(response.acceleration)
 
     def prediction_driven_by(self, values: Mapping[str, float], ag: np.ndarray
                              ) -> np.ndarray:

@@ -15,6 +15,7 @@ from femupdate.data.datasets import read_xsens_dot
 from femupdate.data.measurement import align
 from femupdate.data.signal import (
     advance,
+    band,
     detrend,
     estimate_delay,
     fourier_amplitude,
@@ -48,6 +49,27 @@ def test_highpass_removes_offset_and_drift_and_passes_10hz_without_delay() -> No
     causal = highpass(y, RATE, cutoff=5.0, order=4, zero_phase=False)
     lag = np.argmax(scipy.signal.correlate(causal[inner], sine[inner], mode="full"))
     assert lag - (len(sine[inner]) - 1) < 0  # a causal filter leads the 10 Hz sine
+
+
+def test_band_is_the_highpass_without_a_lowpass_and_cuts_a_tone_above_it() -> None:
+    t = np.arange(8192) / RATE
+    y = np.sin(2 * np.pi * 10.0 * t) + np.sin(2 * np.pi * 226.0 * t) + 0.5
+    for zero_phase in (False, True):
+        alone = highpass(y, RATE, 5.0, order=4, zero_phase=zero_phase)
+        assert band(y, RATE, 5.0, None, zero_phase=zero_phase).tobytes() == alone.tobytes()
+    inner = slice(1000, -1000)  # away from the edge transients
+    # forward and back, a 226 Hz tone keeps |H|² of the 4th-order Butterworth low-pass at
+    # 100 Hz: 1/(1 + ρ^8), ρ the frequency ratio after the bilinear transform's warping
+    ratio = np.tan(np.pi * 226.0 / RATE) / np.tan(np.pi * 100.0 / RATE)
+    tone = band(np.sin(2 * np.pi * 226.0 * t), RATE, 5.0, 100.0, zero_phase=True)
+    assert np.max(np.abs(tone[inner])) == pytest.approx(1.0 / (1.0 + ratio ** 8), rel=0.05)
+    out = band(y, RATE, 5.0, 100.0, zero_phase=True)
+    # the offset is gone, the 10 Hz sine passes, the 226 Hz tone leaves what it keeps
+    np.testing.assert_allclose(out[inner], band(np.sin(2 * np.pi * 10.0 * t), RATE, 5.0, 100.0,
+                                                zero_phase=True)[inner], atol=1e-3)
+    assert band(y, RATE, 0.0, None).tobytes() == y.tobytes()  # no filter: unchanged
+    with pytest.raises(ConfigError, match=r"lowpass cutoff must be in \(0, 517\.5\) Hz"):
+        band(y, RATE, 5.0, 600.0)
 
 
 def test_highpass_columns_and_bad_arguments() -> None:

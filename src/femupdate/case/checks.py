@@ -286,6 +286,11 @@ def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
         issues.append(("preprocess.highpass_hz", f"got {cutoff} for data at "
                        f"{format_value(rate)} Hz",
                        f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
+    lowpass = case.preprocess.lowpass_hz
+    if rate is not None and lowpass is not None and lowpass >= rate / 2:
+        issues.append(("preprocess.lowpass_hz", f"got {format_value(lowpass)} for data at "
+                       f"{format_value(rate)} Hz",
+                       f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
     band = case.preprocess.delay_band_hz
     auto = any(out.delay == "auto" for out in data.outputs)
     if auto and rate is not None and band[0] < band[1] and band[1] >= rate / 2:

@@ -289,6 +289,8 @@ class Preprocess(Section):
 
     highpass_hz: number_field("Hz", ge=0.0, le=1e6) = 0.0
     highpass_order: integer_field(ge=1, le=8) = 4
+    lowpass_hz: number_field("Hz", gt=0.0, le=1e6) | None = None
+    lowpass_order: integer_field(ge=1, le=8) = 4
     zero_phase: bool = False
     resample_hz: number_field("Hz", gt=0.0, le=1e7) | None = None
     substeps: integer_field(ge=1, le=1000) = 1
@@ -303,6 +305,10 @@ class Preprocess(Section):
         if low >= high:
             raise_issues([("delay_band_hz", f"got {format_value(self.delay_band_hz)}: low is "
                             "not below high", "[low, high] with 0 < low < high, Hz")])
+        if self.lowpass_hz is not None and self.lowpass_hz <= self.highpass_hz:
+            raise_issues([("lowpass_hz", f"got {format_value(self.lowpass_hz)}, not above "
+                           f"highpass_hz = {format_value(self.highpass_hz)}",
+                           "a low-pass above the high-pass, Hz")])
         return self
 
 
@@ -415,13 +421,13 @@ class Case(Section):
 
     @property
     def filters_prediction(self) -> bool:
-        """Whether the high-pass is applied to the model's prediction rather than its input.
+        """Whether the filters are applied to the model's prediction rather than its input.
 
         ``preprocess.filter_prediction``, or by default: with frictions (a filter commutes with
-        a linear model only). Never without a high-pass.
+        a linear model only). Never without a filter.
         """
         pre = self.preprocess
-        if pre.highpass_hz <= 0.0:
+        if pre.highpass_hz <= 0.0 and pre.lowpass_hz is None:
             return False
         if pre.filter_prediction is not None:
             return pre.filter_prediction
@@ -473,14 +479,17 @@ class Case(Section):
     def to_dict(self) -> dict[str, Any]:
         """The whole case, defaults included, as JSON-ready data (saved with every result).
 
-        Without ``[posterior]`` nothing is saved for it: the fingerprints of cases written
-        before it existed stay the same."""
+        Without ``[posterior]`` nothing is saved for it, nor for a low-pass not given: the
+        fingerprints of cases written before they existed stay the same."""
         data = self.model_dump(mode="json")
         if data.get("posterior") is None:
             data.pop("posterior", None)
         for key in ("cutoff_factor", "n_modes"):  # nor the reduced path's when not given
             if data["simulation"].get(key) is None:
                 data["simulation"].pop(key, None)
+        if data["preprocess"].get("lowpass_hz") is None:  # nor a low-pass not given
+            data["preprocess"].pop("lowpass_hz", None)
+            data["preprocess"].pop("lowpass_order", None)
         return data
 
     def fingerprint(self) -> str:

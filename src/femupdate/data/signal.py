@@ -123,6 +123,49 @@ def highpass(y: np.ndarray, fs: float, cutoff: float, *, order: int = 4,
     return scipy.signal.sosfilt(sos, y, axis=0)
 
 
+@functools.lru_cache(maxsize=16)
+def band_sos(fs: float, highpass_hz: float, highpass_order: int, lowpass_hz: float | None,
+             lowpass_order: int) -> np.ndarray:
+    """Second-order sections of the preprocessing's filter: the Butterworth high-pass (when
+    ``highpass_hz`` > 0) then the Butterworth low-pass (when ``lowpass_hz`` is given), in
+    cascade (cached: a model's prediction is filtered at every evaluation). Without a
+    low-pass they are the high-pass's own, so the results are those of :func:`highpass`."""
+    parts = []
+    if highpass_hz > 0.0:
+        parts.append(_butter_highpass(highpass_order, float(highpass_hz), float(fs)))
+    if lowpass_hz is not None:
+        parts.append(scipy.signal.butter(lowpass_order, float(lowpass_hz), btype="lowpass",
+                                         fs=fs, output="sos"))
+    return np.vstack(parts) if parts else np.zeros((0, 6))
+
+
+def band(y: np.ndarray, fs: float, highpass_hz: float, lowpass_hz: float | None = None, *,
+         highpass_order: int = 4, lowpass_order: int = 4,
+         zero_phase: bool = True) -> np.ndarray:
+    """The preprocessing's filter along axis 0: a Butterworth high-pass at ``highpass_hz``
+    (0: none) and a Butterworth low-pass at ``lowpass_hz`` (None: none), each in (0, fs/2).
+
+    ``zero_phase`` as in :func:`highpass`. With no low-pass this is :func:`highpass` (the same
+    bits); with neither filter, ``y`` unchanged.
+    """
+    y = _as_signal(y)
+    _check_rate(fs)
+    for name, cutoff in (("highpass", highpass_hz), ("lowpass", lowpass_hz)):
+        if cutoff is not None and cutoff != 0.0 and not 0 < cutoff < fs / 2:
+            raise ConfigError(f"{name} cutoff must be in (0, {fs / 2:g}) Hz (below Nyquist), "
+                              f"got {cutoff!r}")
+    for order in (highpass_order, lowpass_order):
+        if not 1 <= order <= 20:
+            raise ConfigError(f"order must be an integer in 1..20, got {order!r}")
+    sos = band_sos(float(fs), float(highpass_hz), int(highpass_order),
+                   None if lowpass_hz is None else float(lowpass_hz), int(lowpass_order))
+    if not sos.shape[0]:
+        return y
+    if zero_phase:
+        return scipy.signal.sosfiltfilt(sos, y, axis=0)
+    return scipy.signal.sosfilt(sos, y, axis=0)
+
+
 def relative(acceleration: np.ndarray, table: np.ndarray) -> np.ndarray:
     """Acceleration relative to the table: each channel minus the table acceleration.
 

@@ -228,8 +228,8 @@ class Evaluator:
         pre = case.preprocess
         sos = np.zeros((0, 6))
         if problem.filter:
-            sos = signal._butter_highpass(pre.highpass_order, float(pre.highpass_hz),
-                                          float(1.0 / exp.dt))
+            sos = signal.band_sos(float(1.0 / exp.dt), float(pre.highpass_hz),
+                                  pre.highpass_order, pre.lowpass_hz, pre.lowpass_order)
         self._sos = np.ascontiguousarray(sos, dtype=float)
         # A zero-phase filter needs the whole record: scipy filters between the simulation
         # and the comparison, which then has no filter of its own.

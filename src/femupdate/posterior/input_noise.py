@@ -261,7 +261,7 @@ def whitening_matrices(output_gain: np.ndarray, input_transfer: np.ndarray,
 
 
 def _processed(trial: Any, raw_input: np.ndarray, raw_outputs: np.ndarray) -> Any:
-    """The trial's processing (high-pass, relative motion, integration) of raw records."""
+    """The trial's processing (filters, relative motion, integration) of raw records."""
     from femupdate.experiment import process
 
     experiment, pre = trial.experiment, trial.case.preprocess
@@ -272,7 +272,8 @@ def _processed(trial: Any, raw_input: np.ndarray, raw_outputs: np.ndarray) -> An
     return process(measurement, experiment.channels, np.ones(len(experiment.channels)),
                    quantity=experiment.quantity, highpass_hz=pre.highpass_hz,
                    highpass_order=pre.highpass_order, zero_phase=pre.zero_phase,
-                   influence=trial.model.influence)
+                   influence=trial.model.influence, lowpass_hz=pre.lowpass_hz,
+                   lowpass_order=pre.lowpass_order)
 
 
 def path_responses(trial: Any, values: dict[str, float], record: np.ndarray

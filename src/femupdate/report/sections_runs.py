@@ -111,8 +111,11 @@ def section_case(ctx: Context) -> str:
     hp = (f"Butterworth high-pass {format_number(pre.highpass_hz)} Hz, order "
           f"{pre.highpass_order}, {'zero-phase' if pre.zero_phase else 'causal'}"
           if pre.highpass_hz > 0 else "none")
+    lp = (f"Butterworth low-pass {format_number(pre.lowpass_hz)} Hz, order "
+          f"{pre.lowpass_order}" if pre.lowpass_hz is not None else "none")
     out.append(pairs([
         ("high-pass", esc(hp)),
+        ("low-pass", esc(lp)),
         ("resampling", esc(f"{format_number(pre.resample_hz)} Hz" if pre.resample_hz
                            else "none")),
         ("delay estimation band", esc(f"{format_number(pre.delay_band_hz[0])}–"
