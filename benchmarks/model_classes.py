@@ -8,8 +8,9 @@ five trials it was not fitted to.
 The classes are those of ``examples/minishake-1story/study.py`` (its fit set "a": El Centro 1
 fitted, the five other trials validated): the linear viscous storey (k, c), the paper's
 Jenkins slider (k, c, k_r, f_u) and the table-damped storey (k, c0, cv). Each: the case's
-search (multistart-lm, 4 runs), then TMCMC (``femupdate posterior``) with the default error
-model, its effective counts measured at the first class's best fit and shared (see
+search (multistart-lm, 4 runs), then TMCMC (``femupdate posterior``: ``--samples`` per run,
+its default 4 independent runs, and their verdict) with the default error model, its
+effective counts measured at the first class's best fit and shared (see
 :mod:`femupdate.sampling.classes`). Prints the table of log-evidences and posterior
 probabilities (equal prior probabilities), then the coverage of the best class's 5–95 %
 predictive bands on every trial, with the evaluation counts, wall times and load average.
@@ -81,7 +82,8 @@ def main(argv: list[str] | None = None) -> int:
     for r in rows:
         q = r.record.frequencies_hz.get("f1")
         f1 = "" if q is None else f"; f1 {q.q50:.3f} Hz [{q.q05:.3f}, {q.q95:.3f}]"
-        print(f"{r.name}: {r.record.message}{f1}; " + "; ".join(r.record.sentences))
+        print(f"{r.name}: {r.record.message}{f1}; verdict: {r.record.agreement}; "
+              + "; ".join(r.record.sentences))
     if args.json is not None:
         args.json.write_text(json.dumps({
             "classes": [{"name": r.name, "log_evidence": r.log_evidence,

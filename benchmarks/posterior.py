@@ -36,12 +36,17 @@ Sections (``--only`` takes a comma-separated list):
 - ``real`` (not in the default list): each of the six trials of the real 1-storey specimen
   fitted alone with the linear storey, and the Laplace record's intervals of k1 and c1 under
   ``neff``, ``adjusted`` and ``eiv`` (skipped without the shared records).
+- ``ripples`` (not in the default list): φ along kp1 around the truth on both bridges,
+  without and with ``[preprocess] lowpass_hz`` (100 and 60 Hz): its local extrema.
 - ``friction``: friction bridge (13 parameters): best fit, Laplace, TMCMC: wall time.
 - ``evidence``: TMCMC's log-evidence on the viscous bridge (``--evidence-model friction``:
   the friction bridge) over ``--seeds`` seeds (spawned), and the effective sample size
   measured across them (posterior variance over the variance of the seeds' means: no
   autocorrelation model needed), with its 90 % χ² interval, the wall time per run
-  (``--threads``) and how often the truth lies inside each 90 % interval.
+  (``--threads``) and how often the truth lies inside each 90 % interval; then
+  ``femupdate posterior``'s verdict (:mod:`femupdate.sampling.agreement`) on consecutive
+  sets of its default number of runs (4) among these seeds: which parameters each set calls
+  unsettled.
   ``--proposal``, ``--components``, ``--final-steps`` change TMCMC's moves (MOVES) in the
   speed, friction and evidence sections.
 
@@ -68,6 +73,7 @@ import numpy as np
 
 from femupdate import minimize
 from femupdate.case import parse_case
+from femupdate.case.posterior_section import DEFAULT_POSTERIOR
 from femupdate.errors import FemupdateError
 from femupdate.experiment import load_experiment, load_experiments
 from femupdate.posterior import Prior, jacobian_unit, laplace, problem_error_model
@@ -81,6 +87,8 @@ from femupdate.posterior.mode import WHITENING_KINDS
 from femupdate.posterior.sandwich import curvature_adjustment, sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
 from femupdate.problems import bridge
+from femupdate.runs.verdict import verdict_of
+from femupdate.sampling.agreement import runs_agreement
 from femupdate.sampling.run import start_reference
 from femupdate.update import UpdateProblem
 
@@ -178,22 +186,30 @@ def analytic(population: int) -> dict[str, Any]:
 
 
 def bridge_problem(model: str, truth: dict[str, float], work: Path, seed: int,
-                   clean_input: bool = False) -> UpdateProblem:
+                   clean_input: bool = False, lowpass_hz: float | None = None
+                   ) -> UpdateProblem:
     """The bridge's update problem on a virtual experiment of ``truth`` with 2 % noise (on
-    the outputs only with ``clean_input``)."""
-    case = parse_case(bridge.bridge_case(model, "narrow", directory=str(work)),
-                      source=work / f"{model}.toml")
+    the outputs only with ``clean_input``), its records low-passed at ``lowpass_hz`` when
+    given (``[preprocess] lowpass_hz``)."""
+    spec = bridge.bridge_case(model, "narrow", directory=str(work))
+    if lowpass_hz is not None:
+        spec["preprocess"]["lowpass_hz"] = lowpass_hz
+    case = parse_case(spec, source=work / f"{model}.toml")
     bridge.ensure_records(case, truth, work, seed=seed, snr=0.02, clean_input=clean_input)
     return UpdateProblem(case, load_experiment(case))
 
 
 def best_fit(problem: UpdateProblem, rng: np.random.Generator, max_evals: int = FIT_EVALS
-             ) -> tuple[np.ndarray, np.ndarray, int]:
-    """(best fit in the unit cube, its residuals, evaluations) by multistart-lm."""
+             ) -> tuple[np.ndarray, np.ndarray, int, bool]:
+    """(best fit in the unit cube, its residuals, evaluations, converged) by multistart-lm;
+    converged: the search's verdict, as ``femupdate run`` gives it for one run (its best found
+    again by its own searches: femupdate.runs.verdict)."""
     res = minimize(problem.residuals, problem.bounds, "multistart-lm", residuals=True,
                    seed=rng, max_evals=max_evals)
     prior = Prior.from_case(problem.case)
-    return prior.to_unit(res.x), res.residuals, int(res.nfev)
+    unit = prior.to_unit(res.x)
+    converged = verdict_of([res.fun], unit[None, :], [dict(res.stop)]).converged
+    return unit, res.residuals, int(res.nfev), converged
 
 
 def local_fit(problem: UpdateProblem, start_unit: np.ndarray) -> tuple[np.ndarray,
@@ -251,7 +267,8 @@ def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
 def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
               tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False,
               clean_input: bool = False, ar_max_order: int = AR_MAX_ORDER,
-              search_fit: bool = False, tmcmc_from_prior: bool = False) -> dict[str, Any]:
+              search_fit: bool = False, tmcmc_from_prior: bool = False,
+              lowpass_hz: float | None = None, fit_evals: int = FIT_EVALS) -> dict[str, Any]:
     """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
@@ -269,12 +286,14 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     truth_values = prior.sample(rng, 1)[1][0]
     truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
     problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
-                             int(rng.integers(2 ** 31)), clean_input)
+                             int(rng.integers(2 ** 31)), clean_input, lowpass_hz)
     if search_fit:  # as a user's update ends: multistart-lm from nowhere in particular
-        unit, r, _ = best_fit(problem, np.random.default_rng(
-            np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 98))))
+        unit, r, _, converged = best_fit(problem, np.random.default_rng(
+            np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 98))),
+            max_evals=fit_evals)
     else:
         unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
+        converged = None
     # the Laplace record's two scales (femupdate.posterior.best_fit.two_scale_record): the
     # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
     # over 1 % of each range (the kp1 valley's slope, not a ripple's) for those that one
@@ -299,7 +318,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
         return local, q
 
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
-                           "mode_evals": {}}
+                           "mode_evals": {}, "search_converged": converged}
     for kind in kinds:
         if kind == GLS_SANDWICH:
             model = problem_error_model(problem, r, "arp", ar_max_order=ar_max_order)
@@ -389,7 +408,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                 tmcmc_population: int = 1000, hits_file: Path | None = None,
                 coarse_only: bool = False, clean_input: bool = False,
                 ar_max_order: int = AR_MAX_ORDER, search_fit: bool = False,
-                tmcmc_from_prior: bool = False) -> dict[str, Any]:
+                tmcmc_from_prior: bool = False, lowpass_hz: float | None = None,
+                fit_evals: int = FIT_EVALS) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -410,16 +430,19 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
           f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
           f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
-          + ("best fit of multistart-lm" if search_fit else
+          + (f"best fit of multistart-lm ({fit_evals:,} evaluations)" if search_fit else
              "best fit of a local least-squares search started at the truth")
           + f" (ar1, arp: at "
           f"their own mode from there; arp orders up to {ar_max_order})"
-          + ("; the table's record without noise" if clean_input else ""))
+          + ("; the table's record without noise" if clean_input else "")
+          + (f"; records and prediction low-passed at {lowpass_hz:g} Hz" if lowpass_hz
+             else ""))
     for i, child in enumerate(children):
         if i < first or i in done:
             continue
         row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only,
-                        clean_input, ar_max_order, search_fit, tmcmc_from_prior)
+                        clean_input, ar_max_order, search_fit, tmcmc_from_prior, lowpass_hz,
+                        fit_evals)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -432,6 +455,26 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     print("\nShare of replicates whose 90 % interval holds the truth (target 0.84–0.96), "
           "95 % Clopper–Pearson interval of the share below each figure; '*' marks a "
           "parameter whose interval excludes 0.90")
+    out = coverage_table(rows, names)
+    if any(row.get("search_converged") is not None for row in rows):
+        # what the user is told: the search's verdict (its best found again, or not)
+        for value, words in ((True, "converged"), (False, "not converged")):
+            subset = [row for row in rows if row.get("search_converged") is value]
+            print(f"\nThe {len(subset)} replicates whose search's verdict is '{words}':")
+            if subset:
+                out[f"search {words}"] = coverage_table(subset, names)
+    for name, field in (("TMCMC", "tmcmc_evals"), ("the mode's climb", "mode_evals")):
+        for kind in sorted({k for row in rows for k in row.get(field, {})}):
+            evals = [row[field][kind] for row in rows if kind in row.get(field, {})]
+            print(f"evaluations per replicate of {name} ({kind}): mean {np.mean(evals):.0f}, "
+                  f"range {min(evals)}–{max(evals)}")
+    print(f"(replicates run here in {time.perf_counter() - start:.0f} s; {load()})")
+    return out
+
+
+def coverage_table(rows: list[dict[str, Any]], names: tuple[str, ...]) -> dict[str, Any]:
+    """Print, and return, each estimator's share of ``rows`` whose interval holds the truth,
+    per parameter, with its Clopper–Pearson interval."""
     print(f"{'':14s} {'n':>3s} " + " ".join(f"{n:>9s}" for n in names))
     out: dict[str, Any] = {}
     for estimator in ("laplace", "tmcmc"):
@@ -445,12 +488,34 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
             out[label] = {"replicates": len(hits),
                           **{n: {"share": s, "ci95": [lo, hi]}
                              for n, (s, lo, hi) in zip(names, cov, strict=True)}}
-    for name, field in (("TMCMC", "tmcmc_evals"), ("the mode's climb", "mode_evals")):
-        for kind in sorted({k for row in rows for k in row.get(field, {})}):
-            evals = [row[field][kind] for row in rows if kind in row.get(field, {})]
-            print(f"evaluations per replicate of {name} ({kind}): mean {np.mean(evals):.0f}, "
-                  f"range {min(evals)}–{max(evals)}")
-    print(f"(replicates run here in {time.perf_counter() - start:.0f} s; {load()})")
+    return out
+
+
+# -------------------------------------------------------------------------------- ripples
+
+
+def ripples(root: Path, lowpasses: tuple[float | None, ...] = (None, 100.0, 60.0)
+            ) -> dict[str, Any]:
+    """φ along kp1 around the truth (±5 % of its range, 101 points) on both bridges with 2 %
+    noise, without and with low-passes: its local extrema (ripples) and how far it swings."""
+    print(f"\n## kp1's ripples: local extrema of φ over ±5 % of kp1's range ({load()})")
+    out: dict[str, Any] = {}
+    for model in ("viscous", "friction"):
+        for lowpass in lowpasses:
+            problem = bridge_problem(model, bridge.truth(model), root / f"ripples-{model}",
+                                     seed=1, lowpass_hz=lowpass)
+            prior = Prior.from_case(problem.case)
+            truth = prior.from_physical(np.array([bridge.truth(model)[n]
+                                                  for n in prior.names]))
+            rows = np.repeat(truth[None], 101, axis=0)
+            j = list(prior.names).index("kp1")
+            rows[:, j] += np.linspace(-0.05, 0.05, 101)
+            phi = problem.evaluate_batch(prior.to_search(rows))
+            extrema = int(np.sum(np.diff(np.sign(np.diff(phi))) != 0))
+            label = "none" if lowpass is None else f"{lowpass:g} Hz"
+            print(f"{model:9s} low-pass {label:7s}: {extrema:3d} local extrema, φ from "
+                  f"{phi.min():.4g} to {phi.max():.4g}")
+            out[f"{model} {label}"] = {"extrema": extrema, "phi": [phi.min(), phi.max()]}
     return out
 
 
@@ -657,7 +722,7 @@ def speed(population: int, steps: int, root: Path, emcee_max: int,
     rng = np.random.default_rng(SEED)
     problem = bridge_problem("viscous", bridge.truth("viscous"), root / "speed", seed=1)
     t0 = time.perf_counter()
-    unit, r, fit_evals = best_fit(problem, rng)
+    unit, r, fit_evals, _ = best_fit(problem, rng)
     fit_s = time.perf_counter() - t0
     lap, model, prior = laplace_of(problem, unit, r, "neff")
     print(f"\n## Speed: viscous bridge, 9 parameters, 2 % noise ({load()})")
@@ -706,7 +771,7 @@ def friction(population: int, steps: int, root: Path,
     rng = np.random.default_rng(SEED)
     problem = bridge_problem("friction", bridge.truth("friction"), root / "friction", seed=1)
     t0 = time.perf_counter()
-    unit, r, fit_evals = best_fit(problem, rng, max_evals=3000)
+    unit, r, fit_evals, _ = best_fit(problem, rng, max_evals=3000)
     fit_s = time.perf_counter() - t0
     lap, model, prior = laplace_of(problem, unit, r, "neff")
     t1 = time.perf_counter()
@@ -740,12 +805,13 @@ def evidence(population: int, steps: int, root: Path, seeds: int,
     rng = np.random.default_rng(SEED)
     problem = bridge_problem(model_name, bridge.truth(model_name), root / model_name, seed=1)
     # the friction bridge's best fit as its section takes it (3,000 evaluations)
-    unit, r, _ = best_fit(problem, rng, **({"max_evals": 3000} if model_name == "friction"
+    unit, r, _, _ = best_fit(problem, rng, **({"max_evals": 3000} if model_name == "friction"
                                            else {}))
     lap, model, prior = laplace_of(problem, unit, r, "neff")
     truth = prior.from_physical(np.array([bridge.truth(model_name)[n] for n in prior.names]))
     fun = ThreadedBatches(problem, threads).residuals if threads > 1 else problem.residuals
     log_z, means, variances, ess, evals, walls = [], [], [], [], [], []
+    runs_samples, runs_ess = [], []
     inside = np.zeros(prior.dim, dtype=int)
     t0 = time.perf_counter()
     for child in np.random.SeedSequence(SEED + 1).spawn(seeds):
@@ -757,6 +823,8 @@ def evidence(population: int, steps: int, root: Path, seeds: int,
         means.append(post.samples.mean(axis=0))
         variances.append(post.samples.var(axis=0))
         ess.append(post.ess)
+        runs_samples.append(prior.to_search(post.samples))
+        runs_ess.append(post.ess_params)
         evals.append(post.evaluations)
         q = np.quantile(post.samples, [0.05, 0.95], axis=0)
         inside += (q[0] <= truth) & (truth <= q[1])
@@ -777,9 +845,26 @@ def evidence(population: int, steps: int, root: Path, seeds: int,
           f"{np.mean(evals) / across[worst]:.1f} evaluations per effective sample")
     print("truth inside the 90 % interval, runs of " + str(seeds) + ": "
           + " ".join(f"{n} {k}" for n, k in zip(prior.names, inside, strict=True)))
-    return {"log_z": log_z, "ess_estimated": ess, "ess_across_seeds": across.tolist(),
+    verdicts = product_verdicts(runs_samples, runs_ess, list(prior.names))
+    return {"verdicts": verdicts, "log_z": log_z, "ess_estimated": ess,
+            "ess_across_seeds": across.tolist(),
             "ess_across_low": low.tolist(), "ess_across_high": high.tolist(),
             "evals": evals, "walls": walls, "truth_inside": inside.tolist()}
+
+
+def product_verdicts(samples: list[np.ndarray], ess: list[np.ndarray], names: list[str],
+                     runs: int = DEFAULT_POSTERIOR.runs) -> list[list[str]]:
+    """``femupdate posterior``'s verdict (its default number of runs) on consecutive sets of
+    these runs: the parameters each set calls unsettled, and how often each is."""
+    sets = [runs_agreement(samples[k:k + runs], ess[k:k + runs], names)
+            for k in range(0, len(samples) - runs + 1, runs)]
+    counts = {n: sum(n in a.unsettled for a in sets) for n in names}
+    print(f"femupdate posterior's verdict on {len(sets)} sets of {runs} of these runs: "
+          + ("; ".join(f"set {i}: " + (", ".join(a.unsettled) or "all settled")
+                       for i, a in enumerate(sets))))
+    print("   unsettled in how many sets: " + " ".join(f"{n} {k}" for n, k in counts.items()))
+    print(f"   smallest ESS of each set: {', '.join(f'{np.min(a.ess):.0f}' for a in sets)}")
+    return [a.unsettled for a in sets]
 
 
 def moves_of(args: argparse.Namespace) -> dict[str, Any]:
@@ -817,9 +902,14 @@ def main() -> None:
     parser.add_argument("--search-fit", action="store_true",
                         help="calibration: the best fit of multistart-lm (2,000 evaluations) "
                         "instead of a local search started at the truth")
+    parser.add_argument("--fit-evals", type=int, default=FIT_EVALS,
+                        help="calibration with --search-fit: multistart-lm's budget")
     parser.add_argument("--tmcmc-from-prior", action="store_true",
                         help="calibration: TMCMC's first population from the prior, not from "
                         "the Laplace Gaussian")
+    parser.add_argument("--lowpass-hz", type=float, default=None,
+                        help="calibration: [preprocess] lowpass_hz of the bridge case (below "
+                        "the abutment modes near 226 Hz: kp1's valley without its ripples)")
     parser.add_argument("--clean-input", action="store_true",
                         help="calibration: the table's record without noise (outputs only)")
     parser.add_argument("--ar-max-order", type=int, default=AR_MAX_ORDER,
@@ -866,9 +956,12 @@ def main() -> None:
                 tmcmc_population=args.tmcmc_population, hits_file=args.hits,
                 coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
                 ar_max_order=args.ar_max_order, search_fit=args.search_fit,
-                tmcmc_from_prior=args.tmcmc_from_prior)
+                tmcmc_from_prior=args.tmcmc_from_prior, lowpass_hz=args.lowpass_hz,
+                fit_evals=args.fit_evals)
         if "real" in sections:
             out["real"] = real_trials(["neff", "adjusted", "eiv"])
+        if "ripples" in sections:
+            out["ripples"] = ripples(root)
         if "whitening" in sections:
             out["whitening"] = whitening(args.whitening_replicates, args.noise_seeds, root)
         if "speed" in sections:

@@ -94,14 +94,22 @@ SPANNING_KINDS: tuple[str, ...] = ("neff", "tau")
 
 
 def basin_sentences(record: LaplaceRecord, minima: int) -> list[str]:
-    """What to say when the runs ended in several minima and the record's error model is
-    one of the sharp ones: its Gaussian holds within the best minimum's basin only."""
-    if minima <= 1 or record.error_model in SPANNING_KINDS or record.note is not None:
+    """What to say when the record's error model is one of the sharp ones: its Gaussian
+    holds within the best minimum's basin only, whether the runs ended in several minima or
+    found one again (on the bridge's calibration replicates, searches that found their best
+    again still sat off the truth's basin often: docs/posterior.md, section 6)."""
+    if record.error_model in SPANNING_KINDS or record.note is not None:
         return []
-    return [f"The runs ended in {minima} different minima, and error model "
-            f"{record.error_model!r} is sharp: its intervals hold within the best one's "
-            "basin and can miss the truth with confidence if it lies in another (error model "
-            "'neff' spans them; or sample the posterior from the prior)"]
+    if minima > 1:
+        return [f"The runs ended in {minima} different minima, and error model "
+                f"{record.error_model!r} is sharp: its intervals hold within the best one's "
+                "basin and can miss the truth with confidence if it lies in another (error "
+                "model 'neff' spans them; or sample the posterior from the prior)"]
+    return [f"Error model {record.error_model!r} is sharp: its intervals hold within this "
+            "fit's basin, and searches can find the same wrong basin again (along a rippled "
+            "valley: on the bridge's calibration replicates E's interval missed the truth in "
+            "half of the updates whose search was found again); error model 'neff' spans "
+            "such basins"]
 
 
 def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,
