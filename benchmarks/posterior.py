@@ -268,7 +268,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
               tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False,
               clean_input: bool = False, ar_max_order: int = AR_MAX_ORDER,
               search_fit: bool = False, tmcmc_from_prior: bool = False,
-              lowpass_hz: float | None = None, fit_evals: int = FIT_EVALS) -> dict[str, Any]:
+              lowpass_hz: float | None = None, fit_evals: int = FIT_EVALS,
+              tmcmc_runs: int = 1) -> dict[str, Any]:
     """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
@@ -392,14 +393,22 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             # as femupdate posterior: the prior where even the capped one is mostly outside
             reference, _ = start_reference(*reference, np.random.default_rng(
                 np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 97))))
-            post, _ = run_tmcmc(problem.residuals, prior, model, seed=tm_seeds[kind],
-                                population=tmcmc_population,
-                                reference=None if tmcmc_from_prior else reference, **MOVES)
-            if not post.reached:
+            # one run on the kind's own seed, or, as femupdate posterior, runs on its children
+            seeds = [tm_seeds[kind]] if tmcmc_runs == 1 else tm_seeds[kind].spawn(tmcmc_runs)
+            posts = [run_tmcmc(problem.residuals, prior, model, seed=seed,
+                               population=tmcmc_population,
+                               reference=None if tmcmc_from_prior else reference, **MOVES)[0]
+                     for seed in seeds]
+            if not all(post.reached for post in posts):
                 raise RuntimeError(f"replicate {i}: TMCMC ({kind}) did not reach β = 1")
-            q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
+            pooled = np.vstack([post.samples for post in posts])
+            q = np.quantile(prior.to_physical(pooled), [0.05, 0.95], axis=0)
             out["tmcmc"][kind] = ((q[0] <= truth_values) & (truth_values <= q[1])).tolist()
-            out["tmcmc_evals"][kind] = post.evaluations
+            out["tmcmc_evals"][kind] = sum(post.evaluations for post in posts)
+            if tmcmc_runs > 1:  # the product's verdict on them
+                out.setdefault("tmcmc_unsettled", {})[kind] = runs_agreement(
+                    [prior.to_search(post.samples) for post in posts],
+                    [post.ess_params for post in posts], list(prior.names)).unsettled
     return out
 
 
@@ -409,7 +418,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                 coarse_only: bool = False, clean_input: bool = False,
                 ar_max_order: int = AR_MAX_ORDER, search_fit: bool = False,
                 tmcmc_from_prior: bool = False, lowpass_hz: float | None = None,
-                fit_evals: int = FIT_EVALS) -> dict[str, Any]:
+                fit_evals: int = FIT_EVALS, tmcmc_runs: int = 1) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -442,7 +451,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
             continue
         row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only,
                         clean_input, ar_max_order, search_fit, tmcmc_from_prior, lowpass_hz,
-                        fit_evals)
+                        fit_evals, tmcmc_runs)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -463,6 +472,21 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
             print(f"\nThe {len(subset)} replicates whose search's verdict is '{words}':")
             if subset:
                 out[f"search {words}"] = coverage_table(subset, names)
+    for kind in sorted({k for row in rows for k in row.get("tmcmc_unsettled", {})}):
+        # what the verdict promises: the settled parameters' intervals are to be trusted
+        flagged = np.array([[n in row["tmcmc_unsettled"][kind] for n in names] for row in rows
+                            if kind in row.get("tmcmc_unsettled", {})])
+        hits = np.array([row["tmcmc"][kind] for row in rows
+                         if kind in row.get("tmcmc_unsettled", {})])
+        print(f"\nTMCMC ({kind}), the runs' verdict: unsettled in how many replicates, and the "
+              "share of the settled ones whose interval holds the truth:")
+        for j, n in enumerate(names):
+            settled = hits[~flagged[:, j], j]
+            share = f"{settled.mean():.2f} of {settled.size}" if settled.size else "–"
+            print(f"   {n:4s} unsettled {int(flagged[:, j].sum()):2d}; settled: {share}")
+        out[f"tmcmc {kind} verdict"] = {n: {"unsettled": int(flagged[:, j].sum()),
+                                            "settled_hits": hits[~flagged[:, j], j].tolist()}
+                                        for j, n in enumerate(names)}
     for name, field in (("TMCMC", "tmcmc_evals"), ("the mode's climb", "mode_evals")):
         for kind in sorted({k for row in rows for k in row.get(field, {})}):
             evals = [row[field][kind] for row in rows if kind in row.get(field, {})]
@@ -896,6 +920,9 @@ def main() -> None:
     parser.add_argument("--tmcmc-kinds", default="",
                         help="calibration: kinds whose TMCMC intervals are measured too")
     parser.add_argument("--tmcmc-population", type=int, default=1000)
+    parser.add_argument("--tmcmc-runs", type=int, default=1,
+                        help="calibration: TMCMC runs per replicate, pooled, with the product's "
+                        "verdict on them (femupdate posterior: 4)")
     parser.add_argument("--coarse-jacobian", action="store_true",
                         help="calibration: the Jacobian over 1 %% of each range for every "
                         "parameter (before: the Laplace record's two scales)")
@@ -957,7 +984,7 @@ def main() -> None:
                 coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
                 ar_max_order=args.ar_max_order, search_fit=args.search_fit,
                 tmcmc_from_prior=args.tmcmc_from_prior, lowpass_hz=args.lowpass_hz,
-                fit_evals=args.fit_evals)
+                fit_evals=args.fit_evals, tmcmc_runs=args.tmcmc_runs)
         if "real" in sections:
             out["real"] = real_trials(["neff", "adjusted", "eiv"])
         if "ripples" in sections:
