@@ -37,6 +37,13 @@ def _ess_cell(value: float | None) -> str:
     return "∞" if value >= 1e300 else f"{value:,.0f}"
 
 
+def _settled_cell(record: PosteriorRecord, name: str) -> str:
+    """Whether the runs settled a parameter ("–" for the modes: not checked)."""
+    if name not in record.ess_params:
+        return td("–")
+    return td("no", "fail") if name in record.unsettled else td("yes", "ok")
+
+
 def _sentences(sentences: list[str], flagged: list[str], ident: str) -> str:
     said = [s for s in sentences if any(s.startswith((f"{n} ", f"{n}:")) for n in flagged)]
     if not said:
@@ -107,7 +114,7 @@ def section_posterior(ctx: Context, page: Page) -> str:
              *((k, m) for k, m in record.damping_ratios.items())]
     rows = [[*row, td(_ess_cell(record.ess_params.get(name)), "num"),
              td(num(record.rhat[name], 4) if record.rhat.get(name) is not None else "–", "num"),
-             td("no", "fail") if name in record.unsettled else td("yes", "ok")]
+             _settled_cell(record, name)]
             for row, (name, _) in zip(_marginal_rows(items, undetermined), items, strict=True)]
     out.append(table(["quantity", "mean", "sd", "5 %", "50 %", "95 %", "determined", "ESS",
                       "R̂", "settled"], rows, table_id="posterior",
