@@ -112,12 +112,24 @@ def highpass(y: np.ndarray, fs: float, cutoff: float, *, order: int = 4,
     """
     y = _as_signal(y)
     _check_rate(fs)
+    _check_cutoff("cutoff", cutoff, fs)
+    _check_order(order)
+    return _filtered(_butter_highpass(order, float(cutoff), float(fs)), y, zero_phase)
+
+
+def _check_cutoff(what: str, cutoff: float, fs: float) -> None:
     if not 0 < cutoff < fs / 2:
-        raise ConfigError(f"cutoff must be in (0, {fs / 2:g}) Hz (below Nyquist), "
+        raise ConfigError(f"{what} must be in (0, {fs / 2:g}) Hz (below Nyquist), "
                           f"got {cutoff!r}")
+
+
+def _check_order(order: int) -> None:
     if not 1 <= order <= 20:
         raise ConfigError(f"order must be an integer in 1..20, got {order!r}")
-    sos = _butter_highpass(order, float(cutoff), float(fs))
+
+
+def _filtered(sos: np.ndarray, y: np.ndarray, zero_phase: bool) -> np.ndarray:
+    """``y`` through the sections ``sos``: forward-backward or causal."""
     if zero_phase:
         return scipy.signal.sosfiltfilt(sos, y, axis=0)
     return scipy.signal.sosfilt(sos, y, axis=0)
@@ -150,20 +162,15 @@ def band(y: np.ndarray, fs: float, highpass_hz: float, lowpass_hz: float | None 
     """
     y = _as_signal(y)
     _check_rate(fs)
-    for name, cutoff in (("highpass", highpass_hz), ("lowpass", lowpass_hz)):
-        if cutoff is not None and cutoff != 0.0 and not 0 < cutoff < fs / 2:
-            raise ConfigError(f"{name} cutoff must be in (0, {fs / 2:g}) Hz (below Nyquist), "
-                              f"got {cutoff!r}")
-    for order in (highpass_order, lowpass_order):
-        if not 1 <= order <= 20:
-            raise ConfigError(f"order must be an integer in 1..20, got {order!r}")
+    if highpass_hz != 0.0:
+        _check_cutoff("highpass cutoff", highpass_hz, fs)
+    if lowpass_hz is not None:
+        _check_cutoff("lowpass cutoff", lowpass_hz, fs)
+    _check_order(highpass_order)
+    _check_order(lowpass_order)
     sos = band_sos(float(fs), float(highpass_hz), int(highpass_order),
                    None if lowpass_hz is None else float(lowpass_hz), int(lowpass_order))
-    if not sos.shape[0]:
-        return y
-    if zero_phase:
-        return scipy.signal.sosfiltfilt(sos, y, axis=0)
-    return scipy.signal.sosfilt(sos, y, axis=0)
+    return _filtered(sos, y, zero_phase) if sos.shape[0] else y
 
 
 def relative(acceleration: np.ndarray, table: np.ndarray) -> np.ndarray:

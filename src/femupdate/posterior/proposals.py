@@ -114,7 +114,6 @@ def fit_mixture(x: np.ndarray, components: int, inflate: float, rng: np.random.G
     return GaussianMixture(log_weights, means, chols)
 
 
-
 def component_cholesky(members: np.ndarray, whole: np.ndarray,
                        cholesky: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
     """The Cholesky factor of a cluster's covariance, or the population's (``whole``) when the

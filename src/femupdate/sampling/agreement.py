@@ -122,8 +122,9 @@ def agreement_words(runs: int, names: Sequence[str], ess: np.ndarray, within: np
                 f"{_count(float(np.min(ess)))} effective samples")
     parts = []
     disagree = runs_disagree(runs, within, across)
-    for name in unsettled:
-        j = list(names).index(name)
+    for j, name in enumerate(names):
+        if name not in unsettled:
+            continue
         if disagree[j]:
             parts.append(f"{name} (the runs disagree: their means scatter as if each run held "
                          f"{_count(across[j])} independent samples, where each claims "

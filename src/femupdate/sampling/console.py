@@ -54,8 +54,9 @@ def print_posterior(record: PosteriorRecord, out: Console) -> None:
     if record.failed_evaluations:
         out.print(Text(f"{record.failed_evaluations:,} evaluations failed (zero likelihood): "
                        f"{record.failure}"))
-    title = "posterior" if record.reached else "last tempered stage (not the posterior)"
-    table = Table(title=Text(f"{title}: mean, sd and 5/50/95 % quantiles"),
+    if not record.reached:  # no samples, so no marginals: nothing more to show
+        return
+    table = Table(title=Text("posterior: mean, sd and 5/50/95 % quantiles"),
                   caption=Text("ESS: effective samples, the smaller of the runs' own estimates "
                                "and what the scatter of their means shows; R̂: Gelman–Rubin"))
     for col in ("quantity", "mean", "sd", "5 %", "50 %", "95 %", "ESS", "R̂"):
