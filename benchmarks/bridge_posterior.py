@@ -3,10 +3,13 @@ what it says of each parameter, beside the Laplace approximation at the best fit
 evaluations and wall time.
 
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples N]
-        [--runs R] [--seed 1] [--out DIR] [--quick]
+        [--runs R] [--max-runs M] [--recentre K] [--workers W] [--seed 1] [--out DIR]
+        [--quick]
 
-``--samples`` and ``--runs`` default to ``[posterior]``'s defaults (1,000 samples per run, 4
-independent runs). ``--quick`` (a smoke run for CI): 300 samples per run after a search of 2
+``--samples``, ``--runs``, ``--max-runs`` and ``--recentre`` default to ``[posterior]``'s
+defaults (1,000 samples per run, 4 independent runs, up to 12 while a parameter is unsettled,
+2 re-centrings); ``--workers`` (default 1) is the case's ``[search] workers``, which the
+sampler uses too. ``--quick`` (a smoke run for CI): 300 samples per run after a search of 2
 runs of 600 evaluations.
 
 The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
@@ -39,6 +42,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", choices=("viscous", "friction"), default="viscous")
     parser.add_argument("--samples", type=int, default=DEFAULT_POSTERIOR.samples)
     parser.add_argument("--runs", type=int, default=DEFAULT_POSTERIOR.runs)
+    parser.add_argument("--max-runs", type=int, default=DEFAULT_POSTERIOR.max_runs)
+    parser.add_argument("--recentre", type=int, default=DEFAULT_POSTERIOR.recentre)
+    parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--quick", action="store_true", help="300 samples, a short search (CI)")
@@ -48,8 +54,10 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out or Path(tempfile.mkdtemp(prefix="femupdate-bridge-posterior-"))
     data = (out / "data").resolve()
     spec = bridge_case(args.model, "narrow", directory=str(data))
-    spec["search"].update(runs=2, f_target=None, max_evals=600 if args.quick else 3000, seed=1)
+    spec["search"].update(runs=2, f_target=None, max_evals=600 if args.quick else 3000, seed=1,
+                          workers=args.workers)
     spec["posterior"] = {"samples": args.samples, "runs": args.runs, "seed": args.seed,
+                         "max_runs": args.max_runs, "recentre": args.recentre,
                          "modes_samples": 100}
     case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
     truth_values = truth(args.model)
@@ -65,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{rec.evidence_spread()}; search + sampler + modes + bands {wall:.1f} s; "
           f"load average {os.getloadavg()[0]:.2f}")
     print(f"verdict: {rec.agreement}")
+    for warning in rec.start_warnings:  # femupdate.sampling.start
+        print(f"start: {warning}")
     print("effective samples (R̂): " + ", ".join(
         f"{n} {rec.ess_params[n]:,.0f} ({rec.rhat[n]:.3f})" if rec.rhat.get(n) is not None
         else f"{n} {rec.ess_params[n]:,.0f}" for n in rec.names))

@@ -83,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
         q = r.record.frequencies_hz.get("f1")
         f1 = "" if q is None else f"; f1 {q.q50:.3f} Hz [{q.q05:.3f}, {q.q95:.3f}]"
         print(f"{r.name}: {r.record.message}{f1}; verdict: {r.record.agreement}; "
-              + "; ".join(r.record.sentences))
+              + "; ".join([*(f"start: {w}" for w in r.record.start_warnings),
+                           *r.record.sentences]))
     if args.json is not None:
         args.json.write_text(json.dumps({
             "classes": [{"name": r.name, "log_evidence": r.log_evidence,

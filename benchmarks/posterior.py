@@ -412,18 +412,74 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     return out
 
 
+def inside(marginals: dict[str, Any], names: tuple[str, ...], truth: np.ndarray
+           ) -> list[bool]:
+    """Whether each parameter's 5–95 % interval (summary marginals) holds its truth."""
+    return [bool(marginals[n].q05 <= t <= marginals[n].q95)
+            for n, t in zip(names, truth.tolist(), strict=True)]
+
+
+def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
+                      fit_runs: int, recentre: int, error_model: str = "neff"
+                      ) -> dict[str, Any]:
+    """One calibration replicate through ``femupdate posterior`` itself (``run_posterior``):
+    the truth and noise of :func:`replicate`, the case's search (multistart-lm, ``fit_runs``
+    runs of ``fit_evals`` evaluations, seeded from the replicate), the default
+    ``[posterior]`` (``neff``, or ``error_model``; four runs of 1,000, pooled, more while a
+    parameter is unsettled). It runs twice on one results directory: without re-centring
+    (``tmcmc`` KIND), then, resuming both stores, with ``recentre`` (``tmcmc``
+    KIND-recentred: the same samples unless the sampler found a better fit than the
+    search's)."""
+    from femupdate.runs import Execution
+    from femupdate.sampling.run import run_posterior
+
+    rng = np.random.default_rng(child)
+    work = root / f"replicate-{i}"
+    spec = bridge.bridge_case("viscous", "narrow", directory=str(work))
+    prior = Prior.from_case(parse_case(spec, source=work / "viscous.toml"))
+    truth_values = prior.sample(rng, 1)[1][0]
+    truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
+    bridge_problem("viscous", truth, work, int(rng.integers(2 ** 31)))
+    search_seed, posterior_seed = (int(v) for v in np.random.SeedSequence(
+        child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2))
+    spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
+                      "max_evals": fit_evals}
+    spec["posterior"] = {"seed": posterior_seed, "error_model": error_model}
+    case = parse_case(spec, source=work / "viscous.toml")
+    out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
+                           "tmcmc_unsettled": {}, "mode_evals": {}}
+    for kind, passes, resume in ((error_model, 0, False),
+                                 (f"{error_model}-recentred", recentre, True)):
+        got = run_posterior(case, work / "out", recentre=passes, resume=resume,
+                            execution=Execution(quiet=True))
+        out["tmcmc"][kind] = inside(got.record.params, prior.names, truth_values)
+        out["tmcmc_evals"][kind] = got.record.nfev
+        out["tmcmc_unsettled"][kind] = got.record.unsettled
+        out.setdefault("start_warnings", {})[kind] = got.record.start_warnings
+        out.setdefault("recentred", {})[kind] = got.record.recentred
+    laplace_record = got.summary.laplace
+    if laplace_record is not None and laplace_record.params:
+        out["laplace"][error_model] = inside(laplace_record.params, prior.names, truth_values)
+    verdict = got.summary.verdict
+    out["search_converged"] = None if verdict is None else verdict.converged
+    out["search_phi"], out["start_phi"] = got.summary.best.phi, got.record.start_phi
+    return out
+
+
 def calibration(replicates: int, root: Path, first: int = 0, *,
                 kinds: list[str] | None = None, tmcmc_kinds: list[str] | None = None,
                 tmcmc_population: int = 1000, hits_file: Path | None = None,
                 coarse_only: bool = False, clean_input: bool = False,
                 ar_max_order: int = AR_MAX_ORDER, search_fit: bool = False,
                 tmcmc_from_prior: bool = False, lowpass_hz: float | None = None,
-                fit_evals: int = FIT_EVALS, tmcmc_runs: int = 1) -> dict[str, Any]:
+                fit_evals: int = FIT_EVALS, tmcmc_runs: int = 1, product: bool = False,
+                fit_runs: int = 1, recentre: int = 2) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
     (resume, or several processes on one file), and the table is of every replicate the
-    file holds below ``replicates``."""
+    file holds below ``replicates``. With ``product`` each replicate runs ``femupdate
+    posterior`` itself (:func:`product_replicate`) instead of the other options' pieces."""
     kinds = list(kinds or KINDS)
     tmcmc_kinds = list(tmcmc_kinds or [])
     names = Prior.from_case(parse_case(bridge.bridge_case("viscous", "narrow",
@@ -436,22 +492,30 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
             row = json.loads(line)
             done[row["replicate"]] = row
     start = time.perf_counter()
-    print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
-          f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
-          f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
-          + (f"best fit of multistart-lm ({fit_evals:,} evaluations)" if search_fit else
-             "best fit of a local least-squares search started at the truth")
-          + f" (ar1, arp: at "
-          f"their own mode from there; arp orders up to {ar_max_order})"
-          + ("; the table's record without noise" if clean_input else "")
-          + (f"; records and prediction low-passed at {lowpass_hz:g} Hz" if lowpass_hz
-             else ""))
+    if product:
+        print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth "
+              f"from the prior, fresh noise), through femupdate posterior: the case's search "
+              f"({fit_runs} run(s) of multistart-lm, {fit_evals:,} evaluations each), then "
+              f"the default [posterior], without re-centring and with recentre = {recentre}")
+    else:
+        print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
+              f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
+              f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
+              + (f"best fit of multistart-lm ({fit_evals:,} evaluations)" if search_fit else
+                 "best fit of a local least-squares search started at the truth")
+              + f" (ar1, arp: at "
+              f"their own mode from there; arp orders up to {ar_max_order})"
+              + ("; the table's record without noise" if clean_input else "")
+              + (f"; records and prediction low-passed at {lowpass_hz:g} Hz" if lowpass_hz
+                 else ""))
     for i, child in enumerate(children):
         if i < first or i in done:
             continue
-        row = replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population, coarse_only,
-                        clean_input, ar_max_order, search_fit, tmcmc_from_prior, lowpass_hz,
-                        fit_evals, tmcmc_runs)
+        row = (product_replicate(i, child, root, fit_evals, fit_runs, recentre,
+                                 (tmcmc_kinds or ["neff"])[0]) if product
+               else replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population,
+                              coarse_only, clean_input, ar_max_order, search_fit,
+                              tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs))
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -487,6 +551,25 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
         out[f"tmcmc {kind} verdict"] = {n: {"unsettled": int(flagged[:, j].sum()),
                                             "settled_hits": hits[~flagged[:, j], j].tolist()}
                                         for j, n in enumerate(names)}
+    for kind in sorted({k for row in rows for k in row.get("start_warnings", {})}):
+        # the start's verdict (femupdate.sampling.start): what the user reads beside the runs'
+        warned = np.array([bool(row["start_warnings"][kind]) for row in rows])
+        recentred = sum(row["recentred"][kind] > 0 for row in rows)
+        trusted = np.array([[not w and n not in row["tmcmc_unsettled"][kind] for n in names]
+                            for row, w in zip(rows, warned, strict=True)])
+        hits = np.array([row["tmcmc"][kind] for row in rows])
+        print(f"\nTMCMC ({kind}), the start's verdict: re-centred in {recentred} of "
+              f"{len(rows)} replicates, a warning on the start in {int(warned.sum())}; the "
+              "share holding the truth where neither the start nor the runs' verdict warns:")
+        for j, n in enumerate(names):
+            kept = hits[trusted[:, j], j]
+            share = f"{kept.mean():.2f} of {kept.size}" if kept.size else "–"
+            print(f"   {n:4s} {share}; of the warned, holding it: "
+                  f"{int(hits[~trusted[:, j], j].sum())} of {int((~trusted[:, j]).sum())}")
+        out[f"tmcmc {kind} start"] = {"recentred": int(recentred),
+                                      "warned": int(warned.sum()),
+                                      "trusted_hits": {n: hits[trusted[:, j], j].tolist()
+                                                       for j, n in enumerate(names)}}
     for name, field in (("TMCMC", "tmcmc_evals"), ("the mode's climb", "mode_evals")):
         for kind in sorted({k for row in rows for k in row.get(field, {})}):
             evals = [row[field][kind] for row in rows if kind in row.get(field, {})]
@@ -931,6 +1014,14 @@ def main() -> None:
                         "instead of a local search started at the truth")
     parser.add_argument("--fit-evals", type=int, default=FIT_EVALS,
                         help="calibration with --search-fit: multistart-lm's budget")
+    parser.add_argument("--product", action="store_true",
+                        help="calibration: each replicate through femupdate posterior itself "
+                             "(the case's search, default [posterior] but its error model, the "
+                             "first of --tmcmc-kinds), without and with re-centring")
+    parser.add_argument("--fit-runs", type=int, default=1,
+                        help="with --product: the case's [search] runs")
+    parser.add_argument("--recentre", type=int, default=2,
+                        help="with --product: [posterior] recentre of the second pass")
     parser.add_argument("--tmcmc-from-prior", action="store_true",
                         help="calibration: TMCMC's first population from the prior, not from "
                         "the Laplace Gaussian")
@@ -984,7 +1075,8 @@ def main() -> None:
                 coarse_only=args.coarse_jacobian, clean_input=args.clean_input,
                 ar_max_order=args.ar_max_order, search_fit=args.search_fit,
                 tmcmc_from_prior=args.tmcmc_from_prior, lowpass_hz=args.lowpass_hz,
-                fit_evals=args.fit_evals, tmcmc_runs=args.tmcmc_runs)
+                fit_evals=args.fit_evals, tmcmc_runs=args.tmcmc_runs, product=args.product,
+                fit_runs=args.fit_runs, recentre=args.recentre)
         if "real" in sections:
             out["real"] = real_trials(["neff", "adjusted", "eiv"])
         if "ripples" in sections:

@@ -629,6 +629,12 @@ def posterior(
     runs: Annotated[int | None, typer.Option(
         min=1, max=64, help="Override [posterior] runs (independent sampler runs, pooled; "
         "their agreement checks the effective samples).")] = None,
+    max_runs: Annotated[int | None, typer.Option(
+        "--max-runs", min=1, max=256, help="Override [posterior] max_runs (while a parameter "
+        "is unsettled, runs are added, --runs at a time, up to this many).")] = None,
+    recentre: Annotated[int | None, typer.Option(
+        "--recentre", min=0, max=8, help="Override [posterior] recentre (how many times at "
+        "most to sample again from a better fit the sampler finds; 0: only say so).")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
     resume: Annotated[bool, typer.Option(
@@ -671,11 +677,12 @@ def posterior(
     execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
     try:
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
-                               workers=workers, resume=resume, restart=restart,
-                               execution=execution)
+                               max_runs=max_runs, recentre=recentre, workers=workers,
+                               resume=resume, restart=restart, execution=execution)
     except KeyboardInterrupt:
         words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
         for flag, value in (("--seed", seed), ("--samples", samples), ("--runs", runs),
+                            ("--max-runs", max_runs), ("--recentre", recentre),
                             ("--data", data)):
             if value is not None:
                 words += [flag, str(value)]

@@ -7,15 +7,11 @@ from __future__ import annotations
 import math
 import os
 import signal
-import sqlite3
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from two_storey import TRUTH, write_case
+from two_storey import TRUTH, kill_posterior_when, write_case
 
 from femupdate.case import load_case, parse_case
 from femupdate.errors import ConfigError, DataError
@@ -24,9 +20,6 @@ from femupdate.results import POSTERIOR_FILE, read_summary
 from femupdate.runs import Execution
 from femupdate.runs.store import FILENAME
 from femupdate.sampling.run import POSTERIOR_DIR, PosteriorResult, run_posterior
-
-SRC = str(Path(__file__).resolve().parents[2] / "src")
-HERE = str(Path(__file__).resolve().parent)
 
 
 @pytest.fixture(scope="module")
@@ -111,64 +104,14 @@ def test_one_run_says_it_cannot_check_itself(case_path: Path, tmp_path: Path) ->
                                            "checked")
 
 
-# The killed run evaluates the same residuals slowed down (same values), so that it is still
-# sampling when the poller sees its checkpoints.
-CHILD = """
-import sys, time
-sys.path[:0] = [{src!r}, {here!r}]
-from pathlib import Path
-from femupdate.case import load_case
-from femupdate.posterior.method import SampledProblem
-from femupdate.runs import Execution
-from femupdate.sampling.run import run_posterior
-
-fast = SampledProblem.residuals_batch
-def slow(self, X, **kw):
-    time.sleep(2e-3 * len(X))
-    return fast(self, X, **kw)
-SampledProblem.residuals_batch = slow
-run_posterior(load_case(Path(sys.argv[1])), Path(sys.argv[2]),
-              execution=Execution(chunk_evals=100))
-"""
-
-
-def _progress(path: Path) -> tuple[int, int]:
-    """Evaluations and checkpoints stored so far (0, 0 before the store exists)."""
-    if not path.is_file():
-        return 0, 0
-    conn = sqlite3.connect(path, timeout=10)
-    try:
-        evals = conn.execute("SELECT count(*) FROM evaluations").fetchone()[0]
-        ckpts = conn.execute("SELECT count(*) FROM checkpoints").fetchone()[0]
-    except sqlite3.OperationalError:  # tables not created yet
-        return 0, 0
-    finally:
-        conn.close()
-    return evals, ckpts
-
-
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 def test_sigkill_then_resume_gives_the_identical_samples(result: PosteriorResult,
                                                          case_path: Path,
                                                          tmp_path: Path) -> None:
     out = tmp_path / "killed"
-    code = CHILD.format(src=SRC, here=HERE)
-    child = subprocess.Popen([sys.executable, "-c", code, str(case_path), str(out)],
-                             start_new_session=True)
-    store = out / POSTERIOR_DIR / FILENAME
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and child.poll() is None:
-            evals, ckpts = _progress(store)
-            if evals >= 500 and ckpts >= 1:  # past the first stage, before the end (4 × 3,200)
-                os.killpg(child.pid, signal.SIGKILL)
-                break
-            time.sleep(0.01)
-    finally:
-        if child.poll() is None:
-            os.killpg(child.pid, signal.SIGKILL)
-        child.wait()
-    assert child.returncode == -signal.SIGKILL, "the sampler ended before it was killed"
+    # killed past the first stage, before the end (4 × 3,200 evaluations)
+    code = kill_posterior_when(case_path, out, out / POSTERIOR_DIR / FILENAME, 500, 2e-3)
+    assert code == -signal.SIGKILL, "the sampler ended before it was killed"
     assert not (out / POSTERIOR_FILE).exists()
     resumed = run_posterior(load_case(case_path), out, resume=True)
     assert resumed.samples.tobytes() == result.samples.tobytes()

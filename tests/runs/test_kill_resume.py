@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
-import sqlite3
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +13,7 @@ import pytest
 from femupdate.problems.dynamic import DynamicProblem
 from femupdate.runs import Execution, run_all
 from femupdate.runs.store import FILENAME, ResultsStore
+from kill_midway import kill_midway, store_progress
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 
@@ -48,41 +46,14 @@ run_all(p.{fun}, p.bounds, {method!r}, store_dir=sys.argv[1],
 """
 
 
-def _progress(path: Path) -> tuple[int, int]:
-    """Evaluations and checkpoints stored so far (0, 0 before the store exists)."""
-    if not path.is_file():
-        return 0, 0
-    conn = sqlite3.connect(path, timeout=10)
-    try:
-        evals = conn.execute("SELECT count(*) FROM evaluations").fetchone()[0]
-        ckpts = conn.execute("SELECT count(*) FROM checkpoints").fetchone()[0]
-    except sqlite3.OperationalError:  # tables not created yet
-        return 0, 0
-    finally:
-        conn.close()
-    return evals, ckpts
-
-
 def _kill_midway(out: Path, method: str) -> tuple[int, int]:
     settings, fun = RUNS[method]
     total = settings["runs"] * settings["max_evals"]
     code = CHILD.format(fun=fun, method=method, execution=EXECUTION, settings=settings)
-    # Its own session, so SIGKILL reaches the coordinator and its worker processes at once.
-    child = subprocess.Popen([sys.executable, "-c", code, str(out)], start_new_session=True)
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and child.poll() is None:
-            evals, ckpts = _progress(out / FILENAME)
-            if evals >= total // 8 and ckpts >= 2:
-                os.killpg(child.pid, signal.SIGKILL)
-                break
-            time.sleep(0.01)
-    finally:
-        if child.poll() is None:
-            os.killpg(child.pid, signal.SIGKILL)
-        child.wait(timeout=30)
-    assert child.returncode == -signal.SIGKILL, "the runs ended before they could be killed"
-    return _progress(out / FILENAME)
+    exit_code = kill_midway([sys.executable, "-c", code, str(out)], out / FILENAME,
+                            total // 8, 2)
+    assert exit_code == -signal.SIGKILL, "the runs ended before they could be killed"
+    return store_progress(out / FILENAME)
 
 
 @pytest.mark.parametrize("method", sorted(RUNS))

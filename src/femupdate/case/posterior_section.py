@@ -58,21 +58,26 @@ class PosteriorSection(Section):
 
     ``samples``: TMCMC's population, the equally weighted samples each run ends with;
     ``runs``: independent runs (seeds: the children of ``seed``), pooled, whose agreement
-    checks each parameter's effective samples (one run cannot check itself);
+    checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
+    while a parameter is unsettled, ``runs`` more are added, up to this many in all;
     ``error_model``: "neff" (default), "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
     :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ);
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
     ``modes_samples``: how many of the samples the modes and predictive bands are computed
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
-    first population."""
+    first population; ``recentre``: how many times at most the posterior is sampled again
+    from a better fit the sampler finds than the one it started from (0: never; it is then
+    said in words, :mod:`femupdate.sampling.start`)."""
 
     samples: integer_field(ge=20, le=1_000_000) = 1000
     runs: integer_field(ge=1, le=64) = 4
+    max_runs: integer_field(ge=1, le=256) = 12
     error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv"] = "neff"
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000
     modes_samples: integer_field(ge=0, le=100_000) = 200
     start: Literal["laplace", "prior"] = "laplace"
+    recentre: integer_field(ge=0, le=8) = 2
     priors: dict[str, PriorSpec] = Field(default_factory=dict)
 
 

@@ -92,6 +92,11 @@ class PosteriorRecord(_Record):
     Gelman–Rubin's R̂ (None with one run); ``unsettled``: the parameters with too few
     effective samples for their intervals to be trusted, and ``agreement`` the verdict in
     words (:mod:`femupdate.sampling.agreement`).
+
+    ``start_phi``: φ of the fit the error model and the first population come from (the
+    search's best, or a better fit the sampler found: ``recentred`` times sampled again);
+    ``start_warnings``: what the start's checks said, in words (the search's best not found
+    again, a better fit found, :mod:`femupdate.sampling.start`).
     """
 
     method: str
@@ -123,6 +128,9 @@ class PosteriorRecord(_Record):
     rhat: dict[str, float | None] = Field(default_factory=dict)
     unsettled: list[str] = Field(default_factory=list)
     agreement: str = ""
+    start_phi: float | None = None
+    recentred: int = 0
+    start_warnings: list[str] = Field(default_factory=list)
 
     def evidence_spread(self) -> str:
         """" (runs: LOW to HIGH, sd S)" of the log-evidence over several runs, else ""."""

@@ -132,8 +132,8 @@ def agreement_words(runs: int, names: Sequence[str], ess: np.ndarray, within: np
         else:
             parts.append(f"{name} ({_count(ess[j])} effective samples)")
     return (f"UNSETTLED: the {runs} runs do not pin down {', '.join(parts)}; their pooled "
-            f"90 % intervals are not to be trusted (raise [posterior] samples or runs, or see "
-            "docs/posterior-usage.md)")
+            f"90 % intervals are not to be trusted (raise [posterior] max_runs or samples, or "
+            "see docs/posterior-usage.md)")
 
 
 def runs_disagree(runs: int, within: np.ndarray, across: np.ndarray,

@@ -51,6 +51,8 @@ def print_posterior(record: PosteriorRecord, out: Console) -> None:
     elif record.agreement:
         out.print(Text(f"verdict: {record.agreement}",
                        style="bold yellow" if record.unsettled else "green"))
+    for warning in record.start_warnings:
+        out.print(Text(f"start: {warning}", style="bold yellow"))
     if record.failed_evaluations:
         out.print(Text(f"{record.failed_evaluations:,} evaluations failed (zero likelihood): "
                        f"{record.failure}"))

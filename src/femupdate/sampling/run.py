@@ -11,7 +11,12 @@
 3. Whether the runs agree (:mod:`femupdate.sampling.agreement`): each parameter's effective
    samples, the smaller of the runs' own estimates and what the scatter of their means shows;
    a parameter with too few is called unsettled, in words.
-4. What the pooled samples say: marginals and correlations of the parameters, the natural
+4. Whether the start was the best fit (:mod:`femupdate.sampling.start`): when the sampler
+   found a better one, it is polished, and the error model, the Laplace Gaussian and steps
+   2–3 are taken again there (in the store ``DIR/posterior/recentred-k``),
+   ``[posterior] recentre`` times at most; that, and the search's verdict when it did not
+   converge, said in words.
+5. What the pooled samples say: marginals and correlations of the parameters, the natural
    frequencies and damping ratios over a thinned subset, predictive bands on every trial with
    the share of each measured record they cover; into ``DIR/summary.json`` (``posterior``)
    and ``DIR/posterior.npz``, read by the report.
@@ -56,14 +61,27 @@ from femupdate.results import POSTERIOR_FILE, Summary, write_summary
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
 from femupdate.runs.store import FILENAME
-from femupdate.sampling.agreement import runs_agreement
+from femupdate.sampling.agreement import Agreement, runs_agreement
 from femupdate.sampling.bands import Bands, predictive_bands, save_bands
 from femupdate.sampling.modes import sample_modes
+from femupdate.sampling.start import (
+    better_fit,
+    polish,
+    recentred_sentence,
+    search_sentence,
+    unfollowed_sentence,
+)
 from femupdate.update import UpdateProblem
 from femupdate.workflow import UpdateResult, run_case
 
 #: The sampler's own results store, beside the search's.
 POSTERIOR_DIR = "posterior"
+#: Inside it, the stores of the passes sampled again from a better fit (``recentred-1``, …).
+RECENTRED_DIR = "recentred"
+#: Inside a pass's store, the stores of the runs added while a parameter is unsettled.
+MORE_RUNS_DIR = "more"
+#: The spawn key of the added runs' seeds (apart from the children 0–11 the run takes).
+MORE_RUNS_KEY = 1000
 
 
 @dataclass
@@ -149,9 +167,112 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
         return model, prior, None, str(exc)
 
 
+@dataclass
+class Sampled:
+    """The posterior sampled from one fit: the error model measured there, the prior, why
+    there was no Laplace Gaussian to start from (or None), how the start was changed (or
+    None), and the sampler runs' outcomes."""
+
+    model: ErrorModel
+    prior: Prior
+    why: str | None
+    start_note: str | None
+    outcomes: list[RunOutcome]
+
+
+@dataclass
+class FitSampler:
+    """Samples the posterior from a fit (:meth:`sample`), each time in its own store, and
+    counts the evaluations and wall time of every pass."""
+
+    problem: SampledProblem
+    case: Case
+    settings: PosteriorSection
+    seed: int | None
+    population: int
+    counts_from: ErrorModel | None
+    resume: bool
+    execution: Execution
+    evaluations: int = 0
+    wall_s: float = 0.0
+
+    def sample(self, x: np.ndarray, store_dir: Path, recentre_below: float | None = None
+               ) -> Sampled:
+        """The error model and Laplace Gaussian at ``x``, then ``[posterior] runs`` TMCMC
+        runs from that Gaussian (or the prior) through ``run_all`` in ``store_dir``, and more
+        while a parameter is unsettled, unless a run found a better fit than
+        ``recentre_below`` (the start's φ, when the caller will sample again from it)."""
+        problem, settings, seed = self.problem, self.settings, self.seed
+        model, prior, gaussian, why = best_fit_gaussian(problem, x, settings.error_model,
+                                                        self.counts_from)
+        specs = {n: p.spec() for n, p in settings.priors.items()}
+        reference, start_note = None, None
+        if gaussian is not None and settings.start != "prior":
+            reference, start_note = start_reference(
+                gaussian.mean_unit, gaussian.cov_unit,
+                np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
+        options = sampler_options(model, prior, specs, self.population, reference)
+        outcomes = self._runs(options, store_dir, seed)
+        # runs are added, `runs` at a time, while a parameter is unsettled (module agreement)
+        batch = 0
+        while (len(outcomes) + settings.runs <= settings.max_runs
+               and (recentre_below is None or better_fit(outcomes, recentre_below) is None)
+               and (agreement := outcomes_agreement(prior, outcomes, problem.names)) is not None
+               and agreement.unsettled):
+            batch += 1
+            outcomes += self._runs(options, store_dir / f"{MORE_RUNS_DIR}-{batch}",
+                                   batch_seed(seed, batch))
+        return Sampled(model, prior, why, start_note, outcomes)
+
+    def _runs(self, options: dict[str, Any], store_dir: Path, seed: int | None
+              ) -> list[RunOutcome]:
+        """``[posterior] runs`` TMCMC runs with ``options`` through ``run_all``."""
+        problem = self.problem
+        outcomes = run_all(
+            problem.residuals, problem.bounds, METHOD, runs=self.settings.runs, seed=seed,
+            max_evals=self.settings.max_evals, options=options, store_dir=store_dir,
+            resume=self.resume,
+            identity=CaseIdentity(self.case.to_dict(), self.case.fingerprint(), problem.names,
+                                  data=file_hashes(data_files(self.case))),
+            execution=self.execution, residuals=True)
+        self.evaluations += sum(o.nfev for o in outcomes)
+        self.wall_s += sum(o.wall_s for o in outcomes)
+        return list(outcomes)
+
+
+def batch_seed(seed: int | None, batch: int) -> int | None:
+    """The root seed of the ``batch``-th runs added (None: fresh entropy, as ``seed``): a
+    child of ``seed`` apart from those of the first runs, the bands and the start."""
+    if seed is None:
+        return None
+    state = np.random.SeedSequence(seed, spawn_key=(MORE_RUNS_KEY, batch)).generate_state(2)
+    return int(state[0]) << 31 | int(state[1]) >> 1
+
+
+def run_samples(prior: Prior, outcomes: Sequence[RunOutcome], count: int
+                ) -> tuple[list[np.ndarray], list[np.ndarray]] | None:
+    """Each sampler run's samples (search space) and its own effective samples of each of
+    the ``count`` parameters; None unless every run reached the posterior."""
+    extras: list[dict[str, Any]] = [o.extras or {} for o in outcomes]
+    if not all(e.get("reached") for e in extras):
+        return None
+    searches = [prior.to_search(np.asarray(e["samples_unit"], dtype=float)) for e in extras]
+    own = [np.asarray(e.get("ess_params") or [e["ess"]] * count, dtype=float) for e in extras]
+    return searches, own
+
+
+def outcomes_agreement(prior: Prior, outcomes: Sequence[RunOutcome], names: Sequence[str]
+                       ) -> Agreement | None:
+    """The agreement of sampler runs (None unless every run reached the posterior)."""
+    got = run_samples(prior, outcomes, len(names))
+    return None if got is None else runs_agreement(*got, list(names))
+
+
 def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   samples: int | None = None, runs: int | None = None,
-                  workers: int | None = None, resume: bool = False, restart: bool = False,
+                  max_runs: int | None = None, recentre: int | None = None,
+                  workers: int | None = None,
+                  resume: bool = False, restart: bool = False,
                   execution: Execution | None = None,
                   experiments: Sequence[Experiment] | None = None,
                   counts_from: ErrorModel | None = None) -> PosteriorResult:
@@ -162,8 +283,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     case : Case
     out_dir : Path
         Results directory (the search's results, ``posterior/`` and ``posterior.npz``).
-    seed, samples, runs : int or None
-        Override ``[posterior] seed``, ``samples`` and ``runs``.
+    seed, samples, runs, max_runs, recentre : int or None
+        Override ``[posterior] seed``, ``samples``, ``runs``, ``max_runs`` and ``recentre``.
     workers : int or None
         Override ``[search] workers`` (for the search and the sampler).
     resume : bool
@@ -180,11 +301,14 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         likelihood of the data (:mod:`femupdate.sampling.classes`).
     """
     settings = posterior_settings(case)
-    if runs is not None:
-        if isinstance(runs, bool) or not isinstance(runs, int) or not 1 <= runs <= 64:
-            raise ConfigError(f"{case.label}: runs: got {runs!r} (allowed: an integer in "
-                              "[1, 64])")
-        settings = settings.model_copy(update={"runs": runs})
+    for name, value, low, high in (("runs", runs, 1, 64), ("max_runs", max_runs, 1, 256),
+                                   ("recentre", recentre, 0, 8)):
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: an integer in "
+                              f"[{low}, {high}])")
+        settings = settings.model_copy(update={name: value})
     seed = settings.seed if seed is None else seed
     population = settings.samples if samples is None else samples
     need = SAMPLES_PER_PARAMETER * len(case.parameters)
@@ -200,33 +324,52 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     if restart and sampler_dir.is_dir():
         from femupdate.workflow import start_over
 
+        # the stores of re-centred passes and added runs inside it, deepest first
+        for store in sorted(sampler_dir.rglob(FILENAME), key=lambda f: -len(f.parts)):
+            start_over(store.parent)
         start_over(sampler_dir)
     reuse = not restart and (out_dir / FILENAME).is_file()
     search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
                       execution=execution, keep_history=False, experiments=experiments)
     problem = SampledProblem.of(search.problem)
-    best_x = np.asarray(search.summary.runs[search.summary.best.run].x, dtype=float)
-    model, prior, gaussian, why = best_fit_gaussian(problem, best_x, settings.error_model,
-                                                    counts_from)
-    specs = {n: p.spec() for n, p in settings.priors.items()}
-    reference, start_note = None, None
-    if gaussian is not None and settings.start != "prior":
-        reference, start_note = start_reference(
-            gaussian.mean_unit, gaussian.cov_unit,
-            np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
-    options = sampler_options(model, prior, specs, population, reference)
+    best = search.summary.runs[search.summary.best.run]
     workers = case.search.workers if workers is None else workers
-    outcomes = run_all(
-        problem.residuals, problem.bounds, METHOD, runs=settings.runs, seed=seed,
-        max_evals=settings.max_evals, options=options, store_dir=sampler_dir, resume=resume,
-        identity=CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
-                              data=file_hashes(data_files(case))),
-        execution=dataclasses.replace(execution, workers=workers), residuals=True)
-    record, physical = posterior_record(problem, prior, outcomes, settings, seed, population)
-    if why is not None:
-        record.message += f"; started from the prior: no Laplace approximation ({why})"
-    elif start_note is not None:
-        record.message += f"; started from {start_note}"
+    sampling = FitSampler(problem, case, settings, seed, population, counts_from, resume,
+                            dataclasses.replace(execution, workers=workers))
+    x, phi = np.asarray(best.x, dtype=float), float(best.phi)
+    done = sampling.sample(x, sampler_dir, phi if settings.recentre else None)
+    start_words: list[str] = []
+    # the sampler found a better fit than its start: sample again from it (module start)
+    passes, polish_evals = 0, 0
+    while (better := better_fit(done.outcomes, phi)) is not None:
+        if passes == settings.recentre:
+            start_words.append(unfollowed_sentence(phi, better.fun))
+            break
+        passes += 1
+        # the polish's seed: child 3 + pass of the seed (children 1 and 2 seed the bands
+        # and the start's mass estimate)
+        x, phi, evals = polish(problem.residuals, problem.bounds, better.x,
+                               np.random.SeedSequence(seed).spawn(4 + passes)[3 + passes])
+        polish_evals += evals
+        done = sampling.sample(x, sampler_dir / f"{RECENTRED_DIR}-{passes}",
+                               phi if passes < settings.recentre else None)
+    if passes:
+        start_words.insert(0, recentred_sentence(float(best.phi), phi, passes))
+    if (words := search_sentence(search.summary.verdict, passes > 0)) is not None:
+        start_words.append(words)
+    record, physical = posterior_record(problem, done.prior, done.outcomes, settings, seed,
+                                        population)
+    record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
+    if record.runs > settings.runs:
+        record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
+                           f"unsettled: {settings.runs} → {record.runs} ([posterior] "
+                           f"max_runs = {settings.max_runs})")
+    # every pass and polish counts (the record's own figures are the last pass's)
+    record.nfev, record.wall_s = sampling.evaluations + polish_evals, sampling.wall_s
+    if done.why is not None:
+        record.message += f"; started from the prior: no Laplace approximation ({done.why})"
+    elif done.start_note is not None:
+        record.message += f"; started from {done.start_note}"
     bands: list[Bands] = []
     (out_dir / POSTERIOR_FILE).unlink(missing_ok=True)  # never an earlier run's samples
     if physical.shape[0]:
@@ -234,13 +377,13 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         freqs, zetas = sample_modes(problem, subset)
         _modes_into(record, freqs, zetas, subset.shape[0])
         record.joint_names, record.joint_correlations = joint_correlations(
-            list(problem.names), prior.physical_to_search(subset), freqs, zetas)
+            list(problem.names), done.prior.physical_to_search(subset), freqs, zetas)
         rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         bands = predictive_bands(problem, subset, search.summary, rng)
         save_bands(out_dir / POSTERIOR_FILE, list(problem.names), physical, freqs, bands)
     summary = search.summary.model_copy(update={"posterior": record})
     write_summary(summary, out_dir)
-    return PosteriorResult(summary, record, physical, bands, search, model)
+    return PosteriorResult(summary, record, physical, bands, search, done.model)
 
 
 def start_reference(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator,
@@ -299,7 +442,8 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
                   failed_evaluations=sum(int(e.get("failures", o.nfail))
                                          for e, o in zip(extras, outcomes, strict=True)),
                   failure=failures[0] if failures else None)
-    if not all(reached):
+    got = run_samples(prior, outcomes, len(names))
+    if got is None:
         betas = [float(e.get("beta", 0.0)) for e in extras]
         short = [i for i, r in enumerate(reached) if not r]
         message = (f"{len(short)} of {len(outcomes)} sampler runs stopped before tempering "
@@ -309,10 +453,7 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
         return PosteriorRecord(**common, samples=population * len(outcomes), reached=False,
                                message=message, log_evidence=None,
                                ess=None), np.empty((0, len(names)))
-    units = [np.asarray(e["samples_unit"], dtype=float) for e in extras]
-    searches = [prior.to_search(u) for u in units]
-    own = [np.asarray(e.get("ess_params") or [e["ess"]] * len(names), dtype=float)
-           for e in extras]
+    searches, own = got
     agreement = runs_agreement(searches, own, names)
     search = np.vstack(searches)
     physical = prior.search_to_physical(search)
