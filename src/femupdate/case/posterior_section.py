@@ -59,7 +59,8 @@ class PosteriorSection(Section):
     ``samples``: TMCMC's population, the equally weighted samples each run ends with;
     ``runs``: independent runs (seeds: the children of ``seed``), pooled, whose agreement
     checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
-    while a parameter is unsettled, ``runs`` more are added, up to this many in all;
+    while a parameter is unsettled, ``runs`` more are added, up to this many in all (none to
+    one run);
     ``error_model``: "neff" (default), "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
     :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ);
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);

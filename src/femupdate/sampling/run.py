@@ -213,9 +213,10 @@ class FitSampler:
                 np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
         options = sampler_options(model, prior, specs, self.population, reference)
         outcomes = self._runs(options, store_dir, seed)
-        # runs are added, `runs` at a time, while a parameter is unsettled (module agreement)
+        # runs are added, `runs` at a time, while a parameter is unsettled (module agreement);
+        # not to one run, which asked for no check
         batch = 0
-        while (len(outcomes) + settings.runs <= settings.max_runs
+        while (settings.runs > 1 and len(outcomes) + settings.runs <= settings.max_runs
                and (recentre_below is None or better_fit(outcomes, recentre_below) is None)
                and (agreement := outcomes_agreement(prior, outcomes, problem.names)) is not None
                and agreement.unsettled):
