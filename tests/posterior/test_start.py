@@ -159,3 +159,19 @@ def test_runs_are_added_while_a_parameter_is_unsettled(tmp_path: Path) -> None:
     four = run_posterior(case, tmp_path / "four", max_runs=4)
     assert four.record.runs == 4 and four.record.unsettled
     assert got.samples[:160].tobytes() == four.samples.tobytes()
+
+
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
+def test_without_a_seed_a_recentred_pass_killed_still_resumes(tmp_path: Path) -> None:
+    # No [posterior] seed: the runs' entropy is fresh but stored, and the polish and the
+    # start's choices follow from the stored points, so the resume is not refused.
+    path = write_case(tmp_path / "unseeded")
+    path.write_text(path.read_text().replace("max_evals = 1500", "max_evals = 25")
+                    .replace("seed = 5\n", ""))
+    out = tmp_path / "out"
+    code = kill_posterior_when(path, out, out / POSTERIOR_DIR / f"{RECENTRED_DIR}-1" / FILENAME,
+                               1, 1e-3)
+    assert code == -signal.SIGKILL, "the sampler ended before it was killed"
+    resumed = run_posterior(load_case(path), out, resume=True)
+    assert resumed.record.reached and resumed.record.recentred >= 1
+    assert resumed.record.seed is None

@@ -80,8 +80,9 @@ POSTERIOR_DIR = "posterior"
 RECENTRED_DIR = "recentred"
 #: Inside a pass's store, the stores of the runs added while a parameter is unsettled.
 MORE_RUNS_DIR = "more"
-#: The spawn key of the added runs' seeds (apart from the children 0–11 the run takes).
-MORE_RUNS_KEY = 1000
+#: Spawn keys of the seed's children: the bands' draws (1), the start's mass estimate (2),
+#: the polish before re-centring pass k (3 + k), the added runs' root seeds (1000, batch).
+BANDS_KEY, START_KEY, POLISH_KEY, MORE_RUNS_KEY = 1, 2, 3, 1000
 
 
 @dataclass
@@ -210,7 +211,7 @@ class FitSampler:
         if gaussian is not None and settings.start != "prior":
             reference, start_note = start_reference(
                 gaussian.mean_unit, gaussian.cov_unit,
-                np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
+                np.random.default_rng(derived_seed(seed, x, START_KEY)))
         options = sampler_options(model, prior, specs, self.population, reference)
         outcomes = self._runs(options, store_dir, seed)
         # runs are added, `runs` at a time, while a parameter is unsettled (module agreement);
@@ -239,6 +240,16 @@ class FitSampler:
         self.evaluations += sum(o.nfev for o in outcomes)
         self.wall_s += sum(o.wall_s for o in outcomes)
         return list(outcomes)
+
+
+def derived_seed(seed: int | None, x: np.ndarray, key: int) -> np.random.SeedSequence:
+    """Child ``key`` of ``seed``; without a seed, of the point ``x`` instead of fresh entropy,
+    so that a resumed posterior (whose runs' stores recorded their entropy and give the same
+    points again) makes the same choices."""
+    entropy = seed if seed is not None else [
+        int(v) for v in np.frombuffer(np.ascontiguousarray(x, dtype=float).tobytes(),
+                                      dtype=np.uint32)]
+    return np.random.SeedSequence(entropy, spawn_key=(key,))
 
 
 def batch_seed(seed: int | None, batch: int) -> int | None:
@@ -347,10 +358,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
             start_words.append(unfollowed_sentence(phi, better.fun))
             break
         passes += 1
-        # the polish's seed: child 3 + pass of the seed (children 1 and 2 seed the bands
-        # and the start's mass estimate)
         x, phi, evals = polish(problem.residuals, problem.bounds, better.x,
-                               np.random.SeedSequence(seed).spawn(4 + passes)[3 + passes])
+                               derived_seed(seed, better.x, POLISH_KEY + passes))
         polish_evals += evals
         done = sampling.sample(x, sampler_dir / f"{RECENTRED_DIR}-{passes}",
                                phi if passes < settings.recentre else None)
@@ -379,7 +388,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         _modes_into(record, freqs, zetas, subset.shape[0])
         record.joint_names, record.joint_correlations = joint_correlations(
             list(problem.names), done.prior.physical_to_search(subset), freqs, zetas)
-        rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(BANDS_KEY,)))
         bands = predictive_bands(problem, subset, search.summary, rng)
         save_bands(out_dir / POSTERIOR_FILE, list(problem.names), physical, freqs, bands)
     summary = search.summary.model_copy(update={"posterior": record})
