@@ -5,6 +5,8 @@
     python benchmarks/posterior.py --only calibration --replicates 50
     python benchmarks/posterior.py --only calibration --replicates 20 --kinds neff \
         --tmcmc-kinds neff --hits tmcmc.jsonl
+    python benchmarks/posterior.py --only calibration --product --fit-evals 2000 \
+        --hits product.jsonl
     python benchmarks/posterior.py --only speed --population 6000 [--threads 2]
     python benchmarks/posterior.py --only evidence --evidence-population 4000 --seeds 20 \
         --threads 2
@@ -23,6 +25,10 @@ Sections (``--only`` takes a comma-separated list):
   Laplace record gives it) and TMCMC's for ``--tmcmc-kinds``; the share of
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
+  ``--product`` runs each replicate through ``femupdate posterior`` itself instead (the
+  case's search of ``--fit-runs`` runs of ``--fit-evals`` evaluations, then the default
+  ``[posterior]``, without re-centring and with ``--recentre``), and prints the start's
+  verdict beside the runs'.
 - ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
   scatter of its estimate? The truth's Mahalanobis distance on the first replicates, with
   the table's record noisy and clean, and the scatter over noise draws at one truth
