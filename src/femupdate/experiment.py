@@ -457,16 +457,12 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
     notes: list[str] = list(measurement.notes)
     pre = case.preprocess
     rate = measurement.rate
-    if pre.highpass_hz >= rate / 2:
-        raise ConfigError(f"{case.label}: preprocess.highpass_hz: got {pre.highpass_hz:g} Hz "
-                          f"for data at {rate:.6g} Hz (the rate of "
-                          f"{case.data_path(data.input)}) (allowed: 0 (off) or below the "
-                          f"Nyquist frequency {rate / 2:.6g} Hz)")
-    if pre.lowpass_hz is not None and pre.lowpass_hz >= rate / 2:
-        raise ConfigError(f"{case.label}: preprocess.lowpass_hz: got {pre.lowpass_hz:g} Hz "
-                          f"for data at {rate:.6g} Hz (the rate of "
-                          f"{case.data_path(data.input)}) (allowed: below the Nyquist "
-                          f"frequency {rate / 2:.6g} Hz)")
+    for name, cutoff, off in (("highpass_hz", pre.highpass_hz, "0 (off) or "),
+                              ("lowpass_hz", pre.lowpass_hz, "")):
+        if cutoff is not None and cutoff >= rate / 2:
+            raise ConfigError(f"{case.label}: preprocess.{name}: got {cutoff:g} Hz for data at "
+                              f"{rate:.6g} Hz (the rate of {case.data_path(data.input)}) "
+                              f"(allowed: {off}below the Nyquist frequency {rate / 2:.6g} Hz)")
     labels = tuple(c.label for c in data.outputs)
     wanted = {c.label: c.delay for c in data.outputs}
     low, high = pre.delay_band_hz

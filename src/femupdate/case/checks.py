@@ -281,16 +281,12 @@ def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
                     issues.append((where, what, allowed))
     issues += output_issues(case.model, data, path)
     rate = case.preprocess.resample_hz or data.rate
-    if rate is not None and case.preprocess.highpass_hz >= rate / 2:
-        cutoff = format_value(case.preprocess.highpass_hz)
-        issues.append(("preprocess.highpass_hz", f"got {cutoff} for data at "
-                       f"{format_value(rate)} Hz",
-                       f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
-    lowpass = case.preprocess.lowpass_hz
-    if rate is not None and lowpass is not None and lowpass >= rate / 2:
-        issues.append(("preprocess.lowpass_hz", f"got {format_value(lowpass)} for data at "
-                       f"{format_value(rate)} Hz",
-                       f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
+    for name in ("highpass_hz", "lowpass_hz"):
+        cutoff = getattr(case.preprocess, name)
+        if rate is not None and cutoff is not None and cutoff >= rate / 2:
+            issues.append((f"preprocess.{name}", f"got {format_value(cutoff)} for data at "
+                           f"{format_value(rate)} Hz",
+                           f"below the Nyquist frequency {format_value(rate / 2)} Hz"))
     band = case.preprocess.delay_band_hz
     auto = any(out.delay == "auto" for out in data.outputs)
     if auto and rate is not None and band[0] < band[1] and band[1] >= rate / 2:

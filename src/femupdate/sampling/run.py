@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +36,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from femupdate.case import Case
+from femupdate.case.fields import Range, field_range
 from femupdate.case.posterior_section import (
     DEFAULT_POSTERIOR,
     SAMPLES_PER_PARAMETER,
@@ -187,7 +189,7 @@ class FitSampler:
     counts the evaluations and wall time of every pass."""
 
     problem: SampledProblem
-    case: Case
+    identity: CaseIdentity
     settings: PosteriorSection
     seed: int | None
     population: int
@@ -233,10 +235,8 @@ class FitSampler:
         outcomes = run_all(
             problem.residuals, problem.bounds, METHOD, runs=self.settings.runs, seed=seed,
             max_evals=self.settings.max_evals, options=options, store_dir=store_dir,
-            resume=self.resume,
-            identity=CaseIdentity(self.case.to_dict(), self.case.fingerprint(), problem.names,
-                                  data=file_hashes(data_files(self.case))),
-            execution=self.execution, residuals=True)
+            resume=self.resume, identity=self.identity, execution=self.execution,
+            residuals=True)
         self.evaluations += sum(o.nfev for o in outcomes)
         self.wall_s += sum(o.wall_s for o in outcomes)
         return list(outcomes)
@@ -313,13 +313,13 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         likelihood of the data (:mod:`femupdate.sampling.classes`).
     """
     settings = posterior_settings(case)
-    for name, value, low, high in (("runs", runs, 1, 64), ("max_runs", max_runs, 1, 256),
-                                   ("recentre", recentre, 0, 8)):
+    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre)):
         if value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: an integer in "
-                              f"[{low}, {high}])")
+        allowed = typing.cast(Range, field_range(PosteriorSection.model_fields[name]))
+        if isinstance(value, bool) or not isinstance(value, int) or not allowed.contains(value):
+            raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: "
+                              f"{allowed.describe()})")
         settings = settings.model_copy(update={name: value})
     seed = settings.seed if seed is None else seed
     population = settings.samples if samples is None else samples
@@ -346,8 +346,11 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     problem = SampledProblem.of(search.problem)
     best = search.summary.runs[search.summary.best.run]
     workers = case.search.workers if workers is None else workers
-    sampling = FitSampler(problem, case, settings, seed, population, counts_from, resume,
-                            dataclasses.replace(execution, workers=workers))
+    # what the stores belong to (the data files hashed once, for every pass and added run)
+    identity = CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
+                            data=file_hashes(data_files(case)))
+    sampling = FitSampler(problem, identity, settings, seed, population, counts_from, resume,
+                          dataclasses.replace(execution, workers=workers))
     x, phi = np.asarray(best.x, dtype=float), float(best.phi)
     done = sampling.sample(x, sampler_dir, phi if settings.recentre else None)
     start_words: list[str] = []
