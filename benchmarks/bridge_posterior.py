@@ -3,14 +3,14 @@ what it says of each parameter, beside the Laplace approximation at the best fit
 evaluations and wall time.
 
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples N]
-        [--runs R] [--max-runs M] [--recentre K] [--workers W] [--seed 1] [--out DIR]
-        [--quick]
+        [--runs R] [--max-runs M] [--recentre K] [--error-model KIND] [--workers W]
+        [--seed 1] [--out DIR] [--quick]
 
-``--samples``, ``--runs``, ``--max-runs`` and ``--recentre`` default to ``[posterior]``'s
-defaults (1,000 samples per run, 4 independent runs, up to 12 while a parameter is unsettled,
-2 re-centrings); ``--workers`` (default 1) is the case's ``[search] workers``, which the
-sampler uses too. ``--quick`` (a smoke run for CI): 300 samples per run after a search of 2
-runs of 600 evaluations.
+``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` default to
+``[posterior]``'s defaults (1,000 samples per run, 4 independent runs, up to 12 while a
+parameter is unsettled, 2 re-centrings, ``neff``); ``--workers`` (default 1) is the case's
+``[search] workers``, which the sampler uses too. ``--quick`` (a smoke run for CI): 300
+samples per run after a search of 2 runs of 600 evaluations.
 
 The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
 case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
@@ -44,6 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", type=int, default=DEFAULT_POSTERIOR.runs)
     parser.add_argument("--max-runs", type=int, default=DEFAULT_POSTERIOR.max_runs)
     parser.add_argument("--recentre", type=int, default=DEFAULT_POSTERIOR.recentre)
+    parser.add_argument("--error-model", default=DEFAULT_POSTERIOR.error_model)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
@@ -58,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
                           workers=args.workers)
     spec["posterior"] = {"samples": args.samples, "runs": args.runs, "seed": args.seed,
                          "max_runs": args.max_runs, "recentre": args.recentre,
-                         "modes_samples": 100}
+                         "error_model": args.error_model, "modes_samples": 100}
     case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
     truth_values = truth(args.model)
     ensure_records(case, truth_values, data, seed=0, snr=0.02)

@@ -3,15 +3,16 @@ three model forms fitted to El Centro trial 1, and the best class's predictive b
 five trials it was not fitted to.
 
     python benchmarks/model_classes.py [--data DIR] [--models linear,jenkins,table]
-        [--samples 1000] [--seed 1] [--workers 2] [--out DIR] [--json PATH]
+        [--samples 1000] [--seed 1] [--error-model KIND] [--workers 2] [--out DIR]
+        [--json PATH]
 
 The classes are those of ``examples/minishake-1story/study.py`` (its fit set "a": El Centro 1
 fitted, the five other trials validated): the linear viscous storey (k, c), the paper's
 Jenkins slider (k, c, k_r, f_u) and the table-damped storey (k, c0, cv). Each: the case's
 search (multistart-lm, 4 runs), then TMCMC (``femupdate posterior``: ``--samples`` per run,
-its default 4 independent runs, and their verdict) with the default error model, its
-effective counts measured at the first class's best fit and shared (see
-:mod:`femupdate.sampling.classes`). Prints the table of log-evidences and posterior
+its default 4 independent runs, and their verdict) with the default error model (or
+``--error-model``), its effective counts measured at the first class's best fit and shared
+(see :mod:`femupdate.sampling.classes`). Prints the table of log-evidences and posterior
 probabilities (equal prior probabilities), then the coverage of the best class's 5–95 %
 predictive bands on every trial, with the evaluation counts, wall times and load average.
 Data: Chern & Perez (mdof project, BSD-2-Clause), from the shared data directory.
@@ -33,6 +34,7 @@ sys.path.insert(0, str(REPO / "examples" / "minishake-1story"))
 from study import MODELS, find_data, study_case  # noqa: E402
 
 from femupdate.case import parse_case  # noqa: E402
+from femupdate.case.posterior_section import DEFAULT_POSTERIOR  # noqa: E402
 from femupdate.runs import Execution  # noqa: E402
 from femupdate.sampling.classes import compare_classes, format_classes  # noqa: E402
 
@@ -44,6 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--models", default=",".join(MODELS))
     parser.add_argument("--samples", type=int, default=1000)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--error-model", default=DEFAULT_POSTERIOR.error_model)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--json", type=Path, default=None)
@@ -56,7 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     cases = {}
     for model in args.models.split(","):
         spec = study_case(model, "a", data).to_dict()
-        spec["posterior"] = {"samples": args.samples, "seed": args.seed, "modes_samples": 200}
+        spec["posterior"] = {"samples": args.samples, "seed": args.seed, "modes_samples": 200,
+                             "error_model": args.error_model}
         cases[model] = parse_case(spec, source=REPO / "examples" / "minishake-1story"
                                   / "trials.toml")
     out = args.out or Path(tempfile.mkdtemp(prefix="femupdate-classes-"))

@@ -88,7 +88,7 @@ from femupdate.posterior.best_fit import NOT_QUADRATIC_RATIO, centred, mode_jaco
 from femupdate.posterior.gls_sandwich import gls_sandwich_laplace, trial_groups
 from femupdate.posterior.input_noise import eiv_sandwich_laplaces, magnitude_adjusted
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
-from femupdate.posterior.likelihood import AR_MAX_ORDER, residual_blocks
+from femupdate.posterior.likelihood import AR_MAX_ORDER, SAMPLED_KIND, residual_blocks
 from femupdate.posterior.mode import WHITENING_KINDS
 from femupdate.posterior.sandwich import curvature_adjustment, sandwich_laplace
 from femupdate.posterior.tmcmc import run_tmcmc
@@ -241,7 +241,9 @@ def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: st
     prior = Prior.from_case(problem.case)
     # steps of 1 % of each range: the slope of the kp1 valley, not of one of its ripples
     jac = jacobian_unit(problem.residuals_batch, unit, prior, step=1e-2)
-    model = problem_error_model(problem, r, kind, point=prior.to_search(unit))
+    # "adjusted" takes its count from this Jacobian (k does not depend on its coordinates)
+    model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None,
+                                point=prior.to_search(unit))
     return laplace(jac, r, unit, model, prior), model, prior
 
 
@@ -426,16 +428,16 @@ def inside(marginals: dict[str, Any], names: tuple[str, ...], truth: np.ndarray
 
 
 def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
-                      fit_runs: int, recentre: int, error_model: str = "neff"
+                      fit_runs: int, recentre: int, error_model: str | None = None
                       ) -> dict[str, Any]:
     """One calibration replicate through ``femupdate posterior`` itself (``run_posterior``):
     the truth and noise of :func:`replicate`, the case's search (multistart-lm, ``fit_runs``
     runs of ``fit_evals`` evaluations, seeded from the replicate), the default
-    ``[posterior]`` (``neff``, or ``error_model``; four runs of 1,000, pooled, more while a
-    parameter is unsettled). It runs twice on one results directory: without re-centring
-    (``tmcmc`` KIND), then, resuming both stores, with ``recentre`` (``tmcmc``
-    KIND-recentred: the same samples unless the sampler found a better fit than the
-    search's)."""
+    ``[posterior]`` (its error model, or ``error_model``; four runs of 1,000, pooled, more
+    while a parameter is unsettled; the Laplace record's error model is the case's too). It
+    runs twice on one results directory: without re-centring (``tmcmc`` KIND), then,
+    resuming both stores, with ``recentre`` (``tmcmc`` KIND-recentred: the same samples
+    unless the sampler found a better fit than the search's)."""
     from femupdate.runs import Execution
     from femupdate.sampling.run import run_posterior
 
@@ -450,12 +452,13 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
         child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2))
     spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
                       "max_evals": fit_evals}
-    spec["posterior"] = {"seed": posterior_seed, "error_model": error_model}
+    spec["posterior"] = {"seed": posterior_seed} | (
+        {} if error_model is None else {"error_model": error_model})
+    sampled = error_model or SAMPLED_KIND
     case = parse_case(spec, source=work / "viscous.toml")
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
                            "tmcmc_unsettled": {}, "mode_evals": {}}
-    for kind, passes, resume in ((error_model, 0, False),
-                                 (f"{error_model}-recentred", recentre, True)):
+    for kind, passes, resume in ((sampled, 0, False), (f"{sampled}-recentred", recentre, True)):
         got = run_posterior(case, work / "out", recentre=passes, resume=resume,
                             execution=Execution(quiet=True))
         out["tmcmc"][kind] = inside(got.record.params, prior.names, truth_values)
@@ -465,7 +468,8 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
         out.setdefault("recentred", {})[kind] = got.record.recentred
     laplace_record = got.summary.laplace
     if laplace_record is not None and laplace_record.params:
-        out["laplace"][error_model] = inside(laplace_record.params, prior.names, truth_values)
+        out["laplace"][laplace_record.error_model] = inside(laplace_record.params, prior.names,
+                                                            truth_values)
     verdict = got.summary.verdict
     out["search_converged"] = None if verdict is None else verdict.converged
     out["search_phi"], out["start_phi"] = got.summary.best.phi, got.record.start_phi
@@ -518,7 +522,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
         if i < first or i in done:
             continue
         row = (product_replicate(i, child, root, fit_evals, fit_runs, recentre,
-                                 (tmcmc_kinds or ["neff"])[0]) if product
+                                 (tmcmc_kinds or [None])[0]) if product
                else replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population,
                               coarse_only, clean_input, ar_max_order, search_fit,
                               tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs))
@@ -830,15 +834,17 @@ class ThreadedBatches:
 
 
 def speed(population: int, steps: int, root: Path, emcee_max: int,
-          threads: int = 1, moves: dict[str, Any] | None = None) -> dict[str, Any]:
+          threads: int = 1, moves: dict[str, Any] | None = None, kind: str = "neff"
+          ) -> dict[str, Any]:
     moves = MOVES if moves is None else moves
     rng = np.random.default_rng(SEED)
     problem = bridge_problem("viscous", bridge.truth("viscous"), root / "speed", seed=1)
     t0 = time.perf_counter()
     unit, r, fit_evals, _ = best_fit(problem, rng)
     fit_s = time.perf_counter() - t0
-    lap, model, prior = laplace_of(problem, unit, r, "neff")
-    print(f"\n## Speed: viscous bridge, 9 parameters, 2 % noise ({load()})")
+    lap, model, prior = laplace_of(problem, unit, r, kind)
+    print(f"\n## Speed: viscous bridge, 9 parameters, 2 % noise, error model {kind!r} "
+          f"({load()})")
     print(f"best fit: {fit_evals} evaluations in {fit_s:.1f} s; Laplace: {2 * prior.dim} "
           f"evaluations")
     for sentence in lap.sentences:
@@ -879,19 +885,19 @@ def speed(population: int, steps: int, root: Path, emcee_max: int,
 
 
 def friction(population: int, steps: int, root: Path,
-             moves: dict[str, Any] | None = None) -> dict[str, Any]:
+             moves: dict[str, Any] | None = None, kind: str = "neff") -> dict[str, Any]:
     moves = MOVES if moves is None else moves
     rng = np.random.default_rng(SEED)
     problem = bridge_problem("friction", bridge.truth("friction"), root / "friction", seed=1)
     t0 = time.perf_counter()
     unit, r, fit_evals, _ = best_fit(problem, rng, max_evals=3000)
     fit_s = time.perf_counter() - t0
-    lap, model, prior = laplace_of(problem, unit, r, "neff")
+    lap, model, prior = laplace_of(problem, unit, r, kind)
     t1 = time.perf_counter()
     post, _ = run_tmcmc(problem.residuals, prior, model, seed=rng, population=population,
                         steps=steps, reference=(lap.mean_unit, lap.cov_unit), **moves)
     tm_s = time.perf_counter() - t1
-    print(f"\n## Friction bridge, 13 parameters, 2 % noise ({load()})")
+    print(f"\n## Friction bridge, 13 parameters, 2 % noise, error model {kind!r} ({load()})")
     print(f"best fit {fit_evals} evaluations {fit_s:.1f} s; TMCMC {post.evaluations} "
           f"evaluations {tm_s:.1f} s, {len(post.stages)} stages, ESS {post.ess:.0f}, "
           f"reached {post.reached}; total {time.perf_counter() - t0:.1f} s")
@@ -913,14 +919,14 @@ def across_seed_interval(across: np.ndarray, seeds: int, level: float = 0.90
 
 def evidence(population: int, steps: int, root: Path, seeds: int,
              moves: dict[str, Any] | None = None, threads: int = 1,
-             model_name: str = "viscous") -> dict[str, Any]:
+             model_name: str = "viscous", kind: str = "neff") -> dict[str, Any]:
     moves = MOVES if moves is None else moves
     rng = np.random.default_rng(SEED)
     problem = bridge_problem(model_name, bridge.truth(model_name), root / model_name, seed=1)
     # the friction bridge's best fit as its section takes it (3,000 evaluations)
     unit, r, _, _ = best_fit(problem, rng, **({"max_evals": 3000} if model_name == "friction"
                                            else {}))
-    lap, model, prior = laplace_of(problem, unit, r, "neff")
+    lap, model, prior = laplace_of(problem, unit, r, kind)
     truth = prior.from_physical(np.array([bridge.truth(model_name)[n] for n in prior.names]))
     fun = ThreadedBatches(problem, threads).residuals if threads > 1 else problem.residuals
     log_z, means, variances, ess, evals, walls = [], [], [], [], [], []
@@ -944,8 +950,9 @@ def evidence(population: int, steps: int, root: Path, seeds: int,
     across = np.mean(variances, axis=0) / np.var(means, axis=0, ddof=1)
     low, high = across_seed_interval(across, seeds)
     worst = int(np.argmin(across))
-    print(f"\n## Evidence over {seeds} seeds ({model_name} bridge, population {population}, moves "
-          f"{moves}, {threads} thread(s); {time.perf_counter() - t0:.0f} s, {load()})")
+    print(f"\n## Evidence over {seeds} seeds ({model_name} bridge, error model {kind!r}, "
+          f"population {population}, moves {moves}, {threads} thread(s); "
+          f"{time.perf_counter() - t0:.0f} s, {load()})")
     print(f"log Z: mean {np.mean(log_z):.3f}, sd {np.std(log_z, ddof=1):.3f}, range "
           f"[{min(log_z):.3f}, {max(log_z):.3f}]")
     print(f"ESS per run: estimated {np.mean(ess):.0f} (min over parameters); measured across "
@@ -1060,6 +1067,9 @@ def main() -> None:
                         help="speed, friction, evidence: the mixture proposal's components")
     parser.add_argument("--final-steps", type=int, default=None,
                         help="speed, friction, evidence: TMCMC's steps at β = 1")
+    parser.add_argument("--error-model", default="neff",
+                        help="speed, friction, evidence: the error model sampled (default "
+                        "neff, as the figures quoted without it)")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     warnings.filterwarnings("ignore", category=FutureWarning)  # ArviZ's refactor notice
@@ -1091,13 +1101,16 @@ def main() -> None:
             out["whitening"] = whitening(args.whitening_replicates, args.noise_seeds, root)
         if "speed" in sections:
             out["speed"] = speed(args.population, args.steps, root, emcee_max=200_000,
-                                 threads=args.threads, moves=moves_of(args))
+                                 threads=args.threads, moves=moves_of(args),
+                                 kind=args.error_model)
         if "friction" in sections:
-            out["friction"] = friction(2000, args.steps, root, moves=moves_of(args))
+            out["friction"] = friction(2000, args.steps, root, moves=moves_of(args),
+                                       kind=args.error_model)
         if "evidence" in sections:
             out["evidence"] = evidence(args.evidence_population, args.steps, root, args.seeds,
                                        moves=moves_of(args), threads=args.threads,
-                                       model_name=args.evidence_model)
+                                       model_name=args.evidence_model,
+                                       kind=args.error_model)
     if args.json is not None:
         args.json.write_text(json.dumps(out, indent=1, default=float))
 

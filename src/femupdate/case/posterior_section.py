@@ -61,8 +61,10 @@ class PosteriorSection(Section):
     checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
     while a parameter is unsettled, ``runs`` more are added, up to this many in all (none to
     one run);
-    ``error_model``: "neff" (default), "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
-    :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ);
+    ``error_model``: "neff", "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
+    :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ); unset, the
+    sampled posterior takes "adjusted" and the Laplace record at the best fit "neff"
+    (``SAMPLED_KIND``, ``DEFAULT_KIND``: each the calibrated one where it is used);
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
     ``modes_samples``: how many of the samples the modes and predictive bands are computed
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
@@ -73,7 +75,7 @@ class PosteriorSection(Section):
     samples: integer_field(ge=20, le=1_000_000) = 1000
     runs: integer_field(ge=1, le=64) = 4
     max_runs: integer_field(ge=1, le=256) = 12
-    error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv"] = "neff"
+    error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv"] | None = None
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000
     modes_samples: integer_field(ge=0, le=100_000) = 200

@@ -19,6 +19,7 @@ from femupdate.posterior.laplace import (
 from femupdate.posterior.likelihood import (
     DEFAULT_KIND,
     KINDS,
+    SAMPLED_KIND,
     ErrorModel,
     error_model,
     problem_error_model,
@@ -30,6 +31,7 @@ from femupdate.posterior.tmcmc import TMCMC, TMCMCPosterior, make_tmcmc, run_tmc
 __all__ = [
     "DEFAULT_KIND",
     "KINDS",
+    "SAMPLED_KIND",
     "TMCMC",
     "ErrorModel",
     "LaplaceResult",

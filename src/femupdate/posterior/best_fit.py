@@ -40,9 +40,10 @@ def case_priors(case: Any) -> Prior:
 
 
 def case_error_kind(case: Any) -> str:
-    """``[posterior] error_model``, or the default error model."""
+    """``[posterior] error_model``, or the Laplace record's default error model."""
     section = getattr(case, "posterior", None)
-    return DEFAULT_KIND if section is None else section.error_model
+    return DEFAULT_KIND if section is None or section.error_model is None \
+        else section.error_model
 
 
 def laplace_record(problem: UpdateProblem, x: np.ndarray, *,

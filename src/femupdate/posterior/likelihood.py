@@ -62,7 +62,13 @@ if TYPE_CHECKING:
 
 #: The kinds of error model, the default first.
 KINDS: tuple[str, ...] = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
+#: The error model of the Laplace record at a search's best fit when the case names none: wide
+#: enough to span the minima a search can end in (docs/posterior.md, section 6).
 DEFAULT_KIND = "neff"
+#: The error model of the sampled posterior when the case names none: calibrated in
+#: ``femupdate posterior``'s flow, which checks its start and samples again from a better fit
+#: (docs/posterior.md, section 6).
+SAMPLED_KIND = "adjusted"
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
 

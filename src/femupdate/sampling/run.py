@@ -48,7 +48,12 @@ from femupdate.posterior.best_fit import case_priors, centred, mode_jacobians
 from femupdate.posterior.input_noise import magnitude_adjusted
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
-from femupdate.posterior.likelihood import ErrorModel, problem_error_model
+from femupdate.posterior.likelihood import (
+    DEFAULT_KIND,
+    SAMPLED_KIND,
+    ErrorModel,
+    problem_error_model,
+)
 from femupdate.posterior.method import METHOD, SampledProblem, sampler_options
 from femupdate.posterior.mode import WHITENING_KINDS
 from femupdate.posterior.priors import Prior
@@ -100,8 +105,12 @@ class PosteriorResult:
 
 
 def posterior_settings(case: Case) -> PosteriorSection:
-    """``[posterior]``, or its defaults."""
-    return case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
+    """``[posterior]``, or its defaults, with the sampled posterior's error model when the
+    case names none."""
+    settings = case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
+    if settings.error_model is None:
+        settings = settings.model_copy(update={"error_model": SAMPLED_KIND})
+    return settings
 
 
 def check_records(experiments: Sequence[Experiment], case: Case) -> None:
@@ -124,18 +133,19 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                       ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
     """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
     and the Laplace Gaussian there (None, with why, when it cannot be had: TMCMC then starts
-    from the prior)."""
+    from the prior). ``"adjusted"`` takes its count from the Jacobian there; where the model
+    fails beside the best fit, there is none, and the error model is ``"neff"`` instead
+    (said in why: the Laplace Gaussian needs that Jacobian too)."""
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-    jac_adjusted = None
-    if kind == "adjusted":  # its count comes from the Jacobian at the best fit
+    jac_adjusted, instead = None, ""
+    if kind == "adjusted":
         try:
             jac_adjusted = residual_jacobian(problem.residuals_batch, problem.bounds, x)[1]
-        except FemupdateError as exc:
-            raise ConfigError(f"{problem.case.label}: [posterior] error_model = 'adjusted' "
-                              f"needs the Jacobian at the best fit: {exc} (allowed: another "
-                              "error_model)") from exc
+        except FemupdateError:
+            kind = DEFAULT_KIND
+            instead = f"; error model {kind!r} in place of 'adjusted', which needs it"
     if kind == "eiv" and counts_from is not None:
         raise ConfigError(f"{problem.case.label}: error_model 'eiv' whitens each model class's "
                           "residual by that class's own response to the table's noise, so the "
@@ -167,7 +177,7 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
         return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                      prior), None
     except FemupdateError as exc:
-        return model, prior, None, str(exc)
+        return model, prior, None, f"{exc}{instead}"
 
 
 @dataclass
@@ -373,6 +383,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     record, physical = posterior_record(problem, done.prior, done.outcomes, settings, seed,
                                         population)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
+    record.error_model = done.model.kind  # "neff" where "adjusted" had no Jacobian
     if record.runs > settings.runs:
         record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
                            f"unsettled: {settings.runs} → {record.runs} ([posterior] "
