@@ -156,6 +156,9 @@ def test_a_failed_evaluation_in_a_stage_is_recorded_not_fatal(
     got = run_posterior(load_case(case_path), tmp_path / "failing")
     assert got.record.reached and got.record.failed_evaluations > 0
     assert "started from the prior" in got.record.message  # no Jacobian beside the bound
+    # nor the count of the default error model, which needs that Jacobian: 'neff', said
+    assert got.record.error_model == "neff"
+    assert "error model 'neff' in place of 'adjusted'" in got.record.message
     assert got.record.params["k1"].q95 <= 4010.0  # never accepted where it failed
 
 

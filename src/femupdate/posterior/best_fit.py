@@ -105,12 +105,14 @@ def basin_sentences(record: LaplaceRecord, minima: int) -> list[str]:
         return [f"The runs ended in {minima} different minima, and error model "
                 f"{record.error_model!r} is sharp: its intervals hold within the best one's "
                 "basin and can miss the truth with confidence if it lies in another (error "
-                "model 'neff' spans them; or sample the posterior from the prior)"]
+                "model 'neff' spans them; femupdate posterior samples again from a better "
+                "fit its samples find)"]
     return [f"Error model {record.error_model!r} is sharp: its intervals hold within this "
             "fit's basin, and searches can find the same wrong basin again (along a rippled "
             "valley: on the bridge's calibration replicates E's interval missed the truth in "
             "half of the updates whose search was found again); error model 'neff' spans "
-            "such basins"]
+            "such basins, and femupdate posterior samples again from a better fit its "
+            "samples find"]
 
 
 def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,
