@@ -139,10 +139,12 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-    jac_adjusted, instead = None, ""
+    # (r, J) over 1 % steps: "adjusted"'s count and, but for a whitening kind, the Gaussian
+    unit_jacobian: tuple[np.ndarray, np.ndarray] | None = None
+    instead = ""
     if kind == "adjusted":
         try:
-            jac_adjusted = residual_jacobian(problem.residuals_batch, problem.bounds, x)[1]
+            unit_jacobian = residual_jacobian(problem.residuals_batch, problem.bounds, x)
         except FemupdateError:
             kind = DEFAULT_KIND
             instead = f"; error model {kind!r} in place of 'adjusted', which needs it"
@@ -151,7 +153,8 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                           "residual by that class's own response to the table's noise, so the "
                           "evidences of different classes are not of one likelihood (allowed: "
                           "another error_model for model-class selection)")
-    model = problem_error_model(problem, r, kind, jac_adjusted, point=x)
+    model = problem_error_model(problem, r, kind,
+                                None if unit_jacobian is None else unit_jacobian[1], point=x)
     if counts_from is not None:
         if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
                 or model.stops.tolist() != counts_from.stops.tolist()):
@@ -173,7 +176,8 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                 model = magnitude_adjusted(problem, model, x, r_fit, jac, r)
             return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                          prior), None
-        r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+        r, jac = unit_jacobian if unit_jacobian is not None else residual_jacobian(
+            problem.residuals_batch, problem.bounds, x)
         return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                      prior), None
     except FemupdateError as exc:
@@ -380,10 +384,10 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         start_words.insert(0, recentred_sentence(float(best.phi), phi, passes))
     if (words := search_sentence(search.summary.verdict, passes > 0)) is not None:
         start_words.append(words)
-    record, physical = posterior_record(problem, done.prior, done.outcomes, settings, seed,
-                                        population)
+    # the kind measured ("neff" where "adjusted" had no Jacobian), not only the one asked for
+    record, physical = posterior_record(problem, done.prior, done.outcomes, done.model.kind,
+                                        seed, population)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
-    record.error_model = done.model.kind  # "neff" where "adjusted" had no Jacobian
     if record.runs > settings.runs:
         record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
                            f"unsettled: {settings.runs} → {record.runs} ([posterior] "
@@ -447,7 +451,7 @@ def thinned(samples: np.ndarray, count: int) -> np.ndarray:
 
 
 def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[RunOutcome],
-                     settings: PosteriorSection, seed: int | None, population: int
+                     error_model: str, seed: int | None, population: int
                      ) -> tuple[PosteriorRecord, np.ndarray]:
     """The summary's record of independent TMCMC runs and their pooled samples in physical
     units (none unless every run reached β = 1: it never reports a posterior it did not
@@ -458,7 +462,7 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
                           ess=s["weights_ess"]) for s in extras[0].get("stages", [])]
     reached = [bool(e.get("reached")) for e in extras]
     failures = [o.failure for o in outcomes if o.failure]
-    common = dict(method=METHOD, error_model=settings.error_model, seed=seed,
+    common = dict(method=METHOD, error_model=error_model, seed=seed,
                   nfev=sum(o.nfev for o in outcomes),
                   # the runs' own times over every session (a resumed run counts its earlier)
                   wall_s=sum(o.wall_s for o in outcomes), stages=stages, names=names,
