@@ -1078,7 +1078,7 @@ def main() -> None:
     out: dict[str, Any] = {}
     if args.quick:
         out["analytic"] = analytic(4000)
-        out["speed"] = speed(400, args.steps, root, emcee_max=8000)
+        out["speed"] = speed(400, args.steps, root, emcee_max=8000, kind=args.error_model)
         out["calibration"] = calibration(1, root, kinds=["eiv", EIV_SANDWICH])
     else:
         if "analytic" in sections:
