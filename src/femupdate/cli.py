@@ -144,8 +144,8 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
     from femupdate.bench.dynamic import ALL_METHODS, run_benchmark
     from femupdate.optimize.minimize import METHODS
 
-    methods = list(ALL_METHODS) if method == "all" else method_list("--method", method,
-                                                                     METHODS)
+    methods = ([m for m in ALL_METHODS if m in METHODS] if method == "all"
+               else method_list("--method", method, METHODS))
     rows = []
     for m in methods:
         with console.status(f"{runs} runs of {m} on {workers} worker(s)…"):

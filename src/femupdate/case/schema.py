@@ -41,7 +41,7 @@ from femupdate.case.fields import (
     number_field,
     text_field,
 )
-from femupdate.case.issues import Issue, duplicates, raise_issues
+from femupdate.case.issues import Issue, did_you_mean, duplicates, raise_issues
 from femupdate.case.model_sections import (
     Model,
 )
@@ -49,6 +49,7 @@ from femupdate.case.posterior_section import PosteriorSection, posterior_issues
 from femupdate.case.reduced_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.errors import ConfigError
+from femupdate.optimize.minimize import METHODS
 
 # ----------------------------------------------------------------------------- [case]
 
@@ -335,8 +336,7 @@ class Simulation(Section):
 class Search(Section):
     """``[search]``: the optimiser, its stopping criteria and the repeated runs."""
 
-    method: Literal["multistart-lm", "ab", "ib", "cmaes", "de", "ga",
-                    "scipy-lsq"] = "multistart-lm"
+    method: str = "multistart-lm"
     runs: integer_field(ge=1, le=10_000) = 1
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     workers: integer_field(ge=1, le=1024) = 1
@@ -345,6 +345,16 @@ class Search(Section):
     sigma_min: number_field(gt=0.0, lt=SIGMA_MAX) | None = None
     f_change_min: number_field(ge=0.0, le=1e6) | None = None
     options: Options = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _check_method(self) -> Search:
+        # By name in the optimizers' registry: the product's four, and any plug-in registered
+        # (benchmarks/plugins); the sampler is not a search.
+        allowed = [name for name in METHODS if name != "tmcmc"]
+        if self.method not in allowed:
+            raise_issues([("method", f"got {self.method!r}{did_you_mean(self.method, allowed)}",
+                           ", ".join(repr(name) for name in allowed))])
+        return self
 
 
 # ----------------------------------------------------------------------------- Case

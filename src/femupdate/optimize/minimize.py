@@ -25,9 +25,7 @@ from femupdate.errors import ConfigError, FemupdateError
 from femupdate.optimize.base import Factory, Optimizer, stack_rows
 from femupdate.optimize.beta import make_ab, make_ib
 from femupdate.optimize.cmaes import make_cmaes
-from femupdate.optimize.evolutionary import make_de, make_ga
 from femupdate.optimize.multistart import make_multistart_lm
-from femupdate.optimize.scipy_lsq import make_scipy_lsq
 from femupdate.optimize.termination import (
     check_f_target,
     check_max_evals,
@@ -37,19 +35,52 @@ from femupdate.optimize.termination import (
 )
 from femupdate.optimize.timed import FAILED, TimedFunction, check_timeout
 
-#: The optimizers by name: factories ``(n, rng, **options) -> Optimizer``.
+#: The optimizers by name: factories ``(n, rng, **options) -> Optimizer``. The product's four
+#: are here; variants kept for comparison (benchmarks/plugins: DE, a GA, multistart scipy
+#: ``least_squares``) add themselves with :func:`register_method`, called explicitly.
 METHODS: dict[str, Factory] = {
     "ib": make_ib,
     "ab": make_ab,
     "cmaes": make_cmaes,
-    "de": make_de,
-    "ga": make_ga,
     "multistart-lm": make_multistart_lm,
-    "scipy-lsq": make_scipy_lsq,
 }
 
 #: Methods given ``problem.residuals`` with ``residuals=True`` when the problem has them.
-RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm", "scipy-lsq"})
+RESIDUAL_METHODS: set[str] = {"multistart-lm"}
+#: Methods whose steps evaluate a population (several candidates; multistart-lm: its pools
+#: and Jacobians): with fewer runs than workers their populations are spread over the workers.
+POPULATION_METHODS: set[str] = {"cmaes", "multistart-lm"}
+
+
+def register_method(name: str, factory: Factory, *, residuals: bool = False,
+                    population: bool = False) -> None:
+    """Add an optimizer to :data:`METHODS` under ``name`` (a plug-in: the core registers none).
+
+    Parameters
+    ----------
+    name : str
+        The method's name in ``minimize(method=...)`` and ``[search] method``; a name taken
+        by another factory is a ConfigError.
+    factory : callable
+        ``factory(n, rng, **options) -> Optimizer`` on the unit cube.
+    residuals : bool
+        The method minimizes a residual vector (``minimize(..., residuals=True)``).
+    population : bool
+        Its steps ask several candidates (spread over workers when runs are fewer).
+
+    Notes
+    -----
+    Worker processes inherit the registry when they are forked (Linux's default); elsewhere
+    register in the worker too.
+    """
+    if METHODS.get(name, factory) is not factory:
+        raise ConfigError(f"method {name!r} is registered already (methods: "
+                          f"{', '.join(METHODS)})")
+    METHODS[name] = factory
+    if residuals:
+        RESIDUAL_METHODS.add(name)
+    if population:
+        POPULATION_METHODS.add(name)
 
 
 def objective_for(problem: Any, method: str) -> tuple[Callable[[np.ndarray], Any], bool]:
@@ -505,11 +536,11 @@ def minimize(
         update problems, whose batches are compiled loops with the single calls' values.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter, high − low finite (not overflowing).
-    method : {"ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"}
+    method : {"multistart-lm", "ab", "ib", "cmaes"} or a registered name
         See ``METHODS``; each validates its own ``options``. ``"multistart-lm"``:
         space-filling starts, a bounded Levenberg–Marquardt local phase and restarts
-        (quasi-Newton on φ without residuals); ``"scipy-lsq"``: multistart scipy
-        ``least_squares``, a baseline that needs ``residuals=True``.
+        (quasi-Newton on φ without residuals); ``"ab"``, ``"ib"``: the paper's adaptive Beta
+        sampling; ``"cmaes"``: pycma. Others plug in with :func:`register_method`.
     seed : None, int, SeedSequence or Generator
         Passed to ``numpy.random.default_rng``: the run's only randomness.
     max_evals : int
@@ -526,7 +557,7 @@ def minimize(
         As scipy's: 1 (default) evaluates in this process; ``N > 1`` spreads each step's
         candidates over ``N`` worker processes (``fun`` must be picklable); -1 uses every CPU;
         a map-like ``workers(fun, rows)`` (e.g. an executor's ``map``) evaluates the rows in
-        order. Population methods (cmaes, de, ga) and multistart-lm (a Jacobian's points)
+        order. Population methods (cmaes) and multistart-lm (a Jacobian's points)
         ask several candidates per step.
     map : callable or None
         Deprecated name of a map-like ``workers``.
