@@ -548,15 +548,14 @@ def run(
                          ] = None,
     method: Annotated[str | None, typer.Option(
         help="Override [search] method: multistart-lm (the default of case files), ab, ib, "
-             "cmaes, de, ga or scipy-lsq; the case's options for its own method are then "
+             "cmaes (or a registered plug-in); the case's options for its own method are then "
              "not used.")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.",
                                               callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the runs stored in --out, unfinished or interrupted "
-        "(multistart-lm, ib, ab, cmaes from their last checkpoint; de, ga, scipy-lsq "
-        "restart); refused, naming what changed, if the case, its data files or the settings "
+        "(from their last checkpoint); refused, naming what changed, if the case, its data files or the settings "
         "changed.")] = False,
     restart: Annotated[bool, typer.Option(
         "--restart", help="Discard the runs stored in --out (results.sqlite, summary.json, "
