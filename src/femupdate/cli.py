@@ -555,8 +555,8 @@ def run(
                                               callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the runs stored in --out, unfinished or interrupted "
-        "(from their last checkpoint); refused, naming what changed, if the case, its data files or the settings "
-        "changed.")] = False,
+        "(from their last checkpoint); refused, naming what changed, if the case, its data "
+        "files or the settings changed.")] = False,
     restart: Annotated[bool, typer.Option(
         "--restart", help="Discard the runs stored in --out (results.sqlite, summary.json, "
         "fit.npz) and start over there, e.g. after a run that aborted or a change of the "
