@@ -26,14 +26,6 @@ from rich.table import Table
 from rich.text import Text
 
 from femupdate.errors import ConfigError, FemupdateError
-from femupdate.inputs import (
-    check_output_dir,
-    check_output_file,
-    check_search_override,
-    json_source,
-    method_list,
-    os_error_line,
-)
 
 if TYPE_CHECKING:
     from femupdate.case import Case
@@ -53,24 +45,32 @@ bench_app = typer.Typer(help="Benchmarks of the paper and of speed.", no_args_is
 app.add_typer(bench_app, name="bench")
 console = Console(markup=False)
 
-def _path_check(check_path: Any, flag: str) -> Any:
-    """A typer callback running ``check_path(flag, value)`` on a path given, before any work
-    (femupdate.inputs' checks)."""
+def _inputs() -> Any:
+    """femupdate.inputs, imported when an option is checked: it loads the case schema, which
+    ``femupdate --help`` does not need."""
+    import femupdate.inputs
+
+    return femupdate.inputs
+
+
+def _path_check(check_name: str, flag: str) -> Any:
+    """A typer callback running ``femupdate.inputs.<check_name>(flag, value)`` on a path given,
+    before any work."""
     def check(value: Path | None) -> Path | None:
         if value is not None:
-            check_path(flag, value)
+            getattr(_inputs(), check_name)(flag, value)
         return value
     return check
 
 
 def _output_file(flag: str) -> Any:
     """A typer callback checking an output file before any work."""
-    return _path_check(check_output_file, flag)
+    return _path_check("check_output_file", flag)
 
 
 def _output_dir(flag: str) -> Any:
     """A typer callback checking an output folder before any work."""
-    return _path_check(check_output_dir, flag)
+    return _path_check("check_output_dir", flag)
 
 
 def _input_dir(flag: str) -> Any:
@@ -87,7 +87,7 @@ def _input_dir(flag: str) -> Any:
 def _search_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the case file's range of [search] field."""
     def check(value: int | None) -> int | None:
-        check_search_override(field, value, flag)
+        _inputs().check_search_override(field, value, flag)
         return value
     return check
 
@@ -145,7 +145,7 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
     from femupdate.optimize.minimize import METHODS
 
     methods = ([m for m in ALL_METHODS if m in METHODS] if method == "all"
-               else method_list("--method", method, METHODS))
+               else _inputs().method_list("--method", method, METHODS))
     rows = []
     for m in methods:
         with console.status(f"{runs} runs of {m} on {workers} worker(s)…"):
@@ -304,7 +304,8 @@ def bench_bridge(
     from femupdate.bench.bridge import default_work_dir, run_bridge_benchmark
     from femupdate.optimize.minimize import METHODS
 
-    methods = method_list("--method", method, METHODS)  # all checked before the first runs
+    # all checked before the first runs
+    methods = _inputs().method_list("--method", method, METHODS)
     method_options = _json_object("--options", options)
     work = work_dir or default_work_dir()
     rows = []
@@ -709,7 +710,7 @@ def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
     """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:
         return None
-    raw = json_source(text)
+    raw = _inputs().json_source(text)
     try:
         data = json.loads(raw)
     except json.JSONDecodeError as exc:
@@ -1002,5 +1003,6 @@ def main() -> None:
         say("interrupted", "yellow")
         raise SystemExit(130) from None
     except OSError as exc:  # a file system's refusal (full, read-only, removed): one line too
-        console.print(Text("error: ", style="red") + Text(os_error_line(exc)), soft_wrap=True)
+        console.print(Text("error: ", style="red") + Text(_inputs().os_error_line(exc)),
+                      soft_wrap=True)
         raise SystemExit(2) from None
