@@ -87,7 +87,9 @@ def _input_dir(flag: str) -> Any:
 def _search_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the case file's range of [search] field."""
     def check(value: int | None) -> int | None:
-        _inputs().check_search_override(field, value, flag)
+        from femupdate.case.schema import check_search_override
+
+        check_search_override(field, value, flag)
         return value
     return check
 
