@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from femupdate.cli import app
 
-register_optimizers()  # de, ga, scipy-lsq: the comparison optimizers are tested here too
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 runner = CliRunner()
 

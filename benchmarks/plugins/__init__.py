@@ -9,7 +9,7 @@ scripts call it before they run; ``python benchmarks/with_plugins.py ARGS`` runs
 
 from __future__ import annotations
 
-from femupdate.optimize.minimize import METHODS, register_method
+from femupdate.optimize.registry import METHODS, register_method
 
 
 def register_optimizers() -> None:

@@ -13,7 +13,7 @@ from femupdate.errors import ConfigError
 from femupdate.optimize import METHODS, Status, minimize
 from femupdate.problems.dynamic import DynamicProblem
 
-register_optimizers()  # de, ga, scipy-lsq: the comparison optimizers are tested here too
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 # scipy-lsq needs residual vectors: its contract is tested in test_multistart.py.
 ALL = sorted(set(METHODS) - {"scipy-lsq"})

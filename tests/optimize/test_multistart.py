@@ -27,7 +27,7 @@ from femupdate.problems.dynamic import DynamicProblem
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 
-register_optimizers()  # de, ga, scipy-lsq: the comparison optimizers are tested here too
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 # --- residuals reproduce φ ---------------------------------------------------------------------
 

@@ -11,7 +11,7 @@ from plugins import register_optimizers
 
 from femupdate.optimize import METHODS, minimize, start
 
-register_optimizers()  # de, ga, scipy-lsq: the comparison optimizers are tested here too
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 
 def sphere(x: np.ndarray) -> float:

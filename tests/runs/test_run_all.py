@@ -16,7 +16,7 @@ from femupdate.problems.dynamic import PARAMETER_NAMES, DynamicProblem
 from femupdate.runs import run_seeds
 from femupdate.runs.store import FILENAME, ResultsStore, StoreError
 
-register_optimizers()  # de, ga, scipy-lsq: the comparison optimizers are tested here too
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 PROBLEM = DynamicProblem()
 BOUNDS = PROBLEM.bounds

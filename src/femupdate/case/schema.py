@@ -50,7 +50,7 @@ from femupdate.case.posterior_section import PosteriorSection, posterior_issues
 from femupdate.case.reduced_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.errors import ConfigError
-from femupdate.optimize.minimize import METHODS
+from femupdate.optimize.registry import METHODS
 
 # ----------------------------------------------------------------------------- [case]
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import ConfigError
-from femupdate.optimize.minimize import METHODS, register_method
+from femupdate.optimize.registry import METHODS, register_method
 from femupdate.posterior.input_noise import TrialWhitening
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior

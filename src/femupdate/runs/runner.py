@@ -26,7 +26,7 @@ from scipy.optimize import Bounds
 
 from femupdate._parallel import single_blas_thread
 from femupdate.errors import ConfigError
-from femupdate.optimize.minimize import POPULATION_METHODS
+from femupdate.optimize.registry import POPULATION_METHODS
 from femupdate.runs.chunks import ChunkResult, ChunkTask, RunSpec, advance_chunk
 from femupdate.runs.executors import (
     CONNECT_TIMEOUT_S,
