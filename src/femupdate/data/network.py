@@ -304,8 +304,10 @@ def parse_at2(text: str, source: str) -> NetworkChannel:
                         "samples: the header disagrees with the samples")
     direction = lines[1].rsplit(",", 1)[-1].strip() if "," in lines[1] else ""
     event = lines[1].rsplit(",", 1)[0].strip() if "," in lines[1] else lines[1].strip()
-    decimals = max((len(f.split(".")[1].split("E")[0].split("e")[0])
-                    for f in lines[4].split() if "." in f), default=0)
+    fields = lines[4].split()
+    # fixed-point fields: their last decimal; exponent fields (PEER's E15.7) are relative
+    decimals = (0 if any("e" in f.lower() for f in fields) else
+                max((len(f.split(".")[1]) for f in fields if "." in f), default=0))
     return NetworkChannel(number=1, location=event, direction=direction, dt=dt,
                           acceleration=samples * ACCELERATION_UNITS["g"], file_unit="g",
                           peak=float(np.max(np.abs(samples))), source=source,
