@@ -270,6 +270,13 @@ def _read_checked(case: Case, data: Data | None = None, trial: str = ""
         scale = ACCELERATION_UNITS[channel.unit or data.unit]
         records.append(io.Measurement(rec.t, {name: rec[name] * scale}, {name: "m/s2"},
                                       rec.source))
+    if data.format in network.FORMATS:
+        note = network.clock_note([
+            network.read_network_records(case.data_path(channel, data), [channel.column],
+                                         format=data.format)[0] for _, channel in specs])
+        if note is not None:
+            warnings.warn(f"{case.label}: {note}", FemupdateWarning, stacklevel=3)
+            notes.append(note)
     records, clocks = trial_checks.clock_findings(
         [(rec.source, name, rec) for (name, _), rec in zip(specs, records, strict=True)],
         data, trial)

@@ -487,7 +487,8 @@ def read_network(path: str | Path, columns: Sequence[str | int] | None = None, *
     names = [str(ch.number) for ch in picked]
     if len(set(names)) != len(names):
         raise DataError(f"{path}: channels {list(columns or [])} name one channel twice")
-    return to_measurement(picked, names, str(path))
+    # one channel: named by its own file (``archive.zip:CHAN07.V2``), as messages should
+    return to_measurement(picked, names, picked[0].source if len(picked) == 1 else str(path))
 
 
 # --------------------------------------------------------------------------- dispatch

@@ -43,6 +43,7 @@ __all__ = [
     "FORMATS",
     "NetworkChannel",
     "channel_label",
+    "clock_note",
     "compare_events",
     "parse_at2",
     "parse_csmip_v2",
@@ -90,6 +91,9 @@ class NetworkChannel:
         The recorder's serial number (channels of one recorder share a clock), or ``""``.
     resolution : float
         The step of the file's decimal fields (0.001 for ``f10.3``), in ``file_unit``.
+    start : str
+        The recorder's start time as the header gives it (``"4/04/10, 22:40:45.2 UTC"``), or
+        ``""``: the files' times start at 0 at each recorder's first sample.
     """
 
     number: int
@@ -103,6 +107,7 @@ class NetworkChannel:
     station: str = ""
     recorder: str = ""
     resolution: float = 0.0
+    start: str = ""
 
     @property
     def n_samples(self) -> int:
@@ -131,6 +136,7 @@ _RE_BLOCK = re.compile(r"^\s*(\d+)\s+points\s+of\s+(accel|veloc|displ)\s+data\s+
                        r"spaced\s+at\s+([\d.]+)\s*sec", re.IGNORECASE)
 _RE_BLOCK_UNITS = re.compile(r"(?:units\s*:\s*|,\s*in\s+)([a-z0-9/^]+)", re.IGNORECASE)
 _RE_FORMAT = re.compile(r"\(\s*\d+\s*f\s*(\d+)\s*\.\s*(\d+)\s*\)", re.IGNORECASE)
+_RE_START = re.compile(r"start\s+time\s*:\s*(.*?)\s*(?:\(|$)", re.IGNORECASE | re.MULTILINE)
 _RE_INTERVAL = re.compile(r"intervals\s+of\s+([\d.]+)\s*sec", re.IGNORECASE)
 
 
@@ -200,6 +206,7 @@ def parse_csmip_v2(text: str, source: str) -> NetworkChannel:
     station = _RE_STATION.search(head)
     station_name = lines[6].strip()[:40].strip() if len(lines) > 6 else ""
     recorder = _RE_RECORDER.search(head)
+    start_time = _RE_START.search(head)
     peak = _RE_PEAK.search(head)
     if peak is None:
         raise DataError(f"{source}: no 'Peak acceleration = <value> <unit> at <time> sec' "
@@ -243,7 +250,8 @@ def parse_csmip_v2(text: str, source: str) -> NetworkChannel:
         acceleration=samples * ACCELERATION_UNITS[file_unit], file_unit=file_unit,
         peak=float(peak.group(1)), source=source,
         station=f"{int(station.group(1)):05d} {station_name}".strip() if station else
-        station_name, recorder=recorder.group(1) if recorder else "", resolution=resolution)
+        station_name, recorder=recorder.group(1) if recorder else "", resolution=resolution,
+        start=start_time.group(1) if start_time else "")
 
 
 def _check_peak(samples: np.ndarray, dt: float, peak: float, at: float, unit: str,
@@ -496,6 +504,28 @@ def _ranges(numbers: Sequence[int]) -> str:
         else:
             parts.append(str(n))
     return ", ".join(parts)
+
+
+def clock_note(channels: Sequence[NetworkChannel]) -> str | None:
+    """What to say when channels read together come from recorders that the headers do not
+    put on one clock: each file's time starts at its own recorder's first sample, so their
+    alignment at t = 0 is an assumption (None: one recorder, or one start time given by
+    all)."""
+    recorders = {ch.recorder for ch in channels}
+    if len(recorders) < 2:
+        return None
+    starts = {ch.start for ch in channels}
+    if len(starts) == 1 and "" not in starts:
+        return None  # one start time, a common time signal (the 2010 files: WWVB)
+    listing = "; ".join(
+        f"recorder {rec or '?'}: channel{'s' if len(chans) > 1 else ''} "
+        f"{', '.join(str(c.number) for c in chans)}, start "
+        f"{chans[0].start or 'not given'}"
+        for rec in sorted(recorders)
+        for chans in [[c for c in channels if c.recorder == rec]])
+    return (f"channels of different recorders ({listing}): the headers do not put them on "
+            "one clock; each record starts at t = 0 at its recorder's first sample, and they "
+            "are aligned there (check the alignment, e.g. by the arrival of the motion)")
 
 
 def to_measurement(channels: Sequence[NetworkChannel], names: Sequence[str] | None = None,
