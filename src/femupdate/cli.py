@@ -1024,7 +1024,7 @@ def inspect(
     } for ch in channels]
     stations = sorted({ch.station for ch in channels if ch.station})
     title = f"{records.name}: {len(rows)} channel{'s' if len(rows) > 1 else ''}" + (
-        f", station {', '.join(stations)}" if stations else "")
+        f", {', '.join(stations)}" if stations else "")  # station, or an AT2's event
     console.print(_records_table(title, rows))
     recorders: dict[str, list[Any]] = {}
     for ch in channels:

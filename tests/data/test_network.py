@@ -196,6 +196,7 @@ def test_at2_round_trip(tmp_path: Path) -> None:
     write_at2(path, signal, 0.005)
     (ch,) = read_network_records(path)
     assert (ch.number, ch.direction, ch.n_samples, ch.dt) == (1, "180", 1203, 0.005)
+    assert (ch.location, ch.station) == ("Test station", "Test event, 1/1/2000")
     assert ch.file_unit == "g"
     # 8 significant digits in the file: equal to them
     np.testing.assert_allclose(ch.acceleration / G, signal, rtol=5e-8, atol=1e-12)
@@ -211,6 +212,14 @@ def test_at2_whose_count_disagrees_is_refused(tmp_path: Path) -> None:
         parse_at2(text, "short.AT2")
     with pytest.raises(DataError, match="line 4 is"):
         parse_at2(text.replace("NPTS=", "N="), "short.AT2")
+
+
+def test_a_folder_of_at2_files_is_numbered_by_file_name(tmp_path: Path) -> None:
+    for name, component in (("b_090.AT2", "90"), ("a_000.AT2", "0"), ("c_up.AT2", "UP")):
+        write_at2(tmp_path / name, np.linspace(-0.1, 0.2, 20), 0.02, component=component)
+    channels = read_network_records(tmp_path)
+    assert [(ch.number, ch.direction) for ch in channels] == [(1, "0"), (2, "90"), (3, "UP")]
+    assert read_network_records(tmp_path, ["Test station / 90"])[0].number == 2
 
 
 def test_to_measurement_cuts_to_the_shortest(tmp_path: Path) -> None:

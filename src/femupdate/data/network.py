@@ -25,6 +25,7 @@ the recorders of a station.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import re
@@ -281,11 +282,12 @@ _RE_AT2_NPTS = re.compile(r"npts\s*=\s*(\d+)\s*,\s*dt\s*=\s*([\d.eE+-]+)", re.IG
 
 
 def parse_at2(text: str, source: str) -> NetworkChannel:
-    """Parse a PEER NGA ``.AT2`` record: 4 header lines (database, event and component,
-    units, ``NPTS= n, DT= dt SEC``), then the accelerations in g, free-format.
+    """Parse a PEER NGA ``.AT2`` record: 4 header lines (database; event, date, station and
+    component; units; ``NPTS= n, DT= dt SEC``), then the accelerations in g, free-format.
 
-    The count and interval of line 4 are checked against the samples; the component is the
-    last comma-separated item of line 2.
+    The count of line 4 is checked against the samples. The channel is number 1 (in a folder
+    of AT2 files: numbered by file name), its location the station, its direction the
+    component (the last two items of line 2).
     """
     lines = text.splitlines()
     if len(lines) < 5:
@@ -310,15 +312,18 @@ def parse_at2(text: str, source: str) -> NetworkChannel:
     if samples.size != n:
         raise DataError(f"{source}: line 4 says NPTS = {n} but the file holds {samples.size} "
                         "samples: the header disagrees with the samples")
-    direction = lines[1].rsplit(",", 1)[-1].strip() if "," in lines[1] else ""
-    event = lines[1].rsplit(",", 1)[0].strip() if "," in lines[1] else lines[1].strip()
+    # line 2: "event, date, station, component" (older files: fewer items)
+    items = [item.strip() for item in lines[1].split(",")]
+    direction = items[-1] if len(items) > 1 else ""
+    place = items[-2] if len(items) > 2 else items[0]
+    event = ", ".join(items[:-2]) if len(items) > 2 else ""
     fields = lines[4].split()
     # fixed-point fields: their last decimal; exponent fields (PEER's E15.7) are relative
     decimals = (0 if any("e" in f.lower() for f in fields) else
                 max((len(f.split(".")[1]) for f in fields if "." in f), default=0))
-    return NetworkChannel(number=1, location=event, direction=direction, dt=dt,
+    return NetworkChannel(number=1, location=place, direction=direction, dt=dt,
                           acceleration=samples * ACCELERATION_UNITS["g"], file_unit="g",
-                          peak=float(np.max(np.abs(samples))), source=source,
+                          peak=float(np.max(np.abs(samples))), source=source, station=event,
                           resolution=10.0 ** -decimals if decimals else 0.0)
 
 
@@ -406,6 +411,11 @@ def _read_all(resolved: str, mtime_ns: int, size: int, format: str | None,
         raise DataError(f"{shown}: no {format or 'CSMIP .V2 or PEER .AT2'} record files in it")
     parsed = [parse_csmip_v2(text, source) if kind == "csmip" else parse_at2(text, source)
               for kind, source, text in members]
+    if sum(kind == "at2" for kind, _, _ in members) > 1:
+        # an AT2 file holds one record: in a folder or an archive, number them by file name
+        parsed = [dataclasses.replace(ch, number=k) if kind == "at2" else ch
+                  for k, (ch, (kind, _, _)) in enumerate(zip(parsed, members, strict=True),
+                                                         start=1)]
     by_number: dict[int, NetworkChannel] = {}
     for ch in sorted(parsed, key=lambda c: c.number):
         if ch.number in by_number:
