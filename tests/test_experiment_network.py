@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from data.test_data_io import need
-from data.test_network import ARCHIVES, write_at2
+from data.test_network import ARCHIVES, cosmos_channel, write_at2
 from femupdate.case import parse_case
 from femupdate.data.network import read_network_records
 from femupdate.errors import ConfigError, DataError, FemupdateWarning
@@ -158,3 +158,17 @@ def test_an_at2_case(tmp_path: Path) -> None:
     m = read_measurement(case)
     np.testing.assert_allclose(m["input"], ground * G, rtol=1e-7)
     assert m.n_samples == 400 and m.dt == pytest.approx(0.01)
+
+
+def test_a_cosmos_case(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    ground = np.round(30.0 * rng.standard_normal(300), 5)
+    roof = np.round(2.0 * ground + rng.standard_normal(300), 5)
+    (tmp_path / "event.V2c").write_text("\n".join(
+        cosmos_channel(ground, 0.005, number=1, direction="Up", location="Ground level")
+        + cosmos_channel(roof, 0.005, number=9, direction="Up", location="Roof")) + "\n")
+    case = _case(tmp_path, "Ground level", 9, file="event.V2c", fmt="cosmos")
+    m = read_measurement(case)
+    np.testing.assert_allclose(m["input"], ground / 100, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(m["deck"], roof / 100, rtol=0, atol=1e-15)
+    assert m.rate == pytest.approx(200.0)

@@ -1001,15 +1001,15 @@ def _records_table(title: str, rows: list[dict[str, Any]]) -> Table:
 @app.command()
 def inspect(
     records: Annotated[Path, typer.Argument(
-        help="A network record: a zip archive of an event (CSMIP V2 files), a folder of "
-             "them, one .V2 file or a PEER .AT2 file.")],
+        help="A network record: a zip archive of an event (CSMIP or COSMOS V2 files), a "
+             "folder of them, one such file, or a PEER .AT2 file.")],
     json_path: JsonOption = None,
 ) -> None:
     """List the channels of a strong-motion record: location, direction, rate, length, peak.
 
     The peaks are in m/s² (converted from the file's unit, listed); each file's header has
     been checked against its samples. A case reads a channel by its number or by
-    "location / direction" as listed here ([data] format = "csmip" or "at2").
+    "location / direction" as listed here ([data] format = "csmip", "cosmos" or "at2").
     """
     from femupdate.data.network import channel_label, read_network_records
 

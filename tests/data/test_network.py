@@ -19,6 +19,7 @@ from femupdate.data.io import read, read_network
 from femupdate.data.network import (
     compare_events,
     parse_at2,
+    parse_cosmos,
     parse_csmip_v2,
     read_network_records,
     to_measurement,
@@ -163,14 +164,14 @@ def test_a_header_whose_rate_disagrees_with_the_samples_is_refused(archive: str)
 def test_not_a_record() -> None:
     with pytest.raises(DataError, match="no 'Chan N:"):
         parse_csmip_v2("just text\n1 2 3\n", "x.V2")
-    with pytest.raises(ConfigError, match="allowed: csmip, at2"):
-        read_network_records(".", format="cosmos")
+    with pytest.raises(ConfigError, match="allowed: csmip, cosmos, at2"):
+        read_network_records(".", format="sac")
 
 
 def test_a_missing_file_and_an_empty_folder(tmp_path: Path) -> None:
     with pytest.raises(DataError, match="file not found"):
         read_network_records(tmp_path / "absent.zip")
-    with pytest.raises(DataError, match=r"no CSMIP \.V2 or PEER \.AT2 record files"):
+    with pytest.raises(DataError, match=r"no CSMIP, COSMOS or PEER AT2 record files"):
         read_network_records(tmp_path)
 
 
@@ -220,6 +221,79 @@ def test_a_folder_of_at2_files_is_numbered_by_file_name(tmp_path: Path) -> None:
     channels = read_network_records(tmp_path)
     assert [(ch.number, ch.direction) for ch in channels] == [(1, "0"), (2, "90"), (3, "UP")]
     assert read_network_records(tmp_path, ["Test station / 90"])[0].number == 2
+
+
+# ----------------------------------------------------------------------------- COSMOS V2
+
+
+def cosmos_channel(accel: np.ndarray, dt: float, *, number: int = 3, direction: str = "360 deg",
+                   location: str = "Roof", unit: str = "cm/sec2(04)") -> list[str]:
+    """One channel as COSMOS v1.20 lays it out (as the V2c files of the USGS/CGS do): 13
+    text lines, 100 integers (10I8), 100 reals (5F15.6; 34: interval, 64-65: the peak and
+    its time), comment lines, the samples in 8F10.5 and an end line."""
+    k = int(np.argmax(np.abs(accel)))
+    reals = np.full(100, -999.0)
+    reals[33], reals[34], reals[63], reals[64] = dt, accel.size * dt, accel[k], k * dt
+    text = ["Corrected acceleration    (Format v01.20 with 13 text lines)",
+            "Record of Test Earthquake of Fri Nov 30, 2018 17:29 UTC",
+            "Hypocenter: 61.34640 -149.95520 H= 46km Mw=7.0",
+            "Origin: 2018/11/30 17:29:29    UTC",
+            "Statn No: 05-01234 Code:CE-01234  CGS  Test Building",
+            "Coords: 60.9677 -144.6051  Site geology:",
+            "Recorder: (see cmnt)      ( 3 Chns of   3 at Sta) Sensor: (see comment)",
+            "Rcrd start time: 2018/11/30 17:29:39.137 UTC (Q=5) RcrdId: (see comment)",
+            f"Sta Chan{number:4d}: {direction:<7s}(Rcrdr Chan{number:3d}) Location: {location}",
+            "Raw record length = 210.000 sec, Uncor max =    101730, at  82.680 sec.",
+            f"Processed:2019-03-03, Max = {accel[k]:8.3f} cm/sec2 at {k * dt:8.3f} sec",
+            "Record filtered below  0.03 Hz (periods over 33.33 secs), and above 20.0 Hz",
+            "Values used when parameter or data value is unknown/unspecified:   -999, -999.00"]
+    ints = ["".join(f"{-999:8d}" for _ in range(10)) for _ in range(10)]
+    real_lines = ["".join(f"{v:15.6f}" for v in reals[i:i + 5]) for i in range(0, 100, 5)]
+    samples = ["".join(f"{v:10.5f}" for v in accel[i:i + 8]) for i in range(0, accel.size, 8)]
+    return [*text, " 100 Integer-header values follow on  10 lines, Format= (10I8)", *ints,
+            " 100 Real-header values follow on  20 lines, Format= (5F15.6)", *real_lines,
+            '   1 Comment line(s) follow, each starting with a "|":', "| written by a test",
+            f"{accel.size:8d} acceleration pts, approx {accel.size * dt:4.0f} secs, "
+            f"units={unit},Format=(8F10.5)", *samples,
+            f"End-of-data for Chan{number:4d} acceleration"]
+
+
+def test_cosmos_round_trip(tmp_path: Path) -> None:
+    rng = np.random.default_rng(12)
+    a = np.round(50.0 * rng.standard_normal(203), 5)  # the file's precision, cm/s²
+    b = np.round(20.0 * rng.standard_normal(203), 5)
+    path = tmp_path / "CE01234.V2"  # two channels in one file, as COSMOS allows
+    path.write_text("\n".join(cosmos_channel(a, 0.01, number=3) + cosmos_channel(
+        b, 0.01, number=5, direction="Up", location="Ground level")) + "\n")
+    first, second = read_network_records(path)
+    assert (first.number, first.direction, first.location) == (3, "360 deg", "Roof")
+    assert (second.number, second.direction, second.location) == (5, "Up", "Ground level")
+    assert first.n_samples == 203 and first.dt == 0.01 and first.file_unit == "cm/s2"
+    np.testing.assert_allclose(first.acceleration, a * 0.01, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(second.acceleration, b * 0.01, rtol=0, atol=1e-15)
+    assert read_network_records(tmp_path, ["ground level / up"])[0].number == 5
+
+
+def test_cosmos_headers_that_disagree_with_the_samples(tmp_path: Path) -> None:
+    a = np.round(np.sin(np.linspace(0, 9, 100)) * 30, 5)
+    lines = cosmos_channel(a, 0.02)
+    short = "\n".join(lines[:-3] + lines[-2:])  # one line of samples fewer
+    with pytest.raises(DataError, match="says 100 samples of acceleration but"):
+        parse_cosmos(short, "x.V2")
+    in_g = "\n".join(lines).replace("units=cm/sec2(04)", "units=g(02)")
+    with pytest.raises(DataError, match="disagrees with itself"):
+        parse_cosmos(in_g, "x.V2")
+    # the samples divided by g, the headers left in cm/s²: the peak is not theirs
+    k = int(np.argmax(np.abs(a)))
+    rescaled = cosmos_channel(np.round(a / 980.665, 5), 0.02)
+    peak_line = 13 + 1 + 10 + 1 + 12  # the real header's line holding entries 61-65
+    rescaled[peak_line] = lines[peak_line]
+    assert f"{a[k]:15.6f}" in rescaled[peak_line]
+    with pytest.raises(DataError, match="wrong units"):
+        parse_cosmos("\n".join(rescaled), "x.V2")
+    slow = "\n".join(lines).replace(f"{0.02:15.6f}", f"{0.04:15.6f}", 1)
+    with pytest.raises(DataError, match="wrong interval"):
+        parse_cosmos(slow, "x.V2")
 
 
 def test_to_measurement_cuts_to_the_shortest(tmp_path: Path) -> None:

@@ -160,7 +160,7 @@ RepairableKind = Literal["clock-offset", "spike"]
 class Data(Section):
     """``[data]``: where the measured accelerations are and how to read them."""
 
-    format: Literal["csv", "npz", "uff", "csmip", "at2"]
+    format: Literal["csv", "npz", "uff", "csmip", "cosmos", "at2"]
     directory: text_field(4096) | None = None
     time_column: Column | None = None
     time_unit: Literal["s", "ms", "us"] = "s"

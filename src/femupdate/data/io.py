@@ -475,8 +475,8 @@ def _uff_time(s: dict) -> np.ndarray:
 
 def read_network(path: str | Path, columns: Sequence[str | int] | None = None, *,
                  format: str | None = None) -> Measurement:
-    """Read channels of a network record (a CSMIP V2 zip archive, folder or file, or a PEER
-    AT2 file) as a `Measurement` in m/s², channels named by their station channel number.
+    """Read channels of a network record (a zip archive, folder or file of CSMIP or COSMOS V2
+    files, or a PEER AT2 file) as a `Measurement` in m/s², channels named by their number.
 
     The channels must share one interval (a station's recorders may differ: read them apart
     and resample); they are cut to the shortest. See
@@ -496,7 +496,7 @@ def read_network(path: str | Path, columns: Sequence[str | int] | None = None, *
 
 def read(path: str | Path, **options: object) -> Measurement:
     """Read a measurement, choosing the reader by extension (.csv/.txt/.dat, .npz, .uff/.unv,
-    and network records: .zip, .v2, .at2 or a folder of them, `read_network`).
+    and network records: .zip, .v2, .v2c, .at2 or a folder of them, `read_network`).
 
     ``options`` go to the reader (`read_csv`, `read_npz`, `read_uff58`). Text files default
     to a time column named ``t``; the units written by `write_csv` are read back.
@@ -507,7 +507,7 @@ def read(path: str | Path, **options: object) -> Measurement:
         return read_npz(path, **options)  # type: ignore[arg-type]
     if ext in (".uff", ".unv"):
         return read_uff58(path, **options)  # type: ignore[arg-type]
-    if ext in (".zip", ".v2", ".at2") or path.is_dir():
+    if ext in (".zip", ".v2", ".v2c", ".at2") or path.is_dir():
         return read_network(path, **options)  # type: ignore[arg-type]
     if ext in (".csv", ".txt", ".dat", ".tsv"):
         units = _units_from_csv_comment(path) if path.is_file() else {}
@@ -519,4 +519,4 @@ def read(path: str | Path, **options: object) -> Measurement:
                             m.time_rtol)
         return m
     raise DataError(f"{path}: unknown file type {ext!r}; expected .csv, .txt, .dat, .tsv, "
-                    f".npz, .uff, .unv, or a network record .zip, .v2, .at2")
+                    f".npz, .uff, .unv, or a network record .zip, .v2, .v2c, .at2")

@@ -1,5 +1,6 @@
-"""Records of strong-motion networks: CSMIP V2 files (one per channel, zipped per event) and
-PEER NGA ``.AT2`` ground motions.
+"""Records of strong-motion networks: CSMIP V2 files (one per channel, zipped per event),
+COSMOS V2 files (the COSMOS Strong-Motion Data Format v1.20) and PEER NGA ``.AT2`` ground
+motions.
 
 A CSMIP "V2" file (corrected accelerogram) holds a fixed-width text header (station,
 channel, orientation, location on the structure, peaks, number of points and interval), an
@@ -17,6 +18,10 @@ differ between processings), the samples are read by their fixed field width (fi
 touch: ``-107.12100-7.4588850``), and every figure of the header that the samples can confirm
 is checked against them (sample count, interval through the time of the peak, units through
 the peak's value), so a header that disagrees with its samples is refused, never fitted.
+
+Why this file is long (about 650 lines): three formats' parsers, each checking its header
+against its samples, beside what they share (the files of a zip or a folder, the choice of a
+channel by number or place, the comparison of a station's events, its recorders' clocks).
 
 Channels are numbered as the station numbers them (the ``Sta Chn`` of the header, the number
 in the file name ``CHAN013.V2``): a recorder's own channel number (``Chan 1``) repeats across
@@ -47,6 +52,7 @@ __all__ = [
     "clock_note",
     "compare_events",
     "parse_at2",
+    "parse_cosmos",
     "parse_csmip_v2",
     "read_network_records",
     "select_channel",
@@ -54,7 +60,7 @@ __all__ = [
 ]
 
 #: The network formats femupdate reads, by their ``[data] format`` name.
-FORMATS = ("csmip", "at2")
+FORMATS = ("csmip", "cosmos", "at2")
 
 #: Spellings of acceleration units in network headers → femupdate's unit names.
 _UNIT_NAMES = {
@@ -136,7 +142,8 @@ _RE_PEAK = re.compile(r"peak\s+acceleration\s*=\s*(-?[\d.]+)\s+(\S+)\s+at\s+(-?[
 _RE_BLOCK = re.compile(r"^\s*(\d+)\s+points\s+of\s+(accel|veloc|displ)\s+data\s+equally\s+"
                        r"spaced\s+at\s+([\d.]+)\s*sec", re.IGNORECASE)
 _RE_BLOCK_UNITS = re.compile(r"(?:units\s*:\s*|,\s*in\s+)([a-z0-9/^]+)", re.IGNORECASE)
-_RE_FORMAT = re.compile(r"\(\s*\d+\s*f\s*(\d+)\s*\.\s*(\d+)\s*\)", re.IGNORECASE)
+#: A Fortran format of the samples: (count per line, field width, decimals), "(8f10.5)".
+_RE_FORMAT = re.compile(r"\(\s*(\d*)\s*[fe]\s*(\d+)\s*\.\s*(\d+)\s*\)", re.IGNORECASE)
 _RE_START = re.compile(r"start\s+time\s*:\s*(.*?)\s*(?:\(|$)", re.IGNORECASE | re.MULTILINE)
 _RE_INTERVAL = re.compile(r"intervals\s+of\s+([\d.]+)\s*sec", re.IGNORECASE)
 
@@ -235,7 +242,7 @@ def parse_csmip_v2(text: str, source: str) -> NetworkChannel:
                         f"(line {start + 1}) in {units.group(1) if units else '?'}: the header "
                         "disagrees with itself")
     fmt = _RE_FORMAT.search(lines[start])
-    width, decimals = (int(fmt.group(1)), int(fmt.group(2))) if fmt else (10, 3)
+    width, decimals = (int(fmt.group(2)), int(fmt.group(3))) if fmt else (10, 3)
     end = next((i for i in range(start + 1, len(lines)) if _RE_BLOCK.match(lines[i])
                 or lines[i].startswith("/&")), len(lines))
     samples = _fixed_width(lines[start + 1:end], width, source, start + 2)
@@ -274,6 +281,104 @@ def _check_peak(samples: np.ndarray, dt: float, peak: float, at: float, unit: st
         raise DataError(f"{source}: the header's peak acceleration is at {at:g} s but the "
                         f"samples reach it at {', '.join(f'{t:.6g}' for t in times[:3])} s "
                         f"with dt = {dt:g} s: wrong interval or sample count in the header?")
+
+
+# --------------------------------------------------------------------------- COSMOS V2
+
+_RE_COSMOS_HEAD = re.compile(r"\(format\s+v[\d.]+\s+with\s+(\d+)\s+text\s+lines\)",
+                             re.IGNORECASE)
+_RE_COSMOS_CHAN = re.compile(r"sta\s+chan\s+(\S+?)\s*:\s*(.*?)\s*(?:\(\s*rcrdr\s+chan[^)]*\))?"
+                             r"\s*location\s*:\s*(.*?)\s*$", re.IGNORECASE)
+_RE_COSMOS_COUNT = re.compile(r"^\s*(\d+)\s+(integer|real)-header\s+values\s+follow\s+on\s+"
+                              r"(\d+)\s+lines", re.IGNORECASE)
+_RE_COSMOS_COMMENTS = re.compile(r"^\s*(\d+)\s+comment\s+line", re.IGNORECASE)
+_RE_COSMOS_DATA = re.compile(r"^\s*(\d+)\s+(\w+)\s+pts.*?units\s*=\s*([^(,\s]+)",
+                             re.IGNORECASE)
+_RE_COSMOS_MAX = re.compile(r"processed.*max\s*=\s*-?[\d.]+\s+([a-z][a-z0-9/^]*)\s+at",
+                            re.IGNORECASE)
+#: Real-header entries (1-based, COSMOS v1.20): sampling interval (s), peak value, its time.
+_COSMOS_DT, _COSMOS_PEAK, _COSMOS_PEAK_AT = 34, 64, 65
+
+
+def parse_cosmos(text: str, source: str) -> list[NetworkChannel]:
+    """Parse the acceleration channels of a COSMOS V2 file (COSMOS Strong-Motion Data
+    Format v1.20: per channel, text lines, an integer and a real header, comment lines, then
+    the samples with their count, unit and Fortran format on the line before them).
+
+    The interval and the peak (value and time) are the real header's entries 34, 64 and 65;
+    they and the count are checked against the samples as for a CSMIP file. The channel is
+    the text header's ``Sta Chan`` (its position in the file when the header says ``?``).
+    """
+    lines = text.splitlines()
+    channels: list[NetworkChannel] = []
+    i = 0
+    while i < len(lines) and lines[i].strip():
+        head = _RE_COSMOS_HEAD.search(lines[i])
+        if head is None:
+            raise DataError(f"{source}: line {i + 1} is {lines[i].strip()[:60]!r} (allowed: "
+                            "a COSMOS header line '... (Format v01.20 with N text lines)')")
+        n_text = int(head.group(1))
+        chan = next((m for m in map(_RE_COSMOS_CHAN.search, lines[i:i + n_text]) if m), None)
+        j = i + n_text
+        reals: list[float] = []
+        for _ in range(2):  # the integer header, then the real header
+            count = _RE_COSMOS_COUNT.match(lines[j]) if j < len(lines) else None
+            if count is None:
+                raise DataError(f"{source}: line {j + 1}: expected 'N Integer-header (or "
+                                "Real-header) values follow on M lines'")
+            block = " ".join(lines[j + 1:j + 1 + int(count.group(3))]).split()
+            if count.group(2).lower() == "real":
+                reals = [float(v) for v in block]
+            j += 1 + int(count.group(3))
+        comments = _RE_COSMOS_COMMENTS.match(lines[j]) if j < len(lines) else None
+        if comments is None:
+            raise DataError(f"{source}: line {j + 1}: expected 'N Comment line(s) follow'")
+        j += 1 + int(comments.group(1))
+        data = _RE_COSMOS_DATA.match(lines[j]) if j < len(lines) else None
+        fmt = _RE_FORMAT.search(lines[j]) if j < len(lines) else None
+        if data is None or fmt is None or data.group(2).lower() != "acceleration":
+            raise DataError(f"{source}: line {j + 1}: expected 'N acceleration pts, ..., "
+                            "units=..., Format=(...)' (allowed: COSMOS V2 acceleration)")
+        if len(reals) < _COSMOS_PEAK_AT:
+            raise DataError(f"{source}: the real header holds {len(reals)} values (allowed: "
+                            f"at least {_COSMOS_PEAK_AT}, as COSMOS v1.20 writes)")
+        n, dt = int(data.group(1)), reals[_COSMOS_DT - 1]
+        if not (dt > 0 and math.isfinite(dt)):
+            raise DataError(f"{source}: real header {_COSMOS_DT} (sampling interval): {dt} s "
+                            "(allowed: a positive interval)")
+        unit = _unit(data.group(3), source, f"line {j + 1}")
+        said = next((m for m in map(_RE_COSMOS_MAX.search, lines[i:i + n_text]) if m), None)
+        if said is not None and _unit(said.group(1), source, "the text header's Max") != unit:
+            raise DataError(f"{source}: the text header gives the peak in {said.group(1)} but "
+                            f"line {j + 1} the samples in {data.group(3)}: the header "
+                            "disagrees with itself")
+        per_line, width, decimals = int(fmt.group(1) or 1), int(fmt.group(2)), int(fmt.group(3))
+        # the samples run to the end line ("End-of-data ...") or the next channel's header
+        rows = next((k for k, line in enumerate(lines[j + 1:j + 1 + -(-n // per_line)])
+                     if line.strip()[:1].isalpha()), -(-n // per_line))
+        samples = _fixed_width(lines[j + 1:j + 1 + rows], width, source, j + 2)
+        if samples.size != n:
+            raise DataError(f"{source}: line {j + 1} says {n} samples of acceleration but "
+                            f"lines {j + 2}-{j + 1 + rows} hold {samples.size}: the header "
+                            "disagrees with the samples")
+        exponent = "e" in fmt.group(0).lower()
+        _check_peak(samples, dt, reals[_COSMOS_PEAK - 1], reals[_COSMOS_PEAK_AT - 1], unit,
+                    0.0 if exponent else 10.0 ** -decimals, source)
+        number_text = chan.group(1) if chan else "?"
+        channels.append(NetworkChannel(
+            number=int(number_text) if number_text.isdigit() else len(channels) + 1,
+            location=_title(chan.group(3)) if chan else "",
+            direction=_title(chan.group(2)) if chan else "", dt=dt,
+            acceleration=samples * ACCELERATION_UNITS[unit], file_unit=unit,
+            peak=reals[_COSMOS_PEAK - 1], source=source,
+            station=_title(lines[i + 4]) if n_text > 4 else "",
+            resolution=0.0 if exponent else 10.0 ** -decimals))
+        i = j + 1 + rows
+        if i < len(lines) and lines[i].lower().lstrip().startswith("end-of-data"):
+            i += 1
+    if not channels:
+        raise DataError(f"{source}: no COSMOS channel in it")
+    return channels
 
 
 # --------------------------------------------------------------------------- PEER AT2
@@ -335,27 +440,32 @@ def _decode(raw: bytes) -> str:
     return raw.decode("latin-1")
 
 
-def _kind(name: str) -> str | None:
+def _kind(name: str, text: str = "") -> str | None:
+    """The format of a file by its name and, for ``.V2`` (both networks use it), its first
+    line: COSMOS files say ``(Format v01.20 with 13 text lines)``."""
     suffix = Path(name).suffix.lower()
-    return {".v2": "csmip", ".at2": "at2"}.get(suffix)
+    if suffix == ".v2":
+        return "cosmos" if _RE_COSMOS_HEAD.search(text.split("\n", 1)[0]) else "csmip"
+    return {".v2c": "cosmos", ".at2": "at2"}.get(suffix)
 
 
 def _members(path: Path) -> list[tuple[str, str, str]]:
     """(kind, source, text) of each record file in ``path`` (a zip, a folder or a file)."""
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.is_file() and _kind(p.name))
-        return [(_kind(p.name) or "", str(p), _decode(p.read_bytes())) for p in files]
-    if not path.exists():
+        texts = [(str(p), p.name, _decode(p.read_bytes())) for p in files]
+    elif not path.exists():
         raise DataError(f"{path}: file not found")
-    if zipfile.is_zipfile(path):
+    elif zipfile.is_zipfile(path):
         with zipfile.ZipFile(path) as archive:
             names = sorted(n for n in archive.namelist() if _kind(n))
-            return [(_kind(n) or "", f"{path}:{n}", _decode(archive.read(n))) for n in names]
-    kind = _kind(path.name)
-    if kind is None:
+            texts = [(f"{path}:{n}", n, _decode(archive.read(n))) for n in names]
+    elif _kind(path.name) is not None:
+        texts = [(str(path), path.name, _decode(path.read_bytes()))]
+    else:
         raise DataError(f"{path}: not a network record (allowed: a zip archive, a folder, a "
-                        "CSMIP .V2 file or a PEER .AT2 file)")
-    return [(kind, str(path), _decode(path.read_bytes()))]
+                        "CSMIP or COSMOS .V2 file, a COSMOS .V2c file or a PEER .AT2 file)")
+    return [(_kind(name, text) or "", source, text) for source, name, text in texts]
 
 
 def read_network_records(path: str | Path, channels: Sequence[int | str] | None = None, *,
@@ -365,13 +475,14 @@ def read_network_records(path: str | Path, channels: Sequence[int | str] | None 
     Parameters
     ----------
     path : str or Path
-        A zip archive as the network distributes it (``*.V2`` members; ``.V1``/``.V3`` are
-        ignored), a folder of such files, or one ``.V2`` or ``.AT2`` file.
+        A zip archive as the network distributes it (``*.V2`` members, CSMIP or COSMOS by
+        their first line, ``*.V2c`` COSMOS; ``.V1``/``.V3`` are ignored), a folder of such
+        files, or one file, or a PEER ``.AT2`` file.
     channels : sequence of int or str, optional
         Channels to return, in this order: station channel numbers, or selectors
         ``"location / direction"`` matched against the headers (case and spacing ignored; a
         location alone when it has one channel). None: all, by channel number.
-    format : {"csmip", "at2"}, optional
+    format : {"csmip", "cosmos", "at2"}, optional
         Read only files of this format (None: by their extension).
 
     Returns
@@ -408,14 +519,20 @@ def _read_all(resolved: str, mtime_ns: int, size: int, format: str | None,
     path = Path(resolved)
     members = [m for m in _members(path) if format is None or m[0] == format]
     if not members:
-        raise DataError(f"{shown}: no {format or 'CSMIP .V2 or PEER .AT2'} record files in it")
-    parsed = [parse_csmip_v2(text, source) if kind == "csmip" else parse_at2(text, source)
-              for kind, source, text in members]
+        raise DataError(f"{shown}: no {format or 'CSMIP, COSMOS or PEER AT2'} record files "
+                        "in it")
+    parsed: list[NetworkChannel] = []
+    for kind, source, text in members:
+        if kind == "cosmos":
+            parsed += parse_cosmos(text, source)
+        else:
+            parsed.append(parse_csmip_v2(text, source) if kind == "csmip"
+                          else parse_at2(text, source))
     if sum(kind == "at2" for kind, _, _ in members) > 1:
         # an AT2 file holds one record: in a folder or an archive, number them by file name
-        parsed = [dataclasses.replace(ch, number=k) if kind == "at2" else ch
-                  for k, (ch, (kind, _, _)) in enumerate(zip(parsed, members, strict=True),
-                                                         start=1)]
+        at2 = {source for kind, source, _ in members if kind == "at2"}
+        parsed = [dataclasses.replace(ch, number=k) if ch.source in at2 else ch
+                  for k, ch in enumerate(parsed, start=1)]
     by_number: dict[int, NetworkChannel] = {}
     for ch in sorted(parsed, key=lambda c: c.number):
         if ch.number in by_number:
