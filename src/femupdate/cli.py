@@ -984,6 +984,64 @@ def frame3d(
         say(line)
 
 
+def _records_table(title: str, rows: list[dict[str, Any]]) -> Table:
+    """The channels of a network record: numbers never cut, the location wraps."""
+    table = Table(title=Text(title), box=box.SIMPLE_HEAD, pad_edge=False,
+                  collapse_padding=True)
+    table.add_column("ch", justify="right", no_wrap=True)
+    table.add_column("location", justify="left", overflow="fold", ratio=1)
+    table.add_column("dir", justify="left", no_wrap=True)
+    for col in ("Hz", "samples", "s", "peak m/s²", "file unit"):
+        table.add_column(col, justify="right", no_wrap=True)
+    for r in rows:
+        table.add_row(str(r["channel"]), r["location"], r["direction"], f"{r['rate_hz']:g}",
+                      str(r["samples"]), f"{r['duration_s']:.2f}", f"{r['peak_m_s2']:.4f}",
+                      r["file_unit"])
+    return table
+
+
+@app.command()
+def inspect(
+    records: Annotated[Path, typer.Argument(
+        help="A network record: a zip archive of an event (CSMIP or COSMOS V2 files), a "
+             "folder of them, one such file, or a PEER .AT2 file.")],
+    json_path: JsonOption = None,
+) -> None:
+    """List the channels of a strong-motion record: location, direction, rate, length, peak.
+
+    The peaks are in m/s² (converted from the file's unit, listed); each file's header has
+    been checked against its samples. A case reads a channel by its number or by
+    "location / direction" as listed here ([data] format = "csmip", "cosmos" or "at2").
+    """
+    from femupdate.data.network import channel_label, read_network_records
+
+    channels = read_network_records(records)
+    rows = [{
+        "channel": ch.number, "location": ch.location, "direction": ch.direction,
+        "selector": channel_label(ch), "rate_hz": ch.rate, "dt_s": ch.dt,
+        "samples": ch.n_samples, "duration_s": (ch.n_samples - 1) * ch.dt,
+        "peak_m_s2": float(np.max(np.abs(ch.acceleration))), "file_unit": ch.file_unit,
+        "header_peak": ch.peak, "recorder": ch.recorder, "station": ch.station,
+        "source": ch.source,
+    } for ch in channels]
+    stations = sorted({ch.station for ch in channels if ch.station})
+    title = f"{records.name}: {len(rows)} channel{'s' if len(rows) > 1 else ''}" + (
+        f", {', '.join(stations)}" if stations else "")  # station, or an AT2's event
+    console.print(_records_table(title, rows))
+    recorders: dict[str, list[Any]] = {}
+    for ch in channels:
+        recorders.setdefault(ch.recorder, []).append(ch)
+    if len(recorders) > 1 and len({ch.dt for ch in channels}) > 1:
+        listing = "; ".join(
+            f"{name or '?'}: channels {', '.join(str(c.number) for c in chans)} at "
+            f"{', '.join(f'{1 / dt:g}' for dt in sorted({c.dt for c in chans}))} Hz"
+            for name, chans in recorders.items())
+        say(f"recorders (serial numbers): {listing}. Channels of different rates are "
+            "resampled to one ([preprocess] resample_hz) when a case reads them together; "
+            "each file's time starts at its recorder's first sample.")
+    _write_json(json_path, rows)
+
+
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: Any = None, line: str | None = None) -> None:
     """Every warning as one line on the console, without Python's source echo."""

@@ -49,6 +49,7 @@ from femupdate.case.model_sections import (
 from femupdate.case.posterior_section import PosteriorSection, posterior_issues
 from femupdate.case.reduced_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
+from femupdate.data.network import FORMATS as NETWORK_FORMATS
 from femupdate.errors import ConfigError
 from femupdate.optimize.registry import METHODS
 
@@ -161,7 +162,7 @@ RepairableKind = Literal["clock-offset", "spike"]
 class Data(Section):
     """``[data]``: where the measured accelerations are and how to read them."""
 
-    format: Literal["csv", "npz", "uff"]
+    format: Literal["csv", "npz", "uff", "csmip", "cosmos", "at2"]
     directory: text_field(4096) | None = None
     time_column: Column | None = None
     time_unit: Literal["s", "ms", "us"] = "s"
@@ -192,12 +193,14 @@ class Data(Section):
     @model_validator(mode="after")
     def _check(self) -> Data:
         issues: list[Issue] = []
+        network = self.format in NETWORK_FORMATS
         if self.format != "csv":
             for key in ("time_column", "rate"):
                 if getattr(self, key) is not None:
                     issues.append((key, f"given for format = {self.format!r}",
                                    "nothing: NPZ files hold their times in the array 't', "
-                                   "UFF58 files carry their own time axis"))
+                                   "UFF58 files carry their own time axis, network records "
+                                   "their interval in the header"))
             for key in ("skip_lines", "header", "delimiter", "repair"):
                 if self._given(key):
                     issues.append((key, f"given for format = {self.format!r}",
@@ -210,6 +213,10 @@ class Data(Section):
             issues.append(("time_unit", "given with rate and no time_column: the times come "
                            "from the rate, this unit would change nothing",
                            "time_unit with time_column only"))
+        if network and self._given("unit"):
+            issues.append(("unit", f"given for format = {self.format!r}",
+                           "nothing: network records say their units in the header, and "
+                           "femupdate converts them to m/s2"))
         issues += _window_issues(self.window, "window")
         if self.directory is not None:
             issues += [("directory", problem, "${NAME} with NAME a variable name")
@@ -222,7 +229,10 @@ class Data(Section):
             if self.format == "csv" and isinstance(channel.column, str) and self.header is False:
                 issues.append((f"{path}.column", f"got {channel.column!r} but header = false",
                                "a 0-based column number, or header = true"))
-            if self.format != "csv" and not isinstance(channel.column, str):
+            if network and channel.unit is not None:
+                issues.append((f"{path}.unit", f"given for format = {self.format!r}",
+                               "nothing: the units come from the record's header"))
+            if self.format in ("npz", "uff") and not isinstance(channel.column, str):
                 issues.append((f"{path}.column", f"got {channel.column}: channels of "
                                f"{self.format.upper()} files have names",
                                "the name of the channel in the file"))
