@@ -47,7 +47,7 @@ def test_fits_better_than_nominal_and_validates_on_the_other_event(tmp_path: Pat
     need("cesmd_meloland/calexico2010_ce01336.zip")
     need("cesmd_meloland/imperialvalley1979_ce01336.zip")
     case = load_case(CASE)
-    nominal = {p.name: p.nominal_value() for p in case.parameters}
+    nominal = {p.name: p.nominal_value for p in case.parameters}
     (tmp_path / "nominal.json").write_text(json.dumps(nominal))
     _cli("validate", str(CASE), "--params", str(tmp_path / "nominal.json"),
          "--json", str(tmp_path / "nominal-out.json"))
