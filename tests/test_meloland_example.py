@@ -9,9 +9,12 @@ unseen 1979 records.
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy import signal
 from typer.testing import CliRunner
 
 from data.test_data_io import need
@@ -19,7 +22,11 @@ from femupdate.case import load_case
 from femupdate.cli import app
 
 REPO = Path(__file__).resolve().parents[1]
-CASE = REPO / "examples" / "meloland" / "meloland.toml"
+EXAMPLE = REPO / "examples" / "meloland"
+CASE = EXAMPLE / "meloland.toml"
+sys.path.insert(0, str(EXAMPLE))  # the script is an example, not part of the package
+import spectral_ratio  # noqa: E402
+
 FIT, CHECK = "calexico-2010", "imperial-valley-1979"
 CHANNELS = {"ch3-deck-S-abutment", "ch5-deck-S-span", "ch7-deck-bent", "ch9-deck-N-span",
             "ch13-deck-N-abutment"}
@@ -65,3 +72,27 @@ def test_fits_better_than_nominal_and_validates_on_the_other_event(tmp_path: Pat
     # ... and predicts the unseen event: every deck channel's shape, NMSE below 100 %
     assert all(v < 1.0 for v in after[CHECK]["nmse_per_channel"].values())
     assert after[CHECK]["phi"] < before[CHECK]["phi"]
+
+
+def test_spectral_ratio_finds_the_frequency_of_a_base_excited_oscillator() -> None:
+    """White noise through an oscillator of 3 Hz, 5 % damping: the peak of the absolute
+    acceleration's transmissibility, (1 + (2 ζ r)²) / ((1 - r²)² + (2 ζ r)²), is at r ≈ 1."""
+    rate, fn, zeta = 100.0, 3.0, 0.05
+    wn = 2 * np.pi * fn
+    # absolute acceleration over base acceleration: (2 ζ wn s + wn²) / (s² + 2 ζ wn s + wn²)
+    system = signal.lti([2 * zeta * wn, wn**2], [1.0, 2 * zeta * wn, wn**2])
+    base = np.random.default_rng(35).standard_normal(12_000)
+    t = np.arange(base.size) / rate
+    _, deck, _ = signal.lsim(system, base, t)
+    f, gain = spectral_ratio.peak_frequency(base, deck, rate)
+    assert abs(f - fn) <= 1 / spectral_ratio.SEGMENT_S
+    assert gain > 5.0  # about 1 / (2 ζ) = 10 at resonance, smeared by the segments
+
+
+def test_spectral_ratio_of_both_events() -> None:
+    data = need("cesmd_meloland/calexico2010_ce01336.zip").parent
+    need("cesmd_meloland/imperialvalley1979_ce01336.zip")
+    for archive in spectral_ratio.EVENTS.values():
+        base, deck = spectral_ratio.read_network_records(data / archive, channels=[2, 7])
+        f, _ = spectral_ratio.peak_frequency(base.acceleration, deck.acceleration, base.rate)
+        assert 2.5 < f < 3.5  # the deck's first transverse mode, near 2.9 Hz in both
