@@ -254,13 +254,16 @@ class Trial(Section):
     model and scored, never fitted. ``score_window`` scores part of the simulated record
     only: the model is simulated over the whole ``window`` (from rest at its start) and the
     error is taken over ``score_window`` (record time, s), so one record splits into a fitting
-    and a validation part without restarting the model mid-record.
+    and a validation part without restarting the model mid-record. ``file`` replaces the file
+    of every channel of the trial (input and outputs, its own or ``[data]``'s): another event
+    of one station, archived under the same channel numbers, is one line.
     """
 
     name: ElementName
     role: Literal["fit", "validate"] = "fit"
     weight: number_field(gt=0.0, le=1e6) = 1.0
     directory: text_field(4096) | None = None
+    file: text_field(4096) | None = None
     input: Channel | None = None
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)] | None = None
     window: Window | None = None
@@ -527,6 +530,9 @@ class Case(Section):
         if data["preprocess"].get("lowpass_hz") is None:  # nor a low-pass not given
             data["preprocess"].pop("lowpass_hz", None)
             data["preprocess"].pop("lowpass_order", None)
+        for trial in data.get("trials") or []:  # nor a trial's file not given
+            if trial.get("file") is None:
+                trial.pop("file", None)
         return data
 
     def fingerprint(self) -> str:
@@ -537,7 +543,12 @@ class Case(Section):
 
 
 def trial_data(data: Data, trial: Trial) -> Data:
-    """``[data]`` with what ``trial`` gives instead (records, directory, window)."""
+    """``[data]`` with what ``trial`` gives instead (records, directory, window; ``file`` for
+    the file of every channel)."""
     update = {key: getattr(trial, key) for key in ("directory", "input", "outputs", "window")
               if getattr(trial, key) is not None}
+    if trial.file is not None:
+        update["input"] = update.get("input", data.input).model_copy(update={"file": trial.file})
+        update["outputs"] = [o.model_copy(update={"file": trial.file})
+                             for o in update.get("outputs", data.outputs)]
     return data.model_copy(update=update)
