@@ -279,3 +279,48 @@ def test_noise_free_records_fit_the_truth_only(tmp_path, quantity):
     assert not problem.compiled
     assert problem.phi(TRUTH) < 1e-20
     assert problem.phi({**TRUTH, "E": 1.05 * TRUTH["E"]}) > 1e-4
+
+
+def test_a_3d_case_with_vertical_groups_is_the_frame3d_solution():
+    """The two-span 3-D beam of femupdate.bench.frame3d_check written as a case (dofs_per_node
+    = 6, support groups along z) gives Frame3D's multi-support response at its outputs."""
+    from femupdate.bench.frame3d_check import SUPPORT_GROUPS, two_span_beam
+    from femupdate.simulate.multisupport import multi_support_response
+
+    frame = two_span_beam()
+    section = dict(E=3e10, nu=0.2, A=0.5, Iy=0.02, Iz=0.04, J=0.03, rho=2500.0)
+    nodes = frame.nodes
+    supports = {}
+    for g in sorted(frame._fixed):
+        supports.setdefault(nodes[g // 6], []).append(
+            ("ux", "uy", "uz", "rx", "ry", "rz")[g % 6])
+    groups = [lab[0].split(".")[0] for lab in SUPPORT_GROUPS]
+    alpha, beta = frame._rayleigh
+    case = parse_case({
+        "case": {"name": "two-span 3-D"},
+        "model": {
+            "dofs_per_node": 6,
+            "nodes": [{"name": n, "x": xyz[0], "y": xyz[1], "z": xyz[2]}
+                      for n, xyz in zip(nodes, frame._xyz, strict=True)],
+            "beams": [{"nodes": [nodes[a], nodes[b]], "vecxz": [0.0, 0.0, 1.0], **section}
+                      for _, a, b, _ in frame._beams],
+            "supports": [{"node": n, "dofs": d} for n, d in supports.items()],
+            "support_groups": [{"name": f"g{i}", "nodes": [n], "direction": "z"}
+                               for i, n in enumerate(groups)],
+            "rayleigh": {"alpha": alpha, "beta": beta},
+        },
+        "data": {"format": "csv", "rate": 100.0,
+                 "inputs": {f"g{i}": {"file": "s.csv", "column": f"g{i}"}
+                            for i in range(len(groups))},
+                 "outputs": [{"file": "o.csv", "column": n, "node": n, "dof": "uz"}
+                             for n in ("P4", "P12")]},
+    })
+    acc = support_records(200, DT)
+    ours = CaseModel(case).simulate({}, acc, DT)
+    model = frame.assemble()
+    theirs = multi_support_response(model, SUPPORT_GROUPS, acc, DT)
+    columns = [model.system.dof_labels.index(f"{n}.uz") for n in ("P4", "P12")]
+    scale = np.abs(theirs.total[:, columns]).max()
+    np.testing.assert_allclose(ours.displacement, theirs.total[:, columns], atol=1e-9 * scale)
+    np.testing.assert_allclose(ours.acceleration, theirs.acceleration[:, columns],
+                               atol=1e-9 * np.abs(theirs.acceleration[:, columns]).max())
