@@ -324,3 +324,58 @@ def test_a_3d_case_with_vertical_groups_is_the_frame3d_solution():
     np.testing.assert_allclose(ours.displacement, theirs.total[:, columns], atol=1e-9 * scale)
     np.testing.assert_allclose(ours.acceleration, theirs.acceleration[:, columns],
                                atol=1e-9 * np.abs(theirs.acceleration[:, columns]).max())
+
+
+def _synth(tmp_path, **options):
+    from femupdate.virtual import virtual_experiment
+
+    case = load_case(_write(tmp_path))
+    virtual_experiment(case, dict(TRUTH), tmp_path / "records", seed=5, snr=0.0, offset=0.0,
+                       drift=0.0, duration=1.5, rate=200.0, **options)
+    return case
+
+
+def test_each_group_record_is_checked_on_its_own(tmp_path):
+    """A support record in the wrong unit (its peak far beyond any earthquake) is found on
+    that group's channel."""
+    from femupdate.experiment import load_experiment
+
+    case = _synth(tmp_path)
+    path = tmp_path / "records" / "supports.csv"
+    lines = path.read_text().splitlines()
+    rows = [line.split(",") for line in lines[2:]]
+    for row in rows:
+        row[2] = repr(1000.0 * float(row[2]))  # the pier's record, in mm/s² declared m/s²
+    path.write_text("\n".join(lines[:2] + [",".join(r) for r in rows]) + "\n")
+    with pytest.warns(Warning, match=r"input\.pier"):
+        experiment = load_experiment(case)
+    units = [f for f in experiment.defects if f.kind == "unit"]
+    assert [f.channel for f in units] == ["input.pier"], experiment.defects
+
+
+def test_one_recorded_motion_cannot_drive_several_groups(tmp_path):
+    from femupdate.virtual import Motion, simulate_truth
+
+    case = load_case(_write(tmp_path))
+    motion = Motion(support_records(100, DT)[:, 0], DT, "one record")
+    with pytest.raises(ConfigError, match=r"3 support groups .* 1 record"):
+        simulate_truth(case, dict(TRUTH), motion)
+
+
+def test_the_report_lists_each_group_input_and_input_noise_refuses(tmp_path):
+    from types import SimpleNamespace
+
+    from femupdate.experiment import load_experiment
+    from femupdate.posterior.input_noise import path_responses
+    from femupdate.report.sections_runs import _data_items
+    from femupdate.update import TrialProblem
+
+    case = _synth(tmp_path)
+    ctx = SimpleNamespace(res=SimpleNamespace(case=case), truth=SimpleNamespace(manifest={}))
+    items = dict(_data_items(ctx))
+    assert [k for k in items if k.startswith("input")] == [
+        "input (west)", "input (pier)", "input (east)"]
+    assert "supports.csv [pier]" in items["input (pier)"]
+    trial = TrialProblem(case, load_experiment(case))
+    with pytest.raises(ConfigError, match="input-noise error model takes one table record"):
+        path_responses(trial, dict(TRUTH), np.ones(10))
