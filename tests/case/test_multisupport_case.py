@@ -379,3 +379,25 @@ def test_the_report_lists_each_group_input_and_input_noise_refuses(tmp_path):
     trial = TrialProblem(case, load_experiment(case))
     with pytest.raises(ConfigError, match="input-noise error model takes one table record"):
         path_responses(trial, dict(TRUTH), np.ones(10))
+
+
+def test_a_trial_gives_its_own_support_records(tmp_path):
+    from femupdate.experiment import load_experiments
+    from femupdate.virtual import virtual_experiment
+
+    case = _synth(tmp_path)
+    virtual_experiment(case, dict(TRUTH), tmp_path / "records2", seed=6, snr=0.0, offset=0.0,
+                       drift=0.0, duration=1.5, rate=200.0)
+    (tmp_path / "records2" / "supports.csv").rename(tmp_path / "records2" / "other.csv")
+    own = "".join(f'[trials.inputs.{g}]\nfile = "other.csv"\ncolumn = "{g}"\n'
+                  for g in ("west", "pier", "east"))
+    trials = ('[[trials]]\nname = "first"\n[[trials]]\nname = "second"\nrole = "validate"\n'
+              'directory = "records2"\n')
+    path = tmp_path / "two-span.toml"
+    path.write_text(path.read_text() + "\n" + trials + own)
+    first, second = load_experiments(load_case(path))
+    assert second.name == "second" and not np.allclose(first.ag, second.ag)
+    path.write_text(path.read_text().split("[trials.inputs.east]")[0])
+    with pytest.raises(ConfigError, match=r"trials\[1\]\.inputs: support group 'east' has no "
+                                          "input channel"):
+        load_case(path)
