@@ -17,9 +17,12 @@ import argparse
 import time
 
 import numpy as np
+from plugins import register_optimizers
 
 from femupdate.optimize import METHODS, minimize
 from femupdate.optimize.minimize import RESIDUAL_METHODS
+
+register_optimizers()  # the comparison optimizers are timed beside the product's
 
 
 def sphere(x: np.ndarray) -> float:

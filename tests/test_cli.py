@@ -9,9 +9,12 @@ import sys
 from pathlib import Path
 
 import pytest
+from plugins import register_optimizers
 from typer.testing import CliRunner
 
 from femupdate.cli import app
+
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 runner = CliRunner()
 

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import inspect
+import subprocess
+import sys
+
+import pytest
 
 import femupdate
 
@@ -12,11 +16,26 @@ def test_every_public_name_resolves() -> None:
         assert getattr(femupdate, name) is not None, name
 
 
-def test_simulate_is_the_function_even_after_its_subpackage_is_imported() -> None:
-    import femupdate.simulate.exact  # imports the subpackage of the same name
+@pytest.mark.parametrize("first", ["femupdate.simulate.exact", "femupdate"])
+def test_simulate_calls_the_function_whichever_is_imported_first(first: str) -> None:
+    # A fresh interpreter each: the order of the first imports is the point.
+    code = (f"import {first}; import numpy as np, femupdate; "
+            "from femupdate.simulate import simulate; "
+            "s = femupdate.System(M=np.eye(1), C=np.zeros((1, 1)), K=np.eye(1), "
+            "r=np.ones(1)); ag = np.sin(np.arange(50) * 0.1); "
+            "a = femupdate.simulate(s, 0.05, ag=ag).displacement; "
+            "b = simulate(s, 0.05, ag=ag).displacement; print(np.array_equal(a, b))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.stdout.strip() == "True", out.stderr
 
-    assert inspect.isfunction(femupdate.simulate)
-    assert femupdate.simulate.__name__ == "simulate"
+
+def test_importing_femupdate_loads_neither_numba_nor_scipy() -> None:
+    # What `femupdate --help` pays for: the package's names resolve on first use.
+    code = ("import sys, femupdate, femupdate.cli; "
+            "print(sorted(m for m in ('numba', 'scipy', 'pydantic') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "[]"
 
 
 def test_minimize_signature() -> None:

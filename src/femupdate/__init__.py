@@ -2,11 +2,12 @@
 
 The public API, re-exported here (heavier parts are imported on first use):
 
-- :func:`minimize`: bounded minimisation by IB/AB (the paper's adaptive Beta sampling), CMA-ES,
-  DE or GA, returning a :class:`scipy.optimize.OptimizeResult` (scipy's conventions: ``success``,
+- :func:`minimize`: bounded minimisation by IB/AB (the paper's adaptive Beta sampling),
+  multistart Levenberg–Marquardt (the case files' default) or CMA-ES, returning a
+  :class:`scipy.optimize.OptimizeResult` (scipy's conventions: ``success``,
   ``callback(intermediate_result)``, ``workers``).
 - :class:`Structure`, :func:`shear_building`, :class:`System`: the structural model.
-- :func:`simulate`: linear (exact, central differences, Newmark) and friction time stepping.
+- ``simulate``: linear (exact, central differences, Newmark) and friction time stepping.
 - :func:`natural_frequencies`, :func:`damped_modes`.
 - :func:`load_case`, :class:`Case`: validated case files.
 - :func:`nmse`, :class:`ErrorFunction`: the error function of the paper (Eq. 1).
@@ -31,15 +32,11 @@ from femupdate.errors import (
     ModelError,
     SimulationError,
 )
-from femupdate.optimize import minimize
-
-# Eager: the function shares its name with the subpackage, and a lazy attribute would be
-# shadowed by the subpackage module as soon as anything imports femupdate.simulate.*.
-from femupdate.simulate import simulate
 
 __version__ = "0.1.0"
 
 _LAZY = {
+    "minimize": "femupdate.optimize.minimize",  # scipy.optimize and numba: not for --help
     "Structure": "femupdate.model.structure",
     "shear_building": "femupdate.model.structure",
     "System": "femupdate.model.system",
@@ -89,6 +86,8 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
+    if name == "simulate":  # the subpackage, callable as its function (femupdate.simulate)
+        return import_module("femupdate.simulate")
     if name in _LAZY:
         return getattr(import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'femupdate' has no attribute {name!r}")

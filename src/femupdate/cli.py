@@ -26,14 +26,6 @@ from rich.table import Table
 from rich.text import Text
 
 from femupdate.errors import ConfigError, FemupdateError
-from femupdate.inputs import (
-    check_output_dir,
-    check_output_file,
-    check_search_override,
-    json_source,
-    method_list,
-    os_error_line,
-)
 
 if TYPE_CHECKING:
     from femupdate.case import Case
@@ -53,24 +45,32 @@ bench_app = typer.Typer(help="Benchmarks of the paper and of speed.", no_args_is
 app.add_typer(bench_app, name="bench")
 console = Console(markup=False)
 
-def _path_check(check_path: Any, flag: str) -> Any:
-    """A typer callback running ``check_path(flag, value)`` on a path given, before any work
-    (femupdate.inputs' checks)."""
+def _inputs() -> Any:
+    """femupdate.inputs, imported when an option is checked: it loads the case schema, which
+    ``femupdate --help`` does not need."""
+    import femupdate.inputs
+
+    return femupdate.inputs
+
+
+def _path_check(check_name: str, flag: str) -> Any:
+    """A typer callback running ``femupdate.inputs.<check_name>(flag, value)`` on a path given,
+    before any work."""
     def check(value: Path | None) -> Path | None:
         if value is not None:
-            check_path(flag, value)
+            getattr(_inputs(), check_name)(flag, value)
         return value
     return check
 
 
 def _output_file(flag: str) -> Any:
     """A typer callback checking an output file before any work."""
-    return _path_check(check_output_file, flag)
+    return _path_check("check_output_file", flag)
 
 
 def _output_dir(flag: str) -> Any:
     """A typer callback checking an output folder before any work."""
-    return _path_check(check_output_dir, flag)
+    return _path_check("check_output_dir", flag)
 
 
 def _input_dir(flag: str) -> Any:
@@ -87,6 +87,8 @@ def _input_dir(flag: str) -> Any:
 def _search_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the case file's range of [search] field."""
     def check(value: int | None) -> int | None:
+        from femupdate.case.schema import check_search_override
+
         check_search_override(field, value, flag)
         return value
     return check
@@ -144,8 +146,8 @@ def _bench_dynamic(method: str, runs: int, seed: int, workers: int, plots: Path 
     from femupdate.bench.dynamic import ALL_METHODS, run_benchmark
     from femupdate.optimize.minimize import METHODS
 
-    methods = list(ALL_METHODS) if method == "all" else method_list("--method", method,
-                                                                     METHODS)
+    methods = ([m for m in ALL_METHODS if m in METHODS] if method == "all"
+               else _inputs().method_list("--method", method, METHODS))
     rows = []
     for m in methods:
         with console.status(f"{runs} runs of {m} on {workers} worker(s)…"):
@@ -304,7 +306,8 @@ def bench_bridge(
     from femupdate.bench.bridge import default_work_dir, run_bridge_benchmark
     from femupdate.optimize.minimize import METHODS
 
-    methods = method_list("--method", method, METHODS)  # all checked before the first runs
+    # all checked before the first runs
+    methods = _inputs().method_list("--method", method, METHODS)
     method_options = _json_object("--options", options)
     work = work_dir or default_work_dir()
     rows = []
@@ -548,16 +551,15 @@ def run(
                          ] = None,
     method: Annotated[str | None, typer.Option(
         help="Override [search] method: multistart-lm (the default of case files), ab, ib, "
-             "cmaes, de, ga or scipy-lsq; the case's options for its own method are then "
+             "cmaes (or a registered plug-in); the case's options for its own method are then "
              "not used.")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.",
                                               callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the runs stored in --out, unfinished or interrupted "
-        "(multistart-lm, ib, ab, cmaes from their last checkpoint; de, ga, scipy-lsq "
-        "restart); refused, naming what changed, if the case, its data files or the settings "
-        "changed.")] = False,
+        "(from their last checkpoint); refused, naming what changed, if the case, its data "
+        "files or the settings changed.")] = False,
     restart: Annotated[bool, typer.Option(
         "--restart", help="Discard the runs stored in --out (results.sqlite, summary.json, "
         "fit.npz) and start over there, e.g. after a run that aborted or a change of the "
@@ -710,7 +712,7 @@ def _json_object(flag: str, text: str | None) -> dict[str, Any] | None:
     """A JSON object given inline or as a file (None when not given); ConfigError otherwise."""
     if text is None:
         return None
-    raw = json_source(text)
+    raw = _inputs().json_source(text)
     try:
         data = json.loads(raw)
     except json.JSONDecodeError as exc:
@@ -982,6 +984,64 @@ def frame3d(
         say(line)
 
 
+def _records_table(title: str, rows: list[dict[str, Any]]) -> Table:
+    """The channels of a network record: numbers never cut, the location wraps."""
+    table = Table(title=Text(title), box=box.SIMPLE_HEAD, pad_edge=False,
+                  collapse_padding=True)
+    table.add_column("ch", justify="right", no_wrap=True)
+    table.add_column("location", justify="left", overflow="fold", ratio=1)
+    table.add_column("dir", justify="left", no_wrap=True)
+    for col in ("Hz", "samples", "s", "peak m/s²", "file unit"):
+        table.add_column(col, justify="right", no_wrap=True)
+    for r in rows:
+        table.add_row(str(r["channel"]), r["location"], r["direction"], f"{r['rate_hz']:g}",
+                      str(r["samples"]), f"{r['duration_s']:.2f}", f"{r['peak_m_s2']:.4f}",
+                      r["file_unit"])
+    return table
+
+
+@app.command()
+def inspect(
+    records: Annotated[Path, typer.Argument(
+        help="A network record: a zip archive of an event (CSMIP or COSMOS V2 files), a "
+             "folder of them, one such file, or a PEER .AT2 file.")],
+    json_path: JsonOption = None,
+) -> None:
+    """List the channels of a strong-motion record: location, direction, rate, length, peak.
+
+    The peaks are in m/s² (converted from the file's unit, listed); each file's header has
+    been checked against its samples. A case reads a channel by its number or by
+    "location / direction" as listed here ([data] format = "csmip", "cosmos" or "at2").
+    """
+    from femupdate.data.network import channel_label, read_network_records
+
+    channels = read_network_records(records)
+    rows = [{
+        "channel": ch.number, "location": ch.location, "direction": ch.direction,
+        "selector": channel_label(ch), "rate_hz": ch.rate, "dt_s": ch.dt,
+        "samples": ch.n_samples, "duration_s": (ch.n_samples - 1) * ch.dt,
+        "peak_m_s2": float(np.max(np.abs(ch.acceleration))), "file_unit": ch.file_unit,
+        "header_peak": ch.peak, "recorder": ch.recorder, "station": ch.station,
+        "source": ch.source,
+    } for ch in channels]
+    stations = sorted({ch.station for ch in channels if ch.station})
+    title = f"{records.name}: {len(rows)} channel{'s' if len(rows) > 1 else ''}" + (
+        f", {', '.join(stations)}" if stations else "")  # station, or an AT2's event
+    console.print(_records_table(title, rows))
+    recorders: dict[str, list[Any]] = {}
+    for ch in channels:
+        recorders.setdefault(ch.recorder, []).append(ch)
+    if len(recorders) > 1 and len({ch.dt for ch in channels}) > 1:
+        listing = "; ".join(
+            f"{name or '?'}: channels {', '.join(str(c.number) for c in chans)} at "
+            f"{', '.join(f'{1 / dt:g}' for dt in sorted({c.dt for c in chans}))} Hz"
+            for name, chans in recorders.items())
+        say(f"recorders (serial numbers): {listing}. Channels of different rates are "
+            "resampled to one ([preprocess] resample_hz) when a case reads them together; "
+            "each file's time starts at its recorder's first sample.")
+    _write_json(json_path, rows)
+
+
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: Any = None, line: str | None = None) -> None:
     """Every warning as one line on the console, without Python's source echo."""
@@ -1003,5 +1063,6 @@ def main() -> None:
         say("interrupted", "yellow")
         raise SystemExit(130) from None
     except OSError as exc:  # a file system's refusal (full, read-only, removed): one line too
-        console.print(Text("error: ", style="red") + Text(os_error_line(exc)), soft_wrap=True)
+        console.print(Text("error: ", style="red") + Text(_inputs().os_error_line(exc)),
+                      soft_wrap=True)
         raise SystemExit(2) from None

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import warnings
+import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -26,7 +27,7 @@ import numpy as np
 from femupdate import trial_checks
 from femupdate.case import Case, Data, TrialSpec, format_value
 from femupdate.case.schema import Channel
-from femupdate.data import io, signal
+from femupdate.data import io, network, signal
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, DataError, FemupdateError, FemupdateWarning
 from femupdate.units import ACCELERATION_UNITS, TIME_UNITS
@@ -117,6 +118,8 @@ def _read(data: Data, file: Path, column: str | int, name: str) -> io.Measuremen
         )
     elif data.format == "npz":
         rec = io.read_npz(file, [str(column)])
+    elif data.format in network.FORMATS:  # in m/s² from the header's units
+        rec = io.read_network(file, [column], format=data.format)
     else:
         rec = io.read_uff58(file, [str(column)])
     (read_as,) = rec.names
@@ -189,12 +192,14 @@ def _check_files(case: Case, data: Data) -> None:
         (f"data.outputs[{i}]", c) for i, c in enumerate(data.outputs)]
     for where, channel in channels:
         fields.setdefault(case.data_path(channel, data), []).append(f"{where}.file")
-    folders = {path: where for path, where in fields.items() if path.is_dir()}
+    # a network record may be a folder of the network's files, one per channel
+    folders = {path: where for path, where in fields.items()
+               if path.is_dir() and data.format not in network.FORMATS}
     if folders:
         listing = "; ".join(f"{path} ({', '.join(where)})" for path, where in folders.items())
         raise DataError(f"{case.label}: a folder, not a data file: {listing} (allowed: a "
                         "file; name the file in the folder)")
-    missing = {path: where for path, where in fields.items() if not path.is_file()}
+    missing = {path: where for path, where in fields.items() if not path.exists()}
     if not missing:
         return
     listing = "; ".join(f"{path} ({', '.join(where)})" for path, where in missing.items())
@@ -284,6 +289,13 @@ def _read_checked(case: Case, data: Data | None = None, trial: str = ""
         scale = ACCELERATION_UNITS[channel.unit or data.unit]
         records.append(io.Measurement(rec.t, {name: rec[name] * scale}, {name: "m/s2"},
                                       rec.source))
+    if data.format in network.FORMATS:
+        note = network.clock_note([
+            network.read_network_records(case.data_path(channel, data), [channel.column],
+                                         format=data.format)[0] for _, channel in specs])
+        if note is not None:
+            warnings.warn(f"{case.label}: {note}", FemupdateWarning, stacklevel=3)
+            notes.append(note)
     records, clocks = trial_checks.clock_findings(
         [(rec.source, name, rec) for (name, _), rec in zip(specs, records, strict=True)],
         data, trial)
@@ -491,14 +503,14 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
     labels = tuple(c.label for c in data.outputs)
     wanted = {c.label: c.delay for c in data.outputs}
     low, high = pre.delay_band_hz
+    inputs = input_names(case)  # delays are estimated against the first
     if "auto" in wanted.values():
         band = _check_band(case, measurement.rate)
         notes += _check_band_below_modes(case, band)
         notes += _doubtful_delays(measurement, wanted, band, pre.highpass_hz,
-                                  pre.highpass_order, pre.zero_phase)
+                                  pre.highpass_order, pre.zero_phase, inputs[0])
     else:
         band = (low, high)
-    inputs = input_names(case)
     measurement, delays = apply_delays(
         replace(measurement, source=case.label), wanted, input_name=inputs[0], band=band,
         highpass_hz=pre.highpass_hz, highpass_order=pre.highpass_order,
@@ -585,10 +597,10 @@ def _check_band_below_modes(case: Case, band: tuple[float, float]) -> list[str]:
 
 def _doubtful_delays(measurement: io.Measurement, wanted: Mapping[str, float | str],
                      band: tuple[float, float], highpass_hz: float, order: int,
-                     zero_phase: bool) -> list[str]:
+                     zero_phase: bool, input_name: str = "input") -> list[str]:
     """Notes on "auto" delays longer than a few samples estimated where coherence is poor."""
     rate = measurement.rate
-    x = measurement["input"]
+    x = measurement[input_name]
     if highpass_hz > 0.0:
         x = signal.highpass(x, rate, highpass_hz, order=order, zero_phase=zero_phase)
     notes = []
@@ -614,9 +626,42 @@ def load_experiments(case: Case) -> list[Experiment]:
     """Every trial of ``case``, read and processed on its own (its own delays); a warning
     when a channel's estimated delays disagree between trials (see `delay_disagreements`)."""
     experiments = [load_experiment(case, spec) for spec in case.trial_specs()]
+    _compare_network_events(case)
     for text in delay_disagreements(experiments):
         warnings.warn(f"{case.label}: {text}", FemupdateWarning, stacklevel=2)
     return experiments
+
+
+def _compare_network_events(case: Case) -> None:
+    """Trials that read different records of a station's events: a channel picked by number
+    must be the same sensor in each (else a DataError); channels present in some records only
+    are said (a FemupdateWarning)."""
+    specs = case.trial_specs()
+    if not specs or specs[0].data.format not in network.FORMATS:
+        return
+    used: set[int] = set()
+    paths: dict[str, Path] = {}
+    for spec in specs:
+        for channel in _channels(spec.data):
+            path = case.data_path(channel, spec.data)
+            if path.is_dir() or zipfile.is_zipfile(path):  # an event's record, not one file
+                paths[str(path)] = path
+            if isinstance(channel.column, int) or channel.column.strip().isdigit():
+                used.add(int(channel.column))
+    if len(paths) < 2:
+        return
+    fmt = specs[0].data.format
+    events = {name: network.read_network_records(path, format=fmt)
+              for name, path in paths.items()}
+    conflicts, differences = network.compare_events(events, used)
+    if conflicts:
+        raise DataError(f"{case.label}: the trials read records whose channel numbers name "
+                        f"different sensors: {'; '.join(conflicts)} (allowed: one sensor per "
+                        "channel number, or pick the channel as 'location / direction')")
+    if differences:
+        warnings.warn(f"{case.label}: the trials' records hold different channel sets: "
+                      f"{'; '.join(differences)}; the channels the case reads are in each",
+                      FemupdateWarning, stacklevel=3)
 
 
 #: Estimated delays of one channel in two trials disagree beyond this many samples …

@@ -10,14 +10,12 @@ from __future__ import annotations
 import errno
 import os
 import tempfile
-import typing
 from pathlib import Path
 from typing import Any
 
-from femupdate.case.fields import Range
 from femupdate.errors import ConfigError
 
-__all__ = ["check_output_dir", "check_output_file", "check_search_override",
+__all__ = ["check_output_dir", "check_output_file",
            "json_source", "method_list", "os_error_line"]
 
 #: What an inline JSON object starts with (after blanks): text, never a path, is tried.
@@ -101,33 +99,6 @@ def json_source(text: str) -> str:
         raise ConfigError(f"{text}: not a UTF-8 text file (allowed: a JSON file, or a JSON "
                           "object)") from None
     return text
-
-
-def _limit(model: Any, field: str) -> Range:
-    """The Range of a numeric field of a pydantic model (optional fields: inside the union)."""
-    info = model.model_fields[field]
-    found = [m for m in info.metadata if isinstance(m, Range)]
-    for arg in typing.get_args(info.annotation):
-        found += [m for m in getattr(arg, "__metadata__", ()) if isinstance(m, Range)]
-    return found[0]
-
-
-def check_search_override(field: str, value: int | None, flag: str) -> None:
-    """A command-line or keyword override of ``[search] field`` within the case file's range.
-
-    Raises
-    ------
-    ConfigError
-        Naming the flag, the value and the range of ``[search] field``.
-    """
-    from femupdate.case.schema import Search
-
-    if value is None:
-        return
-    rng = _limit(Search, field)
-    if isinstance(value, bool) or not isinstance(value, int) or not rng.contains(value):
-        raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()}, as [search] "
-                          f"{field} in a case file)")
 
 
 def method_list(flag: str, text: str, allowed: Any) -> list[str]:

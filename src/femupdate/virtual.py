@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from femupdate.case import Case, CaseModel
-from femupdate.data import datasets, io, synth
+from femupdate.data import datasets, io, network, synth
 from femupdate.errors import ConfigError
 from femupdate.units import ACCELERATION_UNITS, STANDARD_GRAVITY
 
@@ -138,6 +138,10 @@ def write_records(case: Case, out_dir: Path, t: np.ndarray, channels: dict[str, 
     """
     assert case.data is not None  # checked by simulate_truth
     data = case.data
+    if data.format in network.FORMATS:
+        raise ConfigError(f"{case.label}: [data] format = {data.format!r}: a network's records "
+                          "are read, not written (allowed for a virtual experiment: format = "
+                          "\"csv\", \"npz\" or \"uff\")")
     specs = [(name, c) for name, _, c in data.input_channels()] + [
         (c.label, c) for c in data.outputs]
     files: dict[str, dict[str, np.ndarray]] = defaultdict(dict)

@@ -21,10 +21,10 @@ import numpy as np
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
 from femupdate.case.reduced_path import simulation_record
+from femupdate.case.schema import check_search_override
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
-from femupdate.inputs import check_search_override
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.posterior.best_fit import basin_sentences, laplace_record
 from femupdate.posterior.records import LaplaceRecord

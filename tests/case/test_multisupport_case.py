@@ -401,3 +401,12 @@ def test_a_trial_gives_its_own_support_records(tmp_path):
     with pytest.raises(ConfigError, match=r"trials\[1\]\.inputs: support group 'east' has no "
                                           "input channel"):
         load_case(path)
+
+
+def test_auto_delays_are_refused_with_support_groups(tmp_path):
+    path = _write(tmp_path)
+    path.write_text(path.read_text().replace('column = "AB"\n', 'column = "AB"\ndelay = "auto"\n'))
+    with pytest.raises(ConfigError, match=r"data\.outputs\[0\]\.delay: \"auto\" with "):
+        load_case(path)
+    path.write_text(path.read_text().replace('delay = "auto"', "delay = 0.01"))
+    assert load_case(path).data.outputs[0].delay == 0.01

@@ -6,11 +6,14 @@ import math
 
 import numpy as np
 import pytest
+from plugins import register_optimizers
 from scipy.optimize import Bounds
 
 from femupdate.errors import ConfigError
 from femupdate.optimize import METHODS, Status, minimize
 from femupdate.problems.dynamic import DynamicProblem
+
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 # scipy-lsq needs residual vectors: its contract is tested in test_multistart.py.
 ALL = sorted(set(METHODS) - {"scipy-lsq"})
@@ -66,7 +69,7 @@ def test_bad_f_target(f_target: object) -> None:
 
 
 def test_unknown_method() -> None:
-    allowed = "allowed methods: ib, ab, cmaes, de, ga"
+    allowed = "allowed methods: ib, ab, cmaes, multistart-lm, de, ga, scipy-lsq"
     with pytest.raises(ConfigError, match=f"unknown method 'nelder'; {allowed}"):
         minimize(sphere, BOX, "nelder")
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from plugins import register_optimizers
 
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
@@ -25,6 +26,8 @@ from femupdate.problems import bridge
 from femupdate.problems.dynamic import DynamicProblem
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
+
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 # --- residuals reproduce φ ---------------------------------------------------------------------
 

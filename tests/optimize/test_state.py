@@ -7,8 +7,11 @@ import threading
 
 import numpy as np
 import pytest
+from plugins import register_optimizers
 
 from femupdate.optimize import METHODS, minimize, start
+
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 
 def sphere(x: np.ndarray) -> float:

@@ -8,12 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from grouped import run_all
+from plugins import register_optimizers
 
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
 from femupdate.problems.dynamic import PARAMETER_NAMES, DynamicProblem
 from femupdate.runs import run_seeds
 from femupdate.runs.store import FILENAME, ResultsStore, StoreError
+
+register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
 PROBLEM = DynamicProblem()
 BOUNDS = PROBLEM.bounds

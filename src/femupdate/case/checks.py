@@ -431,6 +431,11 @@ def input_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
                            f"{did_you_mean(name, groups)}", f"a group of "
                            f"[[model.support_groups]]: {listed}"))
     for i, out in enumerate(data.outputs):
+        if out.delay == "auto":
+            issues.append((f"{where}.outputs[{i}].delay", "\"auto\" with "
+                           "[[model.support_groups]]: the supports' records differ, none is the "
+                           "base to estimate a delay against", "the delay as a number of "
+                           "seconds (0: none)"))
         if out.relative_to is not None and out.relative_to not in groups:
             issues.append((f"{where}.outputs[{i}].relative_to", f"{out.relative_to!r} is not a "
                            f"support group{did_you_mean(out.relative_to, groups)}",

@@ -36,19 +36,22 @@ from femupdate.case.fields import (
     Section,
     env_syntax,
     expand_env,
+    field_range,
     format_value,
     integer_field,
     number_field,
     text_field,
 )
-from femupdate.case.issues import Issue, duplicates, raise_issues
+from femupdate.case.issues import Issue, did_you_mean, duplicates, raise_issues
 from femupdate.case.model_sections import (
     Model,
 )
 from femupdate.case.posterior_section import PosteriorSection, posterior_issues
 from femupdate.case.reduced_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
+from femupdate.data.network import FORMATS as NETWORK_FORMATS
 from femupdate.errors import ConfigError
+from femupdate.optimize.registry import METHODS
 
 # ----------------------------------------------------------------------------- [case]
 
@@ -162,7 +165,7 @@ RepairableKind = Literal["clock-offset", "spike"]
 class Data(Section):
     """``[data]``: where the measured accelerations are and how to read them."""
 
-    format: Literal["csv", "npz", "uff"]
+    format: Literal["csv", "npz", "uff", "csmip", "cosmos", "at2"]
     directory: text_field(4096) | None = None
     time_column: Column | None = None
     time_unit: Literal["s", "ms", "us"] = "s"
@@ -203,12 +206,14 @@ class Data(Section):
     @model_validator(mode="after")
     def _check(self) -> Data:
         issues: list[Issue] = []
+        network = self.format in NETWORK_FORMATS
         if self.format != "csv":
             for key in ("time_column", "rate"):
                 if getattr(self, key) is not None:
                     issues.append((key, f"given for format = {self.format!r}",
                                    "nothing: NPZ files hold their times in the array 't', "
-                                   "UFF58 files carry their own time axis"))
+                                   "UFF58 files carry their own time axis, network records "
+                                   "their interval in the header"))
             for key in ("skip_lines", "header", "delimiter", "repair"):
                 if self._given(key):
                     issues.append((key, f"given for format = {self.format!r}",
@@ -221,6 +226,10 @@ class Data(Section):
             issues.append(("time_unit", "given with rate and no time_column: the times come "
                            "from the rate, this unit would change nothing",
                            "time_unit with time_column only"))
+        if network and self._given("unit"):
+            issues.append(("unit", f"given for format = {self.format!r}",
+                           "nothing: network records say their units in the header, and "
+                           "femupdate converts them to m/s2"))
         issues += _window_issues(self.window, "window")
         if self.input is not None and self.inputs is not None:
             issues.append(("inputs", "both data.input and data.inputs are given",
@@ -240,7 +249,10 @@ class Data(Section):
             if self.format == "csv" and isinstance(channel.column, str) and self.header is False:
                 issues.append((f"{path}.column", f"got {channel.column!r} but header = false",
                                "a 0-based column number, or header = true"))
-            if self.format != "csv" and not isinstance(channel.column, str):
+            if network and channel.unit is not None:
+                issues.append((f"{path}.unit", f"given for format = {self.format!r}",
+                               "nothing: the units come from the record's header"))
+            if self.format in ("npz", "uff") and not isinstance(channel.column, str):
                 issues.append((f"{path}.column", f"got {channel.column}: channels of "
                                f"{self.format.upper()} files have names",
                                "the name of the channel in the file"))
@@ -356,8 +368,7 @@ class Simulation(Section):
 class Search(Section):
     """``[search]``: the optimiser, its stopping criteria and the repeated runs."""
 
-    method: Literal["multistart-lm", "ab", "ib", "cmaes", "de", "ga",
-                    "scipy-lsq"] = "multistart-lm"
+    method: str = "multistart-lm"
     runs: integer_field(ge=1, le=10_000) = 1
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     workers: integer_field(ge=1, le=1024) = 1
@@ -366,6 +377,32 @@ class Search(Section):
     sigma_min: number_field(gt=0.0, lt=SIGMA_MAX) | None = None
     f_change_min: number_field(ge=0.0, le=1e6) | None = None
     options: Options = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _check_method(self) -> Search:
+        # By name in the optimizers' registry: the product's four, and any plug-in registered
+        # (benchmarks/plugins); the sampler is not a search.
+        allowed = [name for name in METHODS if name != "tmcmc"]
+        if self.method not in allowed:
+            raise_issues([("method", f"got {self.method!r}{did_you_mean(self.method, allowed)}",
+                           ", ".join(repr(name) for name in allowed))])
+        return self
+
+
+def check_search_override(field: str, value: int | None, flag: str) -> None:
+    """A command-line or keyword override of ``[search] field`` within the case file's range.
+
+    Raises
+    ------
+    ConfigError
+        Naming the flag, the value and the range of ``[search] field``.
+    """
+    if value is None:
+        return
+    rng = field_range(Search.model_fields[field])
+    if isinstance(value, bool) or not isinstance(value, int) or not rng.contains(value):
+        raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()}, as [search] "
+                          f"{field} in a case file)")
 
 
 # ----------------------------------------------------------------------------- Case

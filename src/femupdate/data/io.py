@@ -1,4 +1,6 @@
-"""Reading and writing records: CSV, NPZ and UFF58, each writer with its reader.
+"""Reading and writing records: CSV, NPZ and UFF58, each writer with its reader; the records
+of strong-motion networks (CSMIP V2 archives, PEER AT2 files: :mod:`femupdate.data.network`)
+are read only.
 
 Readers report bad input with the file, the line and the column. Writers produce what a user
 would bring (virtual experiments write CSV, NPZ or UFF58), and every writer has a reader that
@@ -31,6 +33,7 @@ from femupdate.data.measurement import (
     resample,
     units_for,
 )
+from femupdate.data.network import read_network_records, to_measurement
 from femupdate.errors import ConfigError, DataError
 
 __all__ = [
@@ -41,6 +44,7 @@ __all__ = [
     "fill_gaps",
     "read",
     "read_csv",
+    "read_network",
     "read_npz",
     "read_uff58",
     "resample",
@@ -466,11 +470,33 @@ def _uff_time(s: dict) -> np.ndarray:
     return np.asarray(s["x"], dtype=float)
 
 
+# --------------------------------------------------------------------------- networks
+
+
+def read_network(path: str | Path, columns: Sequence[str | int] | None = None, *,
+                 format: str | None = None) -> Measurement:
+    """Read channels of a network record (a zip archive, folder or file of CSMIP or COSMOS V2
+    files, or a PEER AT2 file) as a `Measurement` in m/s², channels named by their number.
+
+    The channels must share one interval (a station's recorders may differ: read them apart
+    and resample); they are cut to the shortest. See
+    :func:`femupdate.data.network.read_network_records` for ``columns`` (numbers or
+    ``"location / direction"``) and the checks of each file's header against its samples.
+    """
+    picked = read_network_records(path, columns, format=format)
+    names = [str(ch.number) for ch in picked]
+    if len(set(names)) != len(names):
+        raise DataError(f"{path}: channels {list(columns or [])} name one channel twice")
+    # one channel: named by its own file (``archive.zip:CHAN07.V2``), as messages should
+    return to_measurement(picked, names, picked[0].source if len(picked) == 1 else str(path))
+
+
 # --------------------------------------------------------------------------- dispatch
 
 
 def read(path: str | Path, **options: object) -> Measurement:
-    """Read a measurement, choosing the reader by extension (.csv/.txt/.dat, .npz, .uff/.unv).
+    """Read a measurement, choosing the reader by extension (.csv/.txt/.dat, .npz, .uff/.unv,
+    and network records: .zip, .v2, .v2c, .at2 or a folder of them, `read_network`).
 
     ``options`` go to the reader (`read_csv`, `read_npz`, `read_uff58`). Text files default
     to a time column named ``t``; the units written by `write_csv` are read back.
@@ -481,6 +507,8 @@ def read(path: str | Path, **options: object) -> Measurement:
         return read_npz(path, **options)  # type: ignore[arg-type]
     if ext in (".uff", ".unv"):
         return read_uff58(path, **options)  # type: ignore[arg-type]
+    if ext in (".zip", ".v2", ".v2c", ".at2") or path.is_dir():
+        return read_network(path, **options)  # type: ignore[arg-type]
     if ext in (".csv", ".txt", ".dat", ".tsv"):
         units = _units_from_csv_comment(path) if path.is_file() else {}
         if "time" not in options and "rate" not in options:
@@ -491,4 +519,4 @@ def read(path: str | Path, **options: object) -> Measurement:
                             m.time_rtol)
         return m
     raise DataError(f"{path}: unknown file type {ext!r}; expected .csv, .txt, .dat, .tsv, "
-                    f".npz, .uff or .unv")
+                    f".npz, .uff, .unv, or a network record .zip, .v2, .v2c, .at2")

@@ -22,12 +22,14 @@ from scipy.optimize import Bounds, OptimizeResult
 
 from femupdate._parallel import PoolMap, default_workers
 from femupdate.errors import ConfigError, FemupdateError
-from femupdate.optimize.base import Factory, Optimizer, stack_rows
-from femupdate.optimize.beta import make_ab, make_ib
-from femupdate.optimize.cmaes import make_cmaes
-from femupdate.optimize.evolutionary import make_de, make_ga
-from femupdate.optimize.multistart import make_multistart_lm
-from femupdate.optimize.scipy_lsq import make_scipy_lsq
+from femupdate.optimize.base import Optimizer, stack_rows
+from femupdate.optimize.registry import (  # noqa: F401 (the registry, re-exported)
+    METHODS,
+    POPULATION_METHODS,
+    RESIDUAL_METHODS,
+    objective_for,
+    register_method,
+)
 from femupdate.optimize.termination import (
     check_f_target,
     check_max_evals,
@@ -36,29 +38,6 @@ from femupdate.optimize.termination import (
     status_and_message,
 )
 from femupdate.optimize.timed import FAILED, TimedFunction, check_timeout
-
-#: The optimizers by name: factories ``(n, rng, **options) -> Optimizer``.
-METHODS: dict[str, Factory] = {
-    "ib": make_ib,
-    "ab": make_ab,
-    "cmaes": make_cmaes,
-    "de": make_de,
-    "ga": make_ga,
-    "multistart-lm": make_multistart_lm,
-    "scipy-lsq": make_scipy_lsq,
-}
-
-#: Methods given ``problem.residuals`` with ``residuals=True`` when the problem has them.
-RESIDUAL_METHODS: frozenset[str] = frozenset({"multistart-lm", "scipy-lsq"})
-
-
-def objective_for(problem: Any, method: str) -> tuple[Callable[[np.ndarray], Any], bool]:
-    """What ``method`` minimizes of a problem that has both φ (``problem(x)``) and
-    ``problem.residuals(x)``: ``(problem.residuals, True)`` for RESIDUAL_METHODS, else
-    ``(problem, False)``; the pair is ``minimize``'s ``fun`` and ``residuals``."""
-    if method in RESIDUAL_METHODS:
-        return problem.residuals, True
-    return problem, False
 
 #: Added to the result's message when every evaluation failed (φ NaN or inf).
 NO_SUCCESS = ("no evaluation succeeded: fun returned NaN or inf at every point tried, so x is "
@@ -505,11 +484,11 @@ def minimize(
         update problems, whose batches are compiled loops with the single calls' values.
     bounds : sequence of (low, high) or scipy.optimize.Bounds
         Finite, low < high, one pair per parameter, high − low finite (not overflowing).
-    method : {"ab", "ib", "cmaes", "de", "ga", "multistart-lm", "scipy-lsq"}
+    method : {"multistart-lm", "ab", "ib", "cmaes"} or a registered name
         See ``METHODS``; each validates its own ``options``. ``"multistart-lm"``:
         space-filling starts, a bounded Levenberg–Marquardt local phase and restarts
-        (quasi-Newton on φ without residuals); ``"scipy-lsq"``: multistart scipy
-        ``least_squares``, a baseline that needs ``residuals=True``.
+        (quasi-Newton on φ without residuals); ``"ab"``, ``"ib"``: the paper's adaptive Beta
+        sampling; ``"cmaes"``: pycma. Others plug in with :func:`register_method`.
     seed : None, int, SeedSequence or Generator
         Passed to ``numpy.random.default_rng``: the run's only randomness.
     max_evals : int
@@ -526,7 +505,7 @@ def minimize(
         As scipy's: 1 (default) evaluates in this process; ``N > 1`` spreads each step's
         candidates over ``N`` worker processes (``fun`` must be picklable); -1 uses every CPU;
         a map-like ``workers(fun, rows)`` (e.g. an executor's ``map``) evaluates the rows in
-        order. Population methods (cmaes, de, ga) and multistart-lm (a Jacobian's points)
+        order. Population methods (cmaes) and multistart-lm (a Jacobian's points)
         ask several candidates per step.
     map : callable or None
         Deprecated name of a map-like ``workers``.

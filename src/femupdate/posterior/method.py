@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import ConfigError
-from femupdate.optimize.minimize import METHODS
+from femupdate.optimize.registry import METHODS, register_method
 from femupdate.posterior.input_noise import TrialWhitening
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
@@ -109,7 +109,8 @@ def make_case_tmcmc(n: int, rng: np.random.Generator, **options: Any) -> CaseTMC
     return CaseTMCMC(n, rng, error_model=model, prior=prior, reference=reference, **options)
 
 
-METHODS.setdefault(METHOD, make_case_tmcmc)
+if METHOD not in METHODS:
+    register_method(METHOD, make_case_tmcmc, population=True)
 
 
 class SampledProblem(UpdateProblem):

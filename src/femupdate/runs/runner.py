@@ -26,6 +26,7 @@ from scipy.optimize import Bounds
 
 from femupdate._parallel import single_blas_thread
 from femupdate.errors import ConfigError
+from femupdate.optimize.registry import POPULATION_METHODS
 from femupdate.runs.chunks import ChunkResult, ChunkTask, RunSpec, advance_chunk
 from femupdate.runs.executors import (
     CONNECT_TIMEOUT_S,
@@ -42,10 +43,6 @@ __all__ = ["CHUNK_EVALS", "CHUNK_SECONDS", "CaseIdentity", "Execution", "run_all
 #: Default chunk limits: a checkpoint every second or so of work (whichever limit comes first).
 CHUNK_EVALS = 100_000
 CHUNK_SECONDS = 1.0
-#: Methods whose steps evaluate a population (several candidates; multistart-lm: its pools
-#: and Jacobians): with fewer runs than workers their populations are spread over the
-#: workers instead (``RunExecutor.mapper``: compiled problems over threads of this process).
-POPULATION_METHODS = frozenset({"cmaes", "de", "ga", "multistart-lm", "tmcmc"})
 
 
 @dataclass(frozen=True)

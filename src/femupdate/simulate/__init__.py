@@ -21,7 +21,10 @@ nonlinear
 
 from __future__ import annotations
 
+import sys
+import types
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -157,3 +160,19 @@ def simulate(
         newmark_gamma=newmark_gamma,
     )
     return sim.run(ag, force, x0=x0, v0=v0)
+
+
+class _CallableModule(types.ModuleType):
+    """This package, callable as :func:`simulate`: ``femupdate.simulate(system, dt, ag=ag)``.
+
+    The package shares the name of its front-door function, and ``femupdate`` imports neither
+    until it is used (``femupdate --help`` must not load numba and scipy), so
+    ``femupdate.simulate`` is this module whichever is imported first; calling it calls the
+    function.
+    """
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Response:
+        return simulate(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

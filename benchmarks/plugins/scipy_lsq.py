@@ -19,7 +19,7 @@ import numpy as np
 
 from femupdate.errors import FemupdateError
 from femupdate.optimize.base import check_option_names
-from femupdate.optimize.threaded import Abort, Handoff, ThreadedSolver
+from plugins.threaded import Abort, Handoff, ThreadedSolver
 
 
 def _solve_forever(handoff: Handoff, n: int, rng: np.random.Generator) -> None:

@@ -19,7 +19,7 @@ from femupdate.optimize.base import (
     int_option,
     real_option,
 )
-from femupdate.optimize.threaded import Abort, Handoff, ThreadedSolver
+from plugins.threaded import Abort, Handoff, ThreadedSolver
 
 
 def _run_solver(handoff: Handoff, n: int, settings: dict[str, Any]) -> None:
