@@ -257,6 +257,9 @@ def test_example_case_file_reads():
     case = load_case(Path(__file__).parents[2] / "examples" / "multisupport" / "two-span.toml")
     assert [g.name for g in case.model.support_groups] == ["west", "pier", "east"]
     assert CaseModel(case).reference.tolist() == [[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    frame = load_case(Path(__file__).parents[2] / "examples" / "multisupport"
+                      / "frame3d-foundations.toml")
+    assert CaseModel(frame).groups == ("south", "north")
 
 
 @pytest.mark.parametrize("quantity", ["displacement", "acceleration"])
