@@ -262,6 +262,7 @@ def test_every_field_is_documented() -> None:
     from femupdate import case as c
 
     for model in (c.Node, c.Beam, c.Spring, c.Damper, c.Friction, c.Mass, c.Support,
+                  c.SupportGroup,
                   c.Rayleigh, c.ShearBuilding, c.Parameter, c.Data, c.Channel,
                   c.OutputChannel, c.Trial, c.Preprocess, c.ObjectiveOptions, c.Simulation,
                   c.PythonModelSection, c.OpenSeesSection,

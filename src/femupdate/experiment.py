@@ -26,6 +26,7 @@ import numpy as np
 
 from femupdate import trial_checks
 from femupdate.case import Case, Data, TrialSpec, format_value
+from femupdate.case.schema import Channel
 from femupdate.data import io, network, signal
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, DataError, FemupdateError, FemupdateWarning
@@ -52,10 +53,12 @@ class Experiment:
     ----------
     t : ndarray (n,)
         Sample times from 0 (s).
-    ag : ndarray (n,)
-        Processed base (table) acceleration, m/s², the model's input.
+    ag : ndarray (n,) or (n, g)
+        Processed base (table) acceleration, m/s², the model's input; with support groups
+        (``[[model.support_groups]]``) a column per group, in the model's order.
     accelerations : ndarray (n, k)
-        Processed absolute accelerations of the output channels, m/s².
+        Processed accelerations of the output channels, m/s² (absolute, or as recorded with
+        support groups).
     target : ndarray (n, k)
         What the error function compares: relative displacements (m) or absolute
         accelerations (m/s²), by ``quantity``.
@@ -66,7 +69,7 @@ class Experiment:
     delays : dict of str to float
         Delay (s) removed from each output channel whose ``delay`` is not 0 (given, or
         estimated for ``"auto"``); empty when none was.
-    ag_unfiltered : ndarray (n,) or None
+    ag_unfiltered : ndarray (n,) or (n, g) or None
         The base acceleration before the high-pass (None: there was none), the input of a model
         whose prediction is filtered instead (``Case.filters_prediction``).
     name, role, weight : str, str, float
@@ -138,7 +141,19 @@ def _check_rates(case: Case, records: list[io.Measurement]) -> None:
 def data_files(case: Case) -> dict[str, Path]:
     """The files the case reads (every trial's): each ``file`` as written → its path."""
     return {channel.file: case.data_path(channel, spec.data) for spec in case.trial_specs()
-            for channel in (spec.data.input, *spec.data.outputs)}
+            for channel in _channels(spec.data)}
+
+
+def _channels(data: Data) -> list[Channel]:
+    """The input channels (the table's, or each support group's), then the outputs."""
+    return [c for _, _, c in data.input_channels()] + list(data.outputs)
+
+
+def input_names(case: Case) -> tuple[str, ...]:
+    """The names of the input channels once read, in the model's order: ``("input",)``, or
+    ``"input.<group>"`` for each of ``[[model.support_groups]]``."""
+    groups = case.model.support_groups
+    return tuple(f"input.{g.name}" for g in groups) if groups else ("input",)
 
 
 def header_recipe(case: Case) -> str | None:
@@ -173,8 +188,8 @@ def _check_files(case: Case, data: Data) -> None:
                         f"folder ({folder}) (allowed: the folder that holds the data files, "
                         "relative to the case file's folder)")
     fields: dict[Path, list[str]] = {}
-    channels = [("data.input", data.input)] + [(f"data.outputs[{i}]", c)
-                                               for i, c in enumerate(data.outputs)]
+    channels = [(f"data.{path}", c) for _, path, c in data.input_channels()] + [
+        (f"data.outputs[{i}]", c) for i, c in enumerate(data.outputs)]
     for where, channel in channels:
         fields.setdefault(case.data_path(channel, data), []).append(f"{where}.file")
     # a network record may be a folder of the network's files, one per channel
@@ -226,12 +241,15 @@ def _check_overlap(case: Case, records: list[io.Measurement], used: io.Measureme
 
 def _check_motion(case: Case, data: Data, merged: io.Measurement) -> None:
     """Refuse channels without motion: φ would be the same for every parameter value."""
-    channels = [("input", "data.input", data.input)] + [
+    channels = [(name, f"data.{path}", c) for name, path, c in data.input_channels()] + [
         (c.label, f"data.outputs[{i}]", c) for i, c in enumerate(data.outputs)]
     for name, where, channel in channels:
         if not np.any(merged[name]):
             what = ("the table did not move: the model has no input, and every parameter value "
                     "predicts the same response (φ = 1)" if name == "input" else
+                    "this support did not move: its group has no input (allowed: a record "
+                    "with motion; fix the support in no group to keep it still)"
+                    if name.startswith("input.") else
                     "this sensor did not move: its error (NMSE) is undefined")
             raise DataError(f"{case.data_path(channel, data)}: column {channel.column!r} "
                             f"({where}) is 0 in every sample used: {what} (allowed: a record "
@@ -261,7 +279,8 @@ def _read_checked(case: Case, data: Data | None = None, trial: str = ""
     if data is None:
         raise DataError(f"{case.label}: the case has no [data] section: nothing to fit")
     _check_files(case, data)
-    specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
+    specs = [(name, c) for name, _, c in data.input_channels()] + [
+        (c.label, c) for c in data.outputs]
     records = []
     notes: list[str] = []
     for name, channel in specs:
@@ -395,6 +414,7 @@ def process(
     influence: np.ndarray | None = None,
     lowpass_hz: float | None = None,
     lowpass_order: int = 4,
+    inputs: tuple[str, ...] = ("input",),
 ) -> Experiment:
     """Filter (high-pass, then low-pass) and (for displacements) integrate the measured
     accelerations.
@@ -403,18 +423,22 @@ def process(
     ``influence`` (one per channel, default all 1): how far a unit table displacement moves
     each channel; a channel across the shaking (a 3-D frame's ``uy`` under motion along ``x``)
     has 0, and its relative displacement is its own.
+    ``inputs``: the input channels' names; several (support groups, ``input.<group>``) make
+    ``ag`` a column per input, and the outputs are taken as recorded (``influence`` 0).
     """
     rate = measurement.rate
-    acc = measurement.array(("input", *channels))
+    acc = measurement.array((*inputs, *channels))
+    g = len(inputs)
+    first = slice(0, g) if g > 1 or inputs != ("input",) else 0
     ag_unfiltered = None
     if highpass_hz > 0.0 or lowpass_hz is not None:
-        ag_unfiltered = acc[:, 0].copy()
+        ag_unfiltered = acc[:, first].copy()
         acc = signal.band(acc, rate, highpass_hz, lowpass_hz, highpass_order=highpass_order,
                           lowpass_order=lowpass_order, zero_phase=zero_phase)
-    ag, outputs = acc[:, 0], acc[:, 1:]
+    ag, outputs = acc[:, first], acc[:, g:]
     if quantity == "displacement":
         relative = (signal.relative(outputs, ag) if influence is None
-                    else outputs - np.outer(ag, influence))
+                    else outputs - np.outer(ag, influence) if ag.ndim == 1 else outputs)
         target = signal.integrate_twice(relative, measurement.dt)
     else:
         target = outputs
@@ -473,20 +497,22 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
                               ("lowpass_hz", pre.lowpass_hz, "")):
         if cutoff is not None and cutoff >= rate / 2:
             raise ConfigError(f"{case.label}: preprocess.{name}: got {cutoff:g} Hz for data at "
-                              f"{rate:.6g} Hz (the rate of {case.data_path(data.input)}) "
+                              f"{rate:.6g} Hz (the rate of "
+                              f"{case.data_path(data.input_channels()[0][2], data)}) "
                               f"(allowed: {off}below the Nyquist frequency {rate / 2:.6g} Hz)")
     labels = tuple(c.label for c in data.outputs)
     wanted = {c.label: c.delay for c in data.outputs}
     low, high = pre.delay_band_hz
+    inputs = input_names(case)  # delays are estimated against the first
     if "auto" in wanted.values():
         band = _check_band(case, measurement.rate)
         notes += _check_band_below_modes(case, band)
         notes += _doubtful_delays(measurement, wanted, band, pre.highpass_hz,
-                                  pre.highpass_order, pre.zero_phase)
+                                  pre.highpass_order, pre.zero_phase, inputs[0])
     else:
         band = (low, high)
     measurement, delays = apply_delays(
-        replace(measurement, source=case.label), wanted, band=band,
+        replace(measurement, source=case.label), wanted, input_name=inputs[0], band=band,
         highpass_hz=pre.highpass_hz, highpass_order=pre.highpass_order,
         zero_phase=pre.zero_phase)
     experiment = process(
@@ -494,7 +520,7 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
         quantity=case.objective.quantity, highpass_hz=pre.highpass_hz,
         highpass_order=pre.highpass_order, zero_phase=pre.zero_phase, delays=delays,
         influence=_channel_influence(case, data), lowpass_hz=pre.lowpass_hz,
-        lowpass_order=pre.lowpass_order,
+        lowpass_order=pre.lowpass_order, inputs=inputs,
     )
     # apply_delays trims samples at both ends and restarts the time at 0: the record time of
     # the first sample kept
@@ -507,8 +533,11 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
 
 def _channel_influence(case: Case, data: Data) -> np.ndarray | None:
     """Per output channel of femupdate's own model, 1 along the shaking and 0 across it (the
-    rigid translation ``Structure.influence_vector`` gives); None (all 1) otherwise."""
+    rigid translation ``Structure.influence_vector`` gives); 0 with support groups (channels
+    compared as recorded); None (all 1) otherwise."""
     model = case.model
+    if model.support_groups:
+        return np.zeros(len(data.outputs))
     if model.external is not None or any(c.dof is None for c in data.outputs):
         return None
     along = "u" + model.excitation_direction
@@ -518,13 +547,14 @@ def _channel_influence(case: Case, data: Data) -> np.ndarray | None:
 def _channel_checks(case: Case, data: Data, trial: str, merged: io.Measurement
                     ) -> tuple[io.Measurement, list[Finding]]:
     """The defect checks of a trial's channels on one time base (`trial_checks`)."""
-    specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
+    specs = [(name, c) for name, _, c in data.input_channels()] + [
+        (c.label, c) for c in data.outputs]
     files = {name: str(case.data_path(channel, data)) for name, channel in specs}
     units = {name: channel.unit or data.unit for name, channel in specs}
     time_unit = data.time_unit if data.format == "csv" and data.time_column is not None else None
     checked, found = trial_checks.channel_findings(
         merged, files, units, data, trial, f1=trial_checks.first_mode_hz(case),
-        time_unit=time_unit)
+        time_unit=time_unit, inputs=input_names(case))
     return replace(checked, notes=merged.notes), found
 
 
@@ -567,10 +597,10 @@ def _check_band_below_modes(case: Case, band: tuple[float, float]) -> list[str]:
 
 def _doubtful_delays(measurement: io.Measurement, wanted: Mapping[str, float | str],
                      band: tuple[float, float], highpass_hz: float, order: int,
-                     zero_phase: bool) -> list[str]:
+                     zero_phase: bool, input_name: str = "input") -> list[str]:
     """Notes on "auto" delays longer than a few samples estimated where coherence is poor."""
     rate = measurement.rate
-    x = measurement["input"]
+    x = measurement[input_name]
     if highpass_hz > 0.0:
         x = signal.highpass(x, rate, highpass_hz, order=order, zero_phase=zero_phase)
     notes = []
@@ -612,7 +642,7 @@ def _compare_network_events(case: Case) -> None:
     used: set[int] = set()
     paths: dict[str, Path] = {}
     for spec in specs:
-        for channel in (spec.data.input, *spec.data.outputs):
+        for channel in _channels(spec.data):
             path = case.data_path(channel, spec.data)
             if path.is_dir() or zipfile.is_zipfile(path):  # an event's record, not one file
                 paths[str(path)] = path

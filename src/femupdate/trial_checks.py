@@ -70,12 +70,17 @@ def clock_findings(records: Sequence[tuple[str, str, Measurement]], data: Data, 
 
 
 def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str, str],
-                     data: Data, trial: str, *, f1: float | None, time_unit: str | None
+                     data: Data, trial: str, *, f1: float | None, time_unit: str | None,
+                     inputs: tuple[str, ...] = ("input",),
                      ) -> tuple[Measurement, list[defects.Finding]]:
     """The checks of the channels on one time base (``"input"`` and the outputs, m/s²), and the
-    record with its spikes interpolated when ``repair_defects`` holds ``"spike"``."""
+    record with its spikes interpolated when ``repair_defects`` holds ``"spike"``.
+
+    Several ``inputs`` (support groups) have no one table to compare the outputs with: the
+    alignment and unit-gain checks against the input are left out, each input's peak is
+    checked alone."""
     n, rate = merged.n_samples, merged.rate
-    found = defects.check_length_and_rate(n, rate, f1, files["input"], time_unit=time_unit)
+    found = defects.check_length_and_rate(n, rate, f1, files[inputs[0]], time_unit=time_unit)
     clean = dict(merged.channels)
     if n >= defects.MIN_SAMPLES:
         # the other checks see the channels without their spikes: one 1e308 sample would
@@ -84,12 +89,16 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
             found += defects.check_spikes(name, merged[name], merged.t, files[name])
             clean[name] = defects.interpolate_samples(merged[name],
                                                       defects.spike_samples(merged[name]))
-        x = clean["input"]
-        outputs = {name: y for name, y in clean.items() if name != "input"}
         found += defects.check_duplicates(clean, files)
         for name, y in clean.items():
             found += defects.check_saturation(name, y, files[name])
-        if not found or all(f.kind in ("spike", "duplicate", "saturation") for f in found):
+        if inputs != ("input",):
+            for name in inputs:
+                found += [replace(f, channel=name) for f in defects.check_units(
+                    clean[name], {}, rate, {"input": units[name]}, {"input": files[name]})]
+        elif not found or all(f.kind in ("spike", "duplicate", "saturation") for f in found):
+            x = clean["input"]
+            outputs = {name: y for name, y in clean.items() if name != "input"}
             # lags and spectra in seconds and hertz mean nothing on a wrong time base
             found += defects.check_alignment(x, outputs, rate, files, first_mode_hz=f1)
             found += defects.check_units(x, outputs, rate, units, files, first_mode_hz=f1)

@@ -96,7 +96,7 @@ class TrialProblem:
         # step by step.
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None)
+                         and self.model.reduced is None and not self.model.groups)
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -252,13 +252,20 @@ class TrialProblem:
         accelerations. Filtered first when the model's input was not (``self.filter``).
         ``ag``: the base record that drove ``response``, when not the trial's.
         """
+        base = self._ag if ag is None else ag
         if self.integrate:
-            base = self._ag if ag is None else ag
-            relative = response.acceleration - np.outer(base, self.model.influence)
+            relative = response.acceleration - self.base_share(base)
             return signal.integrate_twice(self._filtered(relative), self.experiment.dt)
         if self.experiment.quantity == "displacement":
-            return self._filtered(response.displacement)
-        return self._filtered(response.acceleration)
+            return self._filtered(response.displacement
+                                  - self.model.recorded_share(base, self.experiment.dt))
+        return self._filtered(response.acceleration - self.model.recorded_share(base))
+
+    def base_share(self, ag: np.ndarray) -> np.ndarray:
+        """The base motion's share of each channel's acceleration as recorded: the table's
+        (influence vector), or a support group's (:meth:`CaseModel.recorded_share`)."""
+        model = self.model
+        return model.recorded_share(ag) if model.groups else np.outer(ag, model.influence)
 
     def prediction_driven_by(self, values: Mapping[str, float], ag: np.ndarray
                              ) -> np.ndarray:

@@ -25,7 +25,8 @@ from femupdate.units import ACCELERATION_UNITS, STANDARD_GRAVITY
 
 @dataclass(frozen=True)
 class Motion:
-    """A base acceleration (m/s²) sampled every ``dt`` at the model's time scale."""
+    """A base acceleration (m/s²) sampled every ``dt`` at the model's time scale: (n,), or
+    (n, g) with a column per support group of a multi-support case."""
 
     ag: np.ndarray
     dt: float
@@ -98,11 +99,35 @@ def simulate_truth(case: Case, truth: dict[str, float], motion: Motion) -> np.nd
     if missing or extra:
         raise ConfigError(f"truth values: missing {missing}, unknown {extra} (allowed: exactly "
                           f"the case's parameters {list(case.parameter_names)})")
-    response = CaseModel(case).simulate(truth, motion.ag, motion.dt)
+    model = CaseModel(case)
+    groups = len(model.groups)
+    if groups and (motion.ag.ndim != 2 or motion.ag.shape[1] != groups):
+        raise ConfigError(f"{case.label}: the model has {groups} support groups "
+                          f"({', '.join(model.groups)}) but the motion has "
+                          f"{1 if motion.ag.ndim == 1 else motion.ag.shape[1]} record(s) "
+                          "(allowed: one record per group; femupdate synth without --motion "
+                          "makes an independent one for each)")
+    response = model.simulate(truth, motion.ag, motion.dt)
     if response.diverged:
         raise ConfigError("the truth model diverged under this motion: check the truth values "
                           "and [preprocess] substeps")
+    if groups:  # a channel recorded relative to its group's ground
+        return response.acceleration - motion.ag @ model.reference.T
     return response.acceleration
+
+
+def group_motions(case: Case, rng: np.random.Generator, *, rate: float, duration: float,
+                  pga_g: float, length_scale: float) -> Motion:
+    """Independent EC8 artificial accelerograms, one per support group (each from its own
+    child of ``rng``), as a multi-support motion."""
+    names = [g.name for g in case.model.support_groups]
+    children = rng.spawn(len(names))
+    motions = [ec8_motion(child, rate=rate, duration=duration, pga_g=pga_g,
+                          length_scale=length_scale) for child in children]
+    n = min(m.ag.size for m in motions)
+    return Motion(np.column_stack([m.ag[:n] for m in motions]), motions[0].dt,
+                  f"{len(names)} independent motions (support groups {', '.join(names)}), "
+                  f"each {motions[0].description}")
 
 
 def write_records(case: Case, out_dir: Path, t: np.ndarray, channels: dict[str, np.ndarray],
@@ -117,7 +142,8 @@ def write_records(case: Case, out_dir: Path, t: np.ndarray, channels: dict[str, 
         raise ConfigError(f"{case.label}: [data] format = {data.format!r}: a network's records "
                           "are read, not written (allowed for a virtual experiment: format = "
                           "\"csv\", \"npz\" or \"uff\")")
-    specs = [("input", data.input)] + [(c.label, c) for c in data.outputs]
+    specs = [(name, c) for name, _, c in data.input_channels()] + [
+        (c.label, c) for c in data.outputs]
     files: dict[str, dict[str, np.ndarray]] = defaultdict(dict)
     units: dict[str, dict[str, str]] = defaultdict(dict)
     for key, spec in specs:
@@ -188,14 +214,18 @@ def virtual_experiment(
     """
     rate = rate or (case.data.rate if case.data is not None and case.data.rate else 1035.0)
     motion_ss, noise_ss = np.random.SeedSequence(seed).spawn(2)
+    groups = case.model.support_groups
     if motion is None:
         check_motion_settings(duration=duration, rate=rate, pga_g=pga_g,
                               length_scale=length_scale)
-        motion = ec8_motion(np.random.default_rng(motion_ss), rate=rate, duration=duration,
-                            pga_g=pga_g, length_scale=length_scale)
+        settings = dict(rate=rate, duration=duration, pga_g=pga_g, length_scale=length_scale)
+        rng_motion = np.random.default_rng(motion_ss)
+        motion = (group_motions(case, rng_motion, **settings) if groups
+                  else ec8_motion(rng_motion, **settings))
     outputs = simulate_truth(case, truth, motion)
     assert case.data is not None
-    keys = ["input"] + [c.label for c in case.data.outputs]
+    inputs = [f"input.{g.name}" for g in groups] if groups else ["input"]
+    keys = inputs + [c.label for c in case.data.outputs]
     clean = np.column_stack([motion.ag, outputs])
     rng = np.random.default_rng(noise_ss)
     k = clean.shape[1]
@@ -205,7 +235,7 @@ def virtual_experiment(
     recorded = synth.sensor_record(clean, rng, snr=snr, offset=offsets, drift=drifts,
                                    dt=motion.dt)
     if clean_input:
-        recorded[:, 0] = clean[:, 0]
+        recorded[:, :len(inputs)] = clean[:, :len(inputs)]
     t = np.arange(clean.shape[0]) * motion.dt
     paths = write_records(case, out_dir, t, dict(zip(keys, recorded.T, strict=True)))
     manifest = {

@@ -215,7 +215,7 @@ def trial_fit(trial: TrialProblem, values: dict[str, float]) -> Fit:
     response = trial.simulate(values)
     predicted = trial.scored(trial.prediction(response))
     measured = np.asarray(trial.objective.corrected_target(predicted)).reshape(predicted.shape)
-    table = np.outer(exp.ag, trial.model.influence)  # the table's share of each output
+    table = trial.base_share(exp.ag)  # the table's (the supports') share of each output
     return Fit(t=exp.t[exp.score] + exp.start_s, measured=measured, predicted=predicted,
                measured_acc=exp.accelerations - table,
                predicted_acc=response.acceleration - table, channels=exp.channels,

@@ -31,6 +31,7 @@ from femupdate.case.model_sections import (
     ShearBuilding,
     Spring,
     Support,
+    SupportGroup,
 )
 from femupdate.case.schema import (
     Case,
@@ -75,6 +76,7 @@ __all__ = [
     "Simulation",
     "Spring",
     "Support",
+    "SupportGroup",
     "Trial",
     "TrialSpec",
     "build_structure",

@@ -18,14 +18,14 @@ import numpy as np
 from femupdate.case.model_sections import Model, storey_values
 from femupdate.case.reduced_path import ReducedPath
 from femupdate.case.schema import Case, OutputChannel
-from femupdate.errors import ConfigError
+from femupdate.errors import ConfigError, DataError
+from femupdate.simulate.response import Response
 
 if typing.TYPE_CHECKING:
     from femupdate.external.protocol import ExternalModel
     from femupdate.model.structure import Structure
     from femupdate.model.system import System
     from femupdate.simulate import Simulator
-    from femupdate.simulate.response import Response
 
 
 def build_structure(model: Model) -> Structure:
@@ -113,7 +113,14 @@ class CaseModel:
     outputs : ndarray of int64
         Free-DOF indices of the case's output channels (empty without ``[data]``).
     influence : ndarray
-        The influence vector at the outputs: what a unit base motion moves them by.
+        The influence vector at the outputs: what a unit base motion moves them by (0 with
+        support groups: their channels are absolute unless ``relative_to`` says otherwise).
+    groups : tuple of str
+        The support groups' names (``[[model.support_groups]]``; empty: one table record), the
+        order of the columns of a multi-support input.
+    reference : ndarray (n_outputs, n_groups)
+        With support groups: 1 where an output channel's record is relative to a group's
+        motion (``relative_to``, along the group's direction), else 0.
     """
 
     def __init__(self, case: Case, channels: Sequence[OutputChannel] | None = None) -> None:
@@ -121,6 +128,8 @@ class CaseModel:
             channels = case.data.outputs if case.data is not None else []
         self._label = case.label
         self.reduced: ReducedPath | None = None
+        self.groups: tuple[str, ...] = ()  # an external model takes one table record
+        self.reference = np.zeros((len(channels), 0))
         self.external = external_model(case, channels)
         if self.external is not None:
             self.structure = None
@@ -129,6 +138,17 @@ class CaseModel:
             return
         self.structure = build_structure(case.model)
         self.direction = case.model.excitation_direction
+        model = case.model
+        self.groups = tuple(g.name for g in model.support_groups)
+        #: The support DOFs (node, dof) the groups move, and each group's labels of them.
+        self._supports = [(node, model.group_dof(g)) for g in model.support_groups
+                          for node in g.nodes]
+        self._group_labels = [[f"{node}.{model.group_dof(g)}" for node in g.nodes]
+                              for g in model.support_groups]
+        self.reference = np.array(
+            [[float(c.relative_to == g.name and c.dof == model.group_dof(g))
+              for g in model.support_groups] for c in channels]).reshape(len(channels),
+                                                                         len(self.groups))
         self.method = case.simulation_method
         self.substeps = 1 if self.method in ("exact", "reduced") else case.preprocess.substeps
         #: The reduced path's settings and warm start (None on the other paths).
@@ -137,6 +157,8 @@ class CaseModel:
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
+        if self.groups:
+            self.influence = np.zeros_like(self.influence)
         if case.model.dofs_per_node == 6:
             from femupdate.case.model3d import check_not_mechanism
 
@@ -168,8 +190,64 @@ class CaseModel:
                        substeps=self.substeps)
 
     def simulate(self, values: Mapping[str, float], ag: np.ndarray, dt: float) -> Response:
-        """Response at the output DOFs to the base acceleration ``ag`` sampled every ``dt``."""
+        """Response at the output DOFs to the base acceleration ``ag`` sampled every ``dt``.
+
+        With support groups ``ag`` holds a column per group (in ``groups`` order) and the
+        response is the total one: absolute displacement, velocity and acceleration
+        (:meth:`support_response`).
+        """
+        if self.groups:
+            return self.support_response(values, ag, dt)
         return self.simulator(values, dt).run(ag)
+
+    def recorded_share(self, ag: np.ndarray, dt: float | None = None) -> np.ndarray | float:
+        """What the support groups' accelerations ``ag`` (n_samples, n_groups) add to each
+        output channel as recorded (``relative_to``: the group's motion, else 0), (n, k); with
+        ``dt``, of the displacements integrated from them. 0.0 without support groups."""
+        if not self.groups:
+            return 0.0
+        if dt is not None:
+            from femupdate.simulate.multisupport import integrate_record
+
+            ag = integrate_record(np.asarray(ag, dtype=float), dt)[1]
+        return np.asarray(ag, dtype=float) @ self.reference.T
+
+    def support_response(self, values: Mapping[str, float], acceleration: np.ndarray,
+                         dt: float) -> Response:
+        """Absolute response at the output DOFs to the support groups' accelerations
+        ``acceleration`` (n_samples, n_groups), by the pseudo-static split of
+        :mod:`femupdate.simulate.multisupport`.
+
+        The supports' velocities and displacements are integrated from their accelerations
+        (linear between samples; by Newmark's average-acceleration relations for
+        ``method = "newmark"``, so that the scheme sees support motions of its own family).
+        """
+        from femupdate.simulate.multisupport import (
+            SupportCoupling,
+            integrate_record,
+            multi_support_response,
+        )
+
+        structure = self._builtin("multi-support excitation")
+        if self.outputs.size == 0:
+            raise ConfigError(f"{self._label}: the case has no [data] outputs: nothing to "
+                              "simulate at")
+        acc = np.asarray(acceleration, dtype=float)
+        if acc.ndim != 2 or acc.shape[1] != len(self.groups):
+            raise DataError(f"{self._label}: support accelerations of shape {acc.shape}; "
+                            f"expected (n_samples, {len(self.groups)}), a column per support "
+                            f"group ({', '.join(self.groups)})")
+        system = self.system(values)
+        k_fs, m_fs, c_fs = structure.support_coupling(values, self._supports)
+        coupling = SupportCoupling(system, tuple(f"{n}.{d}" for n, d in self._supports),
+                                   k_fs, m_fs, c_fs)
+        velocity, displacement = integrate_record(
+            acc, dt, "newmark" if self.method == "newmark" else "exact")
+        resp = multi_support_response(coupling, self._group_labels, acc, dt, method=self.method,
+                                      substeps=self.substeps, velocity=velocity,
+                                      displacement=displacement, outputs=self.outputs)
+        return Response(resp.t, resp.total, resp.total_velocity, resp.acceleration,
+                        diverged=resp.diverged)
 
 
 def check_parameter_values(values: object, names: tuple[str, ...],

@@ -60,6 +60,12 @@ def diaphragm_issues(model: Model, coordinates: dict[str, tuple[float, float, fl
 def model_issues(model: Model) -> list[Issue]:
     issues: list[Issue] = []
     external = [key for key in ("python", "opensees") if getattr(model, key) is not None]
+    if model.support_groups and (external or model.shear_building is not None):
+        issues.append(("support_groups", "given with "
+                       + ("an external model" if external else "[model.shear_building]"),
+                       "support groups on femupdate's own nodes and elements: "
+                       "[[model.nodes]], [[model.supports]]"))
+        return issues
     if external:
         given = [key for key in (*ELEMENT_LISTS, "shear_building", "rayleigh")
                  if getattr(model, key)]
@@ -159,6 +165,54 @@ def model_issues(model: Model) -> list[Issue]:
                 issues.append((f"{key}[{i}]", f"acts on {link.node}.{link.dof}, fixed by "
                                f"{fixed[link.node, link.dof]}: it would have no effect",
                                "a free DOF; remove the element or free the DOF"))
+    return issues + support_group_issues(model, fixed, defined)
+
+
+def support_group_issues(model: Model, fixed: dict[tuple[str, str], str], defined: str
+                         ) -> list[Issue]:
+    """``[[model.support_groups]]``: each a non-empty list of known nodes whose DOF along the
+    group's direction is fixed, each such DOF in one group, on a linear model."""
+    groups = model.support_groups
+    if not groups:
+        return []
+    issues: list[Issue] = duplicates([(f"support_groups[{i}].name", g.name)
+                                      for i, g in enumerate(groups)], "support group name",
+                                     "model")
+    if model.has_nonlinear:
+        issues.append(("support_groups", "given with friction or Bouc–Wen elements",
+                       "a linear model: multi-support excitation splits the motion into a "
+                       "pseudo-static and a dynamic part, which holds for linear models only"))
+    dofs = DOF_NAMES[model.dofs_per_node]
+    nodes = {n.name for n in model.nodes}
+    moved: dict[tuple[str, str], str] = {}
+    for i, group in enumerate(groups):
+        path = f"support_groups[{i}]"
+        dof = model.group_dof(group)
+        if dof not in dofs:
+            translations = [d[1] for d in dofs if d.startswith("u")]
+            issues.append((f"{path}.direction", f"got {dof[1]!r}: the model has no {dof} "
+                           f"(dofs_per_node = {model.dofs_per_node})",
+                           ", ".join(repr(d) for d in translations)))
+            continue
+        if not group.nodes:
+            issues.append((f"{path}.nodes", f"support group {group.name!r} is empty",
+                           "one node or more, each fixed in [[model.supports]]"))
+        for j, node in enumerate(group.nodes):
+            where = f"{path}.nodes[{j}]"
+            if node not in nodes:
+                hint = did_you_mean(node, sorted(nodes))
+                issues.append((where, f"support node {node!r} is not in the model{hint}",
+                               f"a node of [[model.nodes]]: {defined}"))
+            elif (node, dof) not in fixed:
+                issues.append((where, f"{node}.{dof} is not fixed: a support group moves "
+                               "supports", f"a node with {dof!r} in its [[model.supports]] "
+                               "dofs"))
+            elif (node, dof) in moved:
+                issues.append((where, f"node {node!r} ({dof}) is already in {moved[node, dof]}",
+                               "each support DOF in one group (a second direction of a node: "
+                               "a group of its own with that direction)"))
+            else:
+                moved[node, dof] = f"model.{path} ({group.name!r})"
     return issues
 
 
@@ -217,6 +271,11 @@ def case_issues(case: Case) -> list[Issue]:
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
                        "has friction or Bouc–Wen elements",
                        "'nonlinear' (or leave it out), or 'reduced' for a large model"))
+    if case.model.support_groups and case.simulation.method in ("nonlinear", "reduced"):
+        issues.append(("simulation.method", f"got {case.simulation.method!r} with "
+                       "[[model.support_groups]]", "'exact' (or leave it out), "
+                       "'central_difference' or 'newmark': multi-support excitation runs on "
+                       "the dense linear integrators"))
     issues += bouc_wen_bound_issues(case)
     if case.trials and case.data is None:
         issues.append(("trials", "[[trials]] given without [data]",
@@ -279,7 +338,7 @@ def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
                 for rel, what, allowed in ctx.get("issues", [("", err["msg"], "")]):
                     where = join_path(path, *[p for p in err["loc"] if p != "data"], rel)
                     issues.append((where, what, allowed))
-    issues += output_issues(case.model, data, path)
+    issues += output_issues(case.model, data, path) + input_issues(case.model, data, path)
     rate = case.preprocess.resample_hz or data.rate
     for name in ("highpass_hz", "lowpass_hz"):
         cutoff = getattr(case.preprocess, name)
@@ -339,6 +398,49 @@ def output_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
                            f"{unit!r}, in m/s² once read)",
                            f"a translation DOF: {translations}; femupdate reads no angular "
                            "accelerations"))
+    return issues
+
+
+def input_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
+    """The input channels against the support groups: one table record without groups, one
+    record per group with them; ``relative_to`` naming a group."""
+    groups = [g.name for g in model.support_groups]
+    issues: list[Issue] = []
+    if not groups:
+        if data.inputs is not None:
+            issues.append((f"{where}.inputs", "given without [[model.support_groups]]",
+                           "[data.input] (the table record), or support groups in [model]"))
+        issues += [(f"{where}.outputs[{i}].relative_to", f"got {out.relative_to!r} without "
+                    "[[model.support_groups]]", "leave it out: the outputs of a case with one "
+                    "table record are absolute accelerations")
+                   for i, out in enumerate(data.outputs) if out.relative_to is not None]
+        return issues
+    listed = ", ".join(repr(g) for g in groups)
+    if data.input is not None:
+        issues.append((f"{where}.input", "one table record given, but the model has "
+                       "[[model.support_groups]]", f"[data.inputs.<group>] for each group: "
+                       f"{listed}"))
+    given = data.inputs or {}
+    for group in groups:
+        if group not in given and data.input is None:
+            issues.append((f"{where}.inputs", f"support group {group!r} has no input channel",
+                           f"[{where}.inputs.{group}] with its file and column"))
+    for name in given:
+        if name not in groups:
+            issues.append((f"{where}.inputs.{name}", f"{name!r} is not a support group"
+                           f"{did_you_mean(name, groups)}", f"a group of "
+                           f"[[model.support_groups]]: {listed}"))
+    for i, out in enumerate(data.outputs):
+        if out.delay == "auto":
+            issues.append((f"{where}.outputs[{i}].delay", "\"auto\" with "
+                           "[[model.support_groups]]: the supports' records differ, none is the "
+                           "base to estimate a delay against", "the delay as a number of "
+                           "seconds (0: none)"))
+        if out.relative_to is not None and out.relative_to not in groups:
+            issues.append((f"{where}.outputs[{i}].relative_to", f"{out.relative_to!r} is not a "
+                           f"support group{did_you_mean(out.relative_to, groups)}",
+                           f"a group of [[model.support_groups]]: {listed}, or leave it out "
+                           "(an absolute record)"))
     return issues
 
 

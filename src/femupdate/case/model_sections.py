@@ -200,6 +200,17 @@ class Support(Section):
         return self
 
 
+class SupportGroup(Section):
+    """``[[model.support_groups]]``: supports that follow a record of their own (multi-support
+    excitation): the translation along ``direction`` (default the model's) of each of
+    ``nodes``, fixed by ``[[model.supports]]``, moves with the acceleration read from the
+    group's input channel ``[data.inputs.<name>]``. Fixed DOFs in no group stay still."""
+
+    name: ElementName
+    nodes: Annotated[list[NodeName], Field(max_length=100_000)]
+    direction: Literal["x", "y", "z"] | None = None
+
+
 class Rayleigh(Section):
     """``[model.rayleigh]``: damping ``C += alpha M + beta K``."""
 
@@ -362,6 +373,7 @@ class Model(Section):
     masses: list[Mass] = Field(default_factory=list)
     supports: list[Support] = Field(default_factory=list)
     diaphragms: list[Diaphragm] = Field(default_factory=list)
+    support_groups: list[SupportGroup] = Field(default_factory=list)
     shear_building: ShearBuilding | None = None
     python: PythonModelSection | None = None
     opensees: OpenSeesSection | None = None
@@ -394,6 +406,10 @@ class Model(Section):
         if self.direction is not None:
             return self.direction
         return "y" if self.shear_building is None and self.dofs_per_node == 2 else "x"
+
+    def group_dof(self, group: SupportGroup) -> str:
+        """The DOF a support group moves: ``"u" + direction`` (default the model's)."""
+        return "u" + (group.direction or self.excitation_direction)
 
     def dof_names(self) -> tuple[str, ...]:
         """DOF names of a node of this model (a shear building's floors: ``("ux",)``)."""

@@ -120,7 +120,8 @@ class Parameter(Section):
 
 
 class Channel(Section):
-    """``[data.input]``: the base (table) acceleration channel."""
+    """``[data.input]``: the base (table) acceleration channel; ``[data.inputs.<group>]``:
+    a support group's (``[[model.support_groups]]``)."""
 
     file: text_field(4096, 1)
     column: Column
@@ -135,6 +136,8 @@ class OutputChannel(Channel):
     weight: number_field(gt=0.0, le=1e6) = 1.0
     name: ElementName | None = None
     delay: Delay = 0.0
+    # multi-support cases: the record is relative to this support group's ground motion
+    relative_to: ElementName | None = None
 
     @property
     def label(self) -> str:
@@ -180,8 +183,18 @@ class Data(Section):
     repair_defects: Annotated[list[RepairableKind], Field(max_length=len(REPAIRABLE))] = Field(
         default_factory=list)
     unit: AccelerationUnit = "m/s2"
-    input: Channel
+    input: Channel | None = None
+    # multi-support excitation: one channel per [[model.support_groups]], by group name
+    inputs: dict[ElementName, Channel] | None = None
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)]
+
+    def input_channels(self) -> list[tuple[str, str, Channel]]:
+        """(name once read, field, channel) of the input channels: ``"input"`` (the table),
+        or ``"input.<group>"`` for each support group's."""
+        if self.inputs is not None:
+            return [(f"input.{group}", f"inputs.{group}", channel)
+                    for group, channel in self.inputs.items()]
+        return [("input", "input", self.input)] if self.input is not None else []
 
     def _given(self, key: str) -> bool:
         """Whether ``key`` was given a value other than its default (a saved case, which
@@ -218,11 +231,18 @@ class Data(Section):
                            "nothing: network records say their units in the header, and "
                            "femupdate converts them to m/s2"))
         issues += _window_issues(self.window, "window")
+        if self.input is not None and self.inputs is not None:
+            issues.append(("inputs", "both data.input and data.inputs are given",
+                           "data.input (one table record) or data.inputs (one record per "
+                           "[[model.support_groups]]), not both"))
+        elif self.input is None and self.inputs is None:
+            issues.append(("input", "missing", "[data.input] (the table record), or "
+                           "[data.inputs.<group>] for each [[model.support_groups]]"))
         if self.directory is not None:
             issues += [("directory", problem, "${NAME} with NAME a variable name")
                        for problem in env_syntax(self.directory)]
-        channels = [("input", self.input)] + [(f"outputs[{i}]", c)
-                                              for i, c in enumerate(self.outputs)]
+        channels = [(path, c) for _, path, c in self.input_channels()] + [
+            (f"outputs[{i}]", c) for i, c in enumerate(self.outputs)]
         for path, channel in channels:
             issues += [(f"{path}.file", p, "${NAME} with NAME a variable name")
                        for p in env_syntax(channel.file)]
@@ -265,6 +285,7 @@ class Trial(Section):
     directory: text_field(4096) | None = None
     file: text_field(4096) | None = None
     input: Channel | None = None
+    inputs: dict[ElementName, Channel] | None = None
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)] | None = None
     window: Window | None = None
     score_window: Window | None = None
@@ -480,6 +501,8 @@ class Case(Section):
         (:mod:`femupdate.case.reduced_path`), else exact."""
         if self.simulation.method is not None:
             return self.simulation.method
+        if self.model.support_groups:  # multi-support: the dense linear path
+            return "exact"
         if reduced_by_default(self.model):  # a large linear model: its lowest modes
             return "reduced"
         return "nonlinear" if self.model.has_nonlinear else "exact"
@@ -533,6 +556,7 @@ class Case(Section):
         for trial in data.get("trials") or []:  # nor a trial's file not given
             if trial.get("file") is None:
                 trial.pop("file", None)
+        _drop_unused_support_fields(data)  # nor multi-support's fields, unused
         return data
 
     def fingerprint(self) -> str:
@@ -542,13 +566,36 @@ class Case(Section):
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def _drop_unused_support_fields(data: dict[str, Any]) -> None:
+    """Leave out of a saved case the multi-support fields it does not use (empty or None),
+    so that a uniform-excitation case saves as it did before they existed."""
+    if not data["model"].get("support_groups"):
+        data["model"].pop("support_groups", None)
+    sections = [(data["data"], ("input", "inputs"))] if data.get("data") else []
+    sections += [(trial, ("inputs",)) for trial in data.get("trials") or []]
+    for section, keys in sections:
+        for key in keys:  # a trial's input was saved as None before: it stays
+            if key in section and section[key] is None:
+                section.pop(key)
+        for out in section.get("outputs") or []:
+            if out.get("relative_to") is None:
+                out.pop("relative_to", None)
+
+
 def trial_data(data: Data, trial: Trial) -> Data:
     """``[data]`` with what ``trial`` gives instead (records, directory, window; ``file`` for
     the file of every channel)."""
-    update = {key: getattr(trial, key) for key in ("directory", "input", "outputs", "window")
+    update = {key: getattr(trial, key) for key in ("directory", "input", "inputs", "outputs",
+                                                   "window")
               if getattr(trial, key) is not None}
     if trial.file is not None:
-        update["input"] = update.get("input", data.input).model_copy(update={"file": trial.file})
-        update["outputs"] = [o.model_copy(update={"file": trial.file})
+        moved = {"file": trial.file}
+        single = update.get("input", data.input)
+        if single is not None:
+            update["input"] = single.model_copy(update=moved)
+        groups = update.get("inputs", data.inputs)
+        if groups:
+            update["inputs"] = {name: c.model_copy(update=moved) for name, c in groups.items()}
+        update["outputs"] = [o.model_copy(update=moved)
                              for o in update.get("outputs", data.outputs)]
     return data.model_copy(update=update)

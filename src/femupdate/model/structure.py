@@ -279,6 +279,8 @@ class Structure:
         self._followers: dict[int, int] = {}  # node → master node of its rigid diaphragm
         self._topology: _Topology | None = None
         self._parameters: tuple[str, ...] | None = None
+        # support_coupling's twins with supports released, for the topology they were made of
+        self._released: dict[tuple[int, ...], tuple[_Topology, Structure]] = {}
 
     # ------------------------------------------------------------------ description
 
@@ -660,6 +662,50 @@ class Structure:
             return _constrained(topo, m, c, k, r, friction, bouc_wen, seismic, sparse)
         return System(M=m, C=c, K=k, r=r, friction=friction, dof_labels=topo.labels,
                       seismic=seismic, bouc_wen=bouc_wen)
+
+    def support_coupling(
+        self, values: Mapping[str, float] | ArrayLike | None, supports: Sequence[tuple[str, str]],
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``K_fs``, ``M_fs``, ``C_fs``: how the motion of fixed DOFs loads the free DOFs.
+
+        The blocks (n_free × n_supports, rows in ``dof_labels`` order, columns in the order of
+        ``supports``) of the matrices of the same structure with those DOFs released, assembled
+        at ``values``: what :mod:`femupdate.simulate.multisupport` needs to move supports with
+        records of their own.
+
+        Parameters
+        ----------
+        values : mapping or array_like
+            As for :meth:`assemble`.
+        supports : sequence of (node, dof)
+            Fixed DOFs, e.g. ``[("A", "uy"), ("C", "uy")]``.
+        """
+        topo = self._topo()
+        dpn = self.dofs_per_node
+        key = tuple(self._node(node, "support_coupling") * dpn
+                    + self._dof(dof, "support_coupling") for node, dof in supports)
+        loose = [f"{node}.{dof}" for (node, dof), g in zip(supports, key, strict=True)
+                 if topo.free[g] >= 0]
+        if loose:
+            raise ModelError(f"support_coupling: {', '.join(loose)} not fixed; only fixed DOFs "
+                             "move as supports")
+        cached = self._released.get(key)
+        if cached is None or cached[0] is not topo:
+            twin = Structure(dpn)
+            twin._node_index, twin._xy, twin._z = dict(self._node_index), list(self._xy), list(
+                self._z)
+            twin._records, twin._element_names = list(self._records), set(self._element_names)
+            twin._fixed = self._fixed - set(key)
+            twin._followers = dict(self._followers)
+            cached = self._released[key] = (topo, twin)
+        twin = cached[1]
+        # sparse: the released DOFs may carry no mass (a support node without beam mass)
+        sys = twin.assemble(values, sparse=True)
+        index = {label: i for i, label in enumerate(sys.dof_labels)}
+        cols = [index[f"{node}.{dof}"] for node, dof in supports]
+        rows = [index[label] for label in self.dof_labels]
+        return tuple(sp.csr_matrix(mat)[rows][:, cols].toarray()  # type: ignore[return-value]
+                     for mat in (sys.K, sys.M, sys.C))
 
     def _bouc_wen(self, p: np.ndarray) -> BoucWenElements | None:
         """The Bouc–Wen elements at parameter vector ``p`` (None without any)."""

@@ -264,6 +264,10 @@ def _processed(trial: Any, raw_input: np.ndarray, raw_outputs: np.ndarray) -> An
     """The trial's processing (filters, relative motion, integration) of raw records."""
     from femupdate.experiment import process
 
+    if trial.model.groups:
+        raise ConfigError(f"{trial.case.label}: the input-noise error model takes one table "
+                          "record; this case has [[model.support_groups]] (allowed: another "
+                          "error model)")
     experiment, pre = trial.experiment, trial.case.preprocess
     length = raw_input.size
     channels = {"input": raw_input, **dict(zip(experiment.channels, raw_outputs.T,

@@ -50,9 +50,11 @@ def _data_items(ctx: Context) -> list[tuple[str, str]]:
     case = ctx.res.case
     data = case.data
     assert data is not None
-    items = [("format", esc(data.format)), ("directory", esc(case.data_directory())),
-             ("input (table)", esc(f"{data.input.file} [{data.input.column}] "
-                                   f"({data.input.unit or data.unit})"))]
+    items = [("format", esc(data.format)), ("directory", esc(case.data_directory()))]
+    for name, _, channel in data.input_channels():  # the table's, or each support group's
+        what = "input (table)" if name == "input" else f"input ({name.removeprefix('input.')})"
+        items.append((what, esc(f"{channel.file} [{channel.column}] "
+                                f"({channel.unit or data.unit})")))
     if data.window is not None:
         items.append(("window", esc(f"{format_number(data.window[0])} – "
                                     f"{format_number(data.window[1])} s")))

@@ -19,26 +19,61 @@ this is the uniform base excitation of :func:`femupdate.simulate.simulate`.
 Outputs: ``total`` displacement and velocity (absolute), absolute acceleration, the
 ``pseudo_static`` part and the ``dynamic`` part (the response relative to the pseudo-static
 configuration: the multi-support counterpart of the relative response).
+
+The model is anything with the free-DOF ``system``, the coupling blocks ``K_fs``, ``M_fs``,
+``C_fs`` and the ``support_labels`` (:class:`SupportedModel`): a 3-D frame's
+:class:`~femupdate.model.frame3d.Frame3DModel`, or :class:`SupportCoupling` built from a
+``Structure`` (:meth:`femupdate.model.structure.Structure.support_coupling`) for the case
+files' ``[[model.support_groups]]``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from femupdate.errors import ConfigError, DataError
-from femupdate.model.frame3d import Frame3DModel
+from femupdate.model.system import System
 from femupdate.simulate import simulate
 
-__all__ = ["MultiSupportResponse", "check_records", "integrate_record", "multi_support_response",
-           "pseudo_static_matrix"]
+__all__ = ["MultiSupportResponse", "SupportCoupling", "SupportedModel", "check_records",
+           "integrate_record", "multi_support_response", "pseudo_static_matrix"]
+
+
+class SupportedModel(Protocol):
+    """What the multi-support solution needs of a model (a ``Frame3DModel`` has it)."""
+
+    @property
+    def system(self) -> System: ...
+    @property
+    def support_labels(self) -> tuple[str, ...]: ...
+    @property
+    def K_fs(self) -> np.ndarray: ...
+    @property
+    def M_fs(self) -> np.ndarray: ...
+    @property
+    def C_fs(self) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class SupportCoupling:
+    """The free-DOF system and its coupling blocks (n_free × n_support) to the support DOFs
+    ``support_labels`` (``"A.uy"``), in their column order."""
+
+    system: System
+    support_labels: tuple[str, ...]
+    K_fs: np.ndarray
+    M_fs: np.ndarray
+    C_fs: np.ndarray
 
 
 @dataclass(frozen=True)
 class MultiSupportResponse:
-    """Response of the free DOFs (columns: ``model.system.dof_labels``) at every sample."""
+    """Response of the free DOFs (columns: ``model.system.dof_labels``, or the ``outputs``
+    asked for) at every sample."""
 
     t: np.ndarray
     total: np.ndarray
@@ -100,16 +135,16 @@ def integrate_record(acceleration: np.ndarray, dt: float, scheme: str = "exact"
     if scheme not in ("exact", "newmark"):
         raise ConfigError(f"scheme = {scheme!r}; allowed 'exact' or 'newmark'")
     a = np.asarray(acceleration, dtype=float)
-    v = np.zeros_like(a)
-    d = np.zeros_like(a)
     wa, wb = (1 / 3, 1 / 6) if scheme == "exact" else (0.25, 0.25)
-    for k in range(a.shape[0] - 1):
-        v[k + 1] = v[k] + 0.5 * dt * (a[k] + a[k + 1])
-        d[k + 1] = d[k] + dt * v[k] + dt * dt * (wa * a[k] + wb * a[k + 1])
+    zero = np.zeros_like(a[:1])
+    # np.cumsum adds in sample order, as a loop over the samples would
+    v = np.concatenate([zero, np.cumsum(0.5 * dt * (a[:-1] + a[1:]), axis=0)])
+    d = np.concatenate([zero, np.cumsum(dt * v[:-1] + dt * dt * (wa * a[:-1] + wb * a[1:]),
+                                        axis=0)])
     return v, d
 
 
-def support_matrix(model: Frame3DModel, groups: Sequence[Sequence[str]]) -> np.ndarray:
+def support_matrix(model: SupportedModel, groups: Sequence[Sequence[str]]) -> np.ndarray:
     """``E`` (n_support × n_records): 1 where support DOF ``i`` follows record ``g``."""
     index = {lab: i for i, lab in enumerate(model.support_labels)}
     e = np.zeros((len(index), len(groups)))
@@ -124,13 +159,13 @@ def support_matrix(model: Frame3DModel, groups: Sequence[Sequence[str]]) -> np.n
     return e
 
 
-def pseudo_static_matrix(model: Frame3DModel, e: np.ndarray) -> np.ndarray:
+def pseudo_static_matrix(model: SupportedModel, e: np.ndarray) -> np.ndarray:
     """``R = -K_ff⁻¹ K_fs E``: free-DOF displacements for unit support records."""
     return -np.linalg.solve(model.system.K, model.K_fs @ e)
 
 
 def multi_support_response(
-    model: Frame3DModel,
+    model: SupportedModel,
     groups: Sequence[Sequence[str]],
     acceleration: np.ndarray,
     dt: float,
@@ -140,13 +175,15 @@ def multi_support_response(
     damping_coupling: bool = True,
     velocity: np.ndarray | None = None,
     displacement: np.ndarray | None = None,
+    outputs: Sequence[int] | np.ndarray | None = None,
 ) -> MultiSupportResponse:
-    """Response of a frame to support records, from rest.
+    """Response of a model to support records, from rest.
 
     Parameters
     ----------
-    model : Frame3DModel
-        The assembled frame.
+    model : SupportedModel
+        The assembled model and its coupling to the supports (a ``Frame3DModel``, a
+        :class:`SupportCoupling`).
     groups : sequence of sequences of str
         For each record, the support DOFs (``"A.ux"``) that follow it.
     acceleration : ndarray (n_samples, n_records)
@@ -160,6 +197,8 @@ def multi_support_response(
     velocity, displacement : ndarray (n_samples, n_records), optional
         Support velocities and displacements; by default integrated from the accelerations
         (:func:`integrate_record`, ``scheme="exact"``).
+    outputs : sequence of int, optional
+        Free-DOF indices whose response is returned (default all, in ``dof_labels`` order).
     """
     a = np.asarray(acceleration, dtype=float)
     if a.ndim == 1:
@@ -178,7 +217,9 @@ def multi_support_response(
     force = -a @ p.T
     if damping_coupling:
         force = force - np.asarray(velocity) @ (s.C @ r + model.C_fs @ e).T
-    resp = simulate(s, dt, force=force, method=method, substeps=substeps)
+    resp = simulate(s, dt, force=force, method=method, substeps=substeps, outputs=outputs)
+    if outputs is not None:
+        r = r[np.asarray(outputs, dtype=np.int64)]
     ps = np.asarray(displacement) @ r.T
     return MultiSupportResponse(
         t=resp.t, total=resp.displacement + ps,
