@@ -87,7 +87,7 @@ def _input_dir(flag: str) -> Any:
 def _search_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the case file's range of [search] field."""
     def check(value: int | None) -> int | None:
-        from femupdate.case.schema import check_search_override
+        from femupdate.case.overrides import check_search_override
 
         check_search_override(field, value, flag)
         return value

@@ -20,8 +20,8 @@ import numpy as np
 
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
+from femupdate.case.overrides import check_search_override
 from femupdate.case.reduced_path import simulation_record
-from femupdate.case.schema import check_search_override
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments

@@ -36,7 +36,6 @@ from femupdate.case.fields import (
     Section,
     env_syntax,
     expand_env,
-    field_range,
     format_value,
     integer_field,
     number_field,
@@ -390,22 +389,6 @@ class Search(Section):
             raise_issues([("method", f"got {self.method!r}{did_you_mean(self.method, allowed)}",
                            ", ".join(repr(name) for name in allowed))])
         return self
-
-
-def check_search_override(field: str, value: int | None, flag: str) -> None:
-    """A command-line or keyword override of ``[search] field`` within the case file's range.
-
-    Raises
-    ------
-    ConfigError
-        Naming the flag, the value and the range of ``[search] field``.
-    """
-    if value is None:
-        return
-    rng = field_range(Search.model_fields[field])
-    if isinstance(value, bool) or not isinstance(value, int) or not rng.contains(value):
-        raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()}, as [search] "
-                          f"{field} in a case file)")
 
 
 # ----------------------------------------------------------------------------- Case
