@@ -151,6 +151,19 @@ def _gamma_issue(beta: float | str, gamma: float | str, where: str = "gamma") ->
              f"({format_value(-beta)}, {format_value(beta)}]")]
 
 
+def _ultimate_issue(A: float | str, beta: float | str, gamma: float | str, n: float | str,
+                    where: str = "n") -> list[Issue]:
+    """z_u = (A/(β+γ))^(1/n) within its range when all four are numbers and (β, γ) valid
+    (parameters: at assembly)."""
+    values = (A, beta, gamma, n)
+    if any(isinstance(v, str) for v in values) or _gamma_issue(beta, gamma):
+        return []
+    from femupdate.model.hysteresis import ultimate_deformation_issue  # numba: when needed
+
+    issue = ultimate_deformation_issue(*(float(v) for v in values))  # type: ignore[arg-type]
+    return [] if issue is None else [(where, *issue)]
+
+
 class BoucWen(_Link):
     """``[[model.bouc_wen]]``: a Bouc–Wen hysteretic element, force α k y + (1 − α) k z with
     ż = A ẏ − β |ẏ| |z|^(n−1) z − γ ẏ |z|^n."""
@@ -164,7 +177,8 @@ class BoucWen(_Link):
 
     @model_validator(mode="after")
     def _check_shape(self) -> BoucWen:
-        raise_issues(_gamma_issue(self.beta, self.gamma))
+        raise_issues(_gamma_issue(self.beta, self.gamma)
+                     or _ultimate_issue(self.A, self.beta, self.gamma, self.n))
         return self
 
 
@@ -285,12 +299,16 @@ class ShearBuilding(Section):
                                    "every storey"))
         bw = self.bouc_wen
         if bw is not None and not issues:
-            if isinstance(bw.beta, list) or isinstance(bw.gamma, list):
-                for i, storey in enumerate(storey_values(bw, n)):
+            storeys = storey_values(bw, n)
+            if any(isinstance(getattr(bw, key), list) for key in ("A", "beta", "gamma", "n")):
+                for i, storey in enumerate(storeys):
                     issues += _gamma_issue(storey["beta"], storey["gamma"],
                                            f"bouc_wen.gamma (storey {i + 1})")
+                    issues += _ultimate_issue(storey["A"], storey["beta"], storey["gamma"],
+                                              storey["n"], f"bouc_wen.n (storey {i + 1})")
             else:
                 issues += _gamma_issue(bw.beta, bw.gamma, "bouc_wen.gamma")
+                issues += _ultimate_issue(bw.A, bw.beta, bw.gamma, bw.n, "bouc_wen.n")
         raise_issues(issues)
         return self
 
