@@ -192,6 +192,28 @@ class Mass(Section):
     J: RotaryInertia = 0.0
     dofs: Annotated[list[DofName], Field(min_length=1, max_length=6)] | None = None
 
+    @model_validator(mode="after")
+    def _check_dofs(self) -> Mass:
+        if self.dofs is not None:
+            raise_issues(mass_dofs_issues(self.m, self.J, self.dofs))
+        return self
+
+
+def mass_dofs_issues(m: float | str, J: float | str, dofs: list[str]) -> list[Issue]:
+    """A mass's ``dofs`` must carry what it gives: ``m`` (non-zero) a translation, ``J`` a
+    rotation, each DOF once. (``{m = 400, dofs = ["rx"]}`` dropped its 400 kg unsaid.)"""
+    repeated = sorted({d for d in dofs if dofs.count(d) > 1})
+    if repeated:
+        return [("dofs", f"names {', '.join(repeated)} more than once", "each DOF once")]
+    issues: list[Issue] = []
+    for value, what, kind, letter in ((m, "m", "translation", "u"), (J, "J", "rotation", "r")):
+        if value != 0.0 and not any(d.startswith(letter) for d in dofs):
+            issues.append(("dofs", f"{dofs} names no {kind}, so {what} = {value!r} would act on "
+                           "nothing", f"dofs with at least one {kind} "
+                           f"({'ux, uy, uz' if letter == 'u' else 'rx, ry, rz'}) for {what}, "
+                           f"or {what} = 0"))
+    return issues
+
 
 class Diaphragm(Section):
     """``[[model.diaphragms]]`` (3-D frames): a floor rigid in its horizontal plane, its
