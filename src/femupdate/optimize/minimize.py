@@ -12,6 +12,7 @@ import builtins
 import inspect
 import math
 import numbers
+import pickle
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -218,13 +219,15 @@ class MinimizeState:
         rs: list[np.ndarray] = []
         evaluated = 0
         batch = batch_of(fun, self.residuals)
+        # ``fun`` gets copies: one that writes into its x must not move the point recorded
+        # for its value (r.x was not the point of r.fun).
         if map is builtins.map and callable(batch) and k > 1:
             # A population (or a Jacobian's columns) in one call of a function that evaluates
             # batches (femupdate's update problems: compiled), taken in order as below.
-            values = np.asarray(batch(x), dtype=float)
+            values = _real_array(batch(x.copy()), x[0], "fun's batch")
             results: Iterator[Any] = iter(values if self.residuals else values.tolist())
         else:
-            results = iter(map(fun, iter(x)))
+            results = iter(map(fun, iter(x.copy())))
         try:
             for i in range(k):
                 fs[i] = f = self._evaluate_next(results, x[i], rs)
@@ -389,6 +392,7 @@ def _residual_vector(value: Any, x: np.ndarray, size: int | None) -> tuple[np.nd
     if isinstance(value, bool | np.bool_ | str | bytes):
         raise ConfigError(f"fun(x) must return a vector of real residuals with "
                           f"residuals=True, got {value!r} at x = {x.tolist()}")
+    _refuse_complex(value, x, "fun(x)")
     try:
         r = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -409,6 +413,36 @@ def _residual_vector(value: Any, x: np.ndarray, size: int | None) -> tuple[np.nd
         return np.full(r.size, math.inf), math.inf
     f = float(r @ r)
     return (r, f) if math.isfinite(f) else (np.full(r.size, math.inf), math.inf)
+
+
+def _refuse_complex(value: Any, x: np.ndarray, what: str) -> None:
+    """ConfigError for complex numbers: a float conversion drops their imaginary part without
+    a word (and φ = r·r of complex r is not ‖r‖²)."""
+    if np.iscomplexobj(value) or (isinstance(value, list | tuple) and any(
+            isinstance(v, complex | np.complexfloating) for v in value)):
+        raise ConfigError(f"{what} returned complex values at x = {x.tolist()} (allowed: real "
+                          "numbers; for |r|² of complex residuals return the real and "
+                          "imaginary parts as separate residuals)")
+
+
+def _real_array(value: Any, x: np.ndarray, what: str) -> np.ndarray:
+    """``value`` as a float array, complex numbers refused (:func:`_refuse_complex`)."""
+    _refuse_complex(value, x, what)
+    return np.asarray(value, dtype=float)
+
+
+def check_picklable(fun: Any, workers: Any) -> None:
+    """ConfigError, before any evaluation, when ``workers=N`` cannot send ``fun`` to its
+    processes (a lambda, a closure): the pickling error came back as an error of fun(x)."""
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers == 1:
+        return
+    try:
+        pickle.dumps(fun)
+    except Exception as exc:  # pickle raises PicklingError, AttributeError, TypeError, ...
+        raise ConfigError(f"workers={workers}: fun cannot be sent to worker processes ("
+                          f"{type(exc).__name__}: {exc}) (allowed: a picklable fun, e.g. a "
+                          "function defined at module level, or workers=1, or a map-like "
+                          "workers that needs no pickling)") from None
 
 
 def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
@@ -572,6 +606,7 @@ def minimize(
                       "callback(intermediate_result), called after every step",
                       DeprecationWarning, stacklevel=2)
     timeout = check_timeout(timeout, workers)
+    check_picklable(fun, workers)
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
                   residuals=residuals, **options)
     if timeout is not None:
