@@ -170,7 +170,8 @@ def bench_dynamic(
     ] = "ab",
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
                                       callback=_search_limit("runs", "--runs"))] = 100,
-    seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.")] = 0,
+    seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.",
+                                      callback=_search_limit("seed", "--seed"))] = 0,
     json_path: JsonOption = None,
     plots: Annotated[
         Path | None, typer.Option(help="Directory for the paper's Figs. 2–5 (PNG) of run 0.",
@@ -277,8 +278,8 @@ def bench_bridge(
     )] = "ab",
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
                                       callback=_search_limit("runs", "--runs"))] = 25,
-    seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.")
-                    ] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.",
+                                      callback=_search_limit("seed", "--seed"))] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="Noise: rms noise / rms signal.")] = 0.02,
     max_evals: Annotated[int | None, typer.Option(min=1, help="Budget per run (default: the "
                                                   "case's: 20,000 viscous, 5,000 friction).",
@@ -619,13 +620,31 @@ def run(
     _write_json(json_path, result.summary.model_dump())
 
 
+def _posterior_limit(field: str, flag: str) -> Any:
+    """A typer callback holding an override to the range of [posterior] field."""
+    def check(value: int | None) -> int | None:
+        from femupdate.case.posterior_section import PosteriorSection
+        from femupdate.inputs import _limit
+
+        rng = _limit(PosteriorSection, field)
+        if value is not None and not rng.contains(value):
+            raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()}, as "
+                              f"[posterior] {field} in a case file)")
+        return value
+    return check
+
+
 @app.command()
 def posterior(
     case_file: CaseArgument,
-    out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
-    seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.")] = None,
+    out: Annotated[Path, typer.Option("--out", help="Results directory.",
+                                      callback=_output_dir("--out"))] = Path("results"),
+    seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.",
+                                             callback=_posterior_limit("seed", "--seed"))
+                    ] = None,
     samples: Annotated[int | None, typer.Option(
-        min=20, help="Override [posterior] samples (TMCMC's population, per run).")] = None,
+        min=20, help="Override [posterior] samples (TMCMC's population, per run).",
+        callback=_posterior_limit("samples", "--samples"))] = None,
     runs: Annotated[int | None, typer.Option(
         min=1, max=64, help="Override [posterior] runs (independent sampler runs, pooled; "
         "their agreement checks the effective samples).")] = None,
@@ -636,7 +655,8 @@ def posterior(
         "--recentre", min=0, max=8, help="Override [posterior] recentre (how many times at "
         "most to sample again from a better fit the sampler finds; 0: only say so).")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
-                                                   "instead of [data] directory.")] = None,
+                                                   "instead of [data] directory.",
+                                              callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the sampler (and the search) stored in --out from its "
         "last checkpoint: the samples are those of an uninterrupted run.")] = False,
@@ -648,10 +668,11 @@ def posterior(
                          ] = None,
     quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
     log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
-                                                       "run event) to this file.")] = None,
+                                                       "run event) to this file.",
+                                                  callback=_output_file("--log-json"))] = None,
     workers: Annotated[int | None, typer.Option(
         "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
-        "workers).")] = None,
+        "workers).", callback=_search_limit("workers", "--workers"))] = None,
     json_path: JsonOption = None,
 ) -> None:
     """The posterior of the parameters by TMCMC, beside the best fit: intervals,
@@ -911,7 +932,8 @@ def synth(
     truth: Annotated[str, typer.Option(help="Truth parameter values: a JSON object or file.")],
     out: Annotated[Path, typer.Option("--out", help="Directory for the records.",
                                       callback=_output_dir("--out"))],
-    seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.")] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.",
+                                      callback=_search_limit("seed", "--seed"))] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel; 0: "
                                        "noise-free records.")] = 0.02,
     duration: Annotated[float, typer.Option(min=0.01, help="Record length, s (model scale).")

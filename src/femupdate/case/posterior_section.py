@@ -97,6 +97,9 @@ def posterior_issues(case: Case) -> list[Issue]:
     issues: list[Issue] = []
     params = {p.name: p for p in case.parameters}
     need = SAMPLES_PER_PARAMETER * max(len(params), 1)
+    if section.runs > section.max_runs:
+        issues.append(("posterior.runs", f"got {section.runs} with max_runs = "
+                       f"{section.max_runs}", "runs <= max_runs, the most runs there may be"))
     if section.samples < need:
         issues.append(("posterior.samples", f"got {section.samples} for {len(params)} "
                        f"parameters", f"at least {need} ({SAMPLES_PER_PARAMETER} per "

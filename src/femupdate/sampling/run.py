@@ -327,14 +327,26 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         likelihood of the data (:mod:`femupdate.sampling.classes`).
     """
     settings = posterior_settings(case)
-    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre)):
+    # every override checked before any work (a bad --seed raised after the whole search)
+    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre),
+                        ("seed", seed), ("samples", samples)):
         if value is None:
             continue
         allowed = typing.cast(Range, field_range(PosteriorSection.model_fields[name]))
         if isinstance(value, bool) or not isinstance(value, int) or not allowed.contains(value):
             raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: "
                               f"{allowed.describe()})")
-        settings = settings.model_copy(update={name: value})
+        if name in ("runs", "max_runs", "recentre"):
+            settings = settings.model_copy(update={name: value})
+    if settings.runs > settings.max_runs:
+        raise ConfigError(f"{case.label}: runs = {settings.runs} with max_runs = "
+                          f"{settings.max_runs} (allowed: runs <= max_runs, the most runs "
+                          "there may be)")
+    if resume and not restart and not ((out_dir / FILENAME).is_file()
+                                       or (out_dir / POSTERIOR_DIR).is_dir()):
+        raise ConfigError(f"{case.label}: --resume: nothing is stored in {out_dir} to continue "
+                          "(allowed: --resume into the --out of an interrupted `femupdate "
+                          "posterior`; without --resume a posterior starts)")
     seed = settings.seed if seed is None else seed
     population = settings.samples if samples is None else samples
     need = SAMPLES_PER_PARAMETER * len(case.parameters)
