@@ -620,6 +620,11 @@ def run(
     _write_json(json_path, result.summary.model_dump())
 
 
+#: Exit code of a command that finished without the result it is for (a sampled posterior
+#: whose runs did not reach β = 1); 2 is femupdate's errors, 130 Ctrl-C.
+NOT_THE_RESULT = 1
+
+
 def _posterior_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the range of [posterior] field."""
     def check(value: int | None) -> int | None:
@@ -714,6 +719,8 @@ def posterior(
         print_coverage(result.bands)
     say(f"results in {out.resolve()} (femupdate report {out})")
     _write_json(json_path, result.summary.model_dump())
+    if not result.record.reached:  # finished, but not a posterior: scripts must tell
+        raise SystemExit(NOT_THE_RESULT)
 
 
 def print_coverage(bands: list[Any], title: str = "5–95 % predictive bands") -> None:

@@ -488,8 +488,8 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
         short = [i for i, r in enumerate(reached) if not r]
         message = (f"{len(short)} of {len(outcomes)} sampler runs stopped before tempering "
                    f"exponent β = 1 (lowest β = {min(betas):.4g}; "
-                   f"{outcomes[short[0]].message}; {common['nfev']:,} evaluations): raise "
-                   "[posterior] max_evals and resume")
+                   f"{outcomes[short[0]].message}; {common['nfev']:,} evaluations): "
+                   f"{short_advice([outcomes[i] for i in short])}")
         return PosteriorRecord(**common, samples=population * len(outcomes), reached=False,
                                message=message, log_evidence=None,
                                ess=None), np.empty((0, len(names)))
@@ -515,6 +515,19 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
         params=marginals(physical, names), correlations=correlation_rows(np.atleast_2d(corr)),
         undetermined=undetermined, sentences=words)
     return record, physical
+
+
+def short_advice(short: Sequence[RunOutcome]) -> str:
+    """What to do about sampler runs that stopped before β = 1: a larger budget only when the
+    budget is what stopped them (a degenerate prior or likelihood stops them otherwise, and
+    "raise max_evals" sent users round in circles)."""
+    if all("max_evals" in o.stop for o in short):
+        return "raise [posterior] max_evals and resume"
+    reasons = sorted({k for o in short for k in o.stop if k != "max_evals"})
+    return (f"not the budget: {', '.join(reasons) or 'the runs'} stopped them; look at "
+            "[posterior.priors] (a prior far narrower than the data's information leaves the "
+            "likelihood nothing to temper) and at the failed evaluations, then "
+            "--restart")
 
 
 def _by_name(names: Sequence[str], values: np.ndarray) -> dict[str, float | None]:
