@@ -292,9 +292,10 @@ def test_the_command_says_when_it_did_not_reach_the_posterior(case_path: Path,
     path = write_case(folder, max_evals=300)
     got = CliRunner().invoke(app, ["posterior", str(path), "--out", str(folder / "out"),
                                    "--quiet"], terminal_width=100)
-    assert got.exit_code == 0, got.output
+    assert got.exit_code == 1, got.output  # finished, but not a posterior: scripts can tell
     assert ("NOT A POSTERIOR: 4 of 4 sampler runs stopped before tempering exponent β = 1"
             in " ".join(got.output.split()))
+    assert "raise [posterior] max_evals and resume" in " ".join(got.output.split())
 
 
 def test_a_laplace_gaussian_mostly_outside_the_bounds_is_capped_or_left_for_the_prior(

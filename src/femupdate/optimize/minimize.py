@@ -465,6 +465,7 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
         ) from exc
     if not isinstance(residuals, bool):
         raise ConfigError(f"residuals must be True or False, got {residuals!r}")
+    options = budget_options(method, low.size, max_evals, options)
     optimizer = METHODS[method](low.size, rng, **options)
     if getattr(optimizer, "needs_residuals", False) and not residuals:
         optimizer.close()
@@ -476,6 +477,46 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
         optimizer.target_given()  # e.g. multistart-lm's patience: the target says when to stop
     return MinimizeState(optimizer, method, low, high, max_evals, f_target, record_times,
                          residuals)
+
+
+#: The most floats (8 bytes each) a method may hold at once: 2 GB.
+MAX_WORKING_FLOATS = 2.5e8
+#: CMA-ES decomposes its n × n covariance (O(n³)) as it learns it: 12 s before the first
+#: evaluation at n = 1,000 on a 2-core machine; above this it is refused.
+CMAES_MAX_PARAMETERS = 2_000
+
+
+def budget_options(method: str, n: int, max_evals: int, options: dict[str, Any]
+                   ) -> dict[str, Any]:
+    """The options with a first pool or population no larger than the budget (a pool of
+    20·n points of multistart-lm, DE's 15·n members), so memory follows ``max_evals``; a
+    dimension the method cannot serve in MAX_WORKING_FLOATS refused up front.
+
+    Only defaults change, and only where the budget ends the run inside its first pool or
+    population anyway (4,000 parameters and max_evals = 10 took 5.1 GB and 206 s).
+    """
+    options = dict(options)
+    if method == "multistart-lm" and options.get("pool") is None and max_evals < 20 * n:
+        options["pool"] = max_evals
+    if method == "de" and "popsize" not in options and max_evals < 15 * n:
+        options["popsize"] = max(5, max_evals)
+    held = {"multistart-lm": lambda: (options.get("pool") or 20 * n) * n + 4.0 * n * n,
+            "scipy-lsq": lambda: 4.0 * n * n,
+            "cmaes": lambda: 4.0 * n * n,
+            # scipy's DE holds its population several times over (1 GB at 15,000 × 1,000)
+            "de": lambda: 8.0 * int(options.get("popsize", 15 * n)) * n}.get(method)
+    floats = held() if held is not None and isinstance(options.get("pool", 1) or 1, int) \
+        and isinstance(options.get("popsize", 1), int) else 0.0
+    if floats > MAX_WORKING_FLOATS or (method == "cmaes" and n > CMAES_MAX_PARAMETERS):
+        raise ConfigError(
+            f"method {method!r} cannot serve {n:,} parameters: it would hold about "
+            f"{floats * 8 / 1e9:.1f} GB at once" + (
+                f" and decompose an n × n covariance (allowed: up to "
+                f"{CMAES_MAX_PARAMETERS:,} parameters)" if method == "cmaes" else
+                f" (allowed: up to {MAX_WORKING_FLOATS * 8 / 1e9:.0f} GB; a smaller pool or "
+                "popsize option, fewer parameters, or method 'ab', 'ib' or 'ga', whose "
+                "memory grows as n)"))
+    return options
 
 
 def _callback_kind(callback: Callable[..., Any]) -> str:
