@@ -20,7 +20,7 @@ import numpy as np
 
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
-from femupdate.case.reduced_path import simulation_record
+from femupdate.case.reduced_path import simulation_record, worst_truncation
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError, SimulationError
 from femupdate.experiment import Experiment, data_files, load_experiments
@@ -469,6 +469,8 @@ def validate_case(case: Case, params: dict[str, float], *,
 
     values = check_parameter_values(params, case.parameter_names, "parameter values")
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]
+    if trials and case.simulation_method == "reduced" and trials[0].model.structure is not None:
+        worst_truncation(trials, values)  # warns, as run does, when the modes kept fall short
     records = [trial_record(t, values) for t in trials]
     for record in records:
         if not math.isfinite(record.phi):  # an inf NMSE printed with exit 0 says nothing
