@@ -953,7 +953,9 @@ def synth(
     motion: Annotated[Path | None, typer.Option(
         help="A recorded ground motion (El Centro formats, e.g. "
              "../shared/data/elcentro1940/...) instead of the EC8 artificial one.")] = None,
-    length_scale: Annotated[float, typer.Option(help="Model length scale λ; time scales by √λ.")
+    length_scale: Annotated[float, typer.Option(
+        help="Model length scale λ; time scales by √λ. The default, 1/50, is the paper's 1:50 "
+             "model (a motion 7.1× faster than full scale); 1 for a full-scale structure.")
                             ] = 1 / 50,
     offset: Annotated[float | None, typer.Option(
         min=0.0, help=f"Accelerometer offsets up to this, m/s² (default: {SYNTH_OFFSET:g} with "

@@ -75,8 +75,8 @@ def ec8_motion(rng: np.random.Generator, *, rate: float, duration: float, pga_g:
                                         period_range=(max(0.05, 3 * dt_proto), 4.0))
     return Motion(acc.acceleration, 1.0 / rate,
                   f"EC8 type 1, ground {ground}, ag = {pga_g:g} g, artificial "
-                  f"(max spectral deviation {acc.max_deviation:.1%}), time scale "
-                  f"√{length_scale:g}")
+                  f"(max spectral deviation {acc.max_deviation:.1%}), "
+                  f"{scale_words(length_scale)}")
 
 
 def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50) -> Motion:
@@ -85,7 +85,18 @@ def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50) ->
     t_model = synth.scale_time(t, length_scale)
     _, resampled = io.resample(t_model, ag, rate)
     return Motion(resampled, 1.0 / rate,
-                  f"{Path(path).name}, time scale √{length_scale:g}, resampled to {rate:g} Hz")
+                  f"{Path(path).name}, {scale_words(length_scale)}, resampled to {rate:g} Hz")
+
+
+def scale_words(length_scale: float) -> str:
+    """The time scale of a motion, said so that a full-scale user sees it is not theirs (the
+    default 1:50 model runs a motion 7.1× faster than full scale)."""
+    root = math.sqrt(length_scale)
+    if root == 1.0:
+        return "full scale (time scale 1)"
+    return (f"model scale λ = {length_scale:g} (time ×√λ = {root:.3g}: the motion runs "
+            f"{1.0 / root:.3g}× {'faster' if root < 1.0 else 'slower'} than at full scale; "
+            "--length-scale 1 for a full-scale structure)")
 
 
 def simulate_truth(case: Case, truth: dict[str, float], motion: Motion) -> np.ndarray:
