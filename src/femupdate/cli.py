@@ -896,7 +896,7 @@ def validate(
         case = with_data_directory(case, data)
     values = _read_params("--params", params, case)
     _warn_outside_bounds("--params", case, values)
-    result = validate_case(case, values)
+    result = validate_case(case, values, unseen=data is not None)
     if result.frequencies_hz:
         say("natural frequencies of the model [Hz]: "
             + ", ".join(f"{f:.3f}" for f in result.frequencies_hz))

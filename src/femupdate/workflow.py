@@ -454,11 +454,13 @@ class Validation:
 
 
 def validate_case(case: Case, params: dict[str, float], *,
-                  experiments: Sequence[Experiment] | None = None) -> Validation:
+                  experiments: Sequence[Experiment] | None = None,
+                  unseen: bool = False) -> Validation:
     """Evaluate fixed parameter values on every trial of ``case``, fitted or not.
 
     Each trial is simulated over its whole window and scored over its ``score_window``, as
-    in an update; nothing is searched.
+    in an update; nothing is searched. ``unseen``: the records are not those the case fits
+    (``femupdate validate --data OTHER``), so every trial's role is "validate".
 
     Raises
     ------
@@ -472,10 +474,14 @@ def validate_case(case: Case, params: dict[str, float], *,
     if trials and case.simulation_method == "reduced" and trials[0].model.structure is not None:
         worst_truncation(trials, values)  # warns, as run does, when the modes kept fall short
     records = [trial_record(t, values) for t in trials]
+    fits = _fits(trials, values)
+    if unseen:  # another directory's records: not the ones a fit of this case saw
+        records = [r.model_copy(update={"role": "validate"}) for r in records]
+        fits = [dataclasses.replace(f, role="validate") for f in fits]
     for record in records:
         if not math.isfinite(record.phi):  # an inf NMSE printed with exit 0 says nothing
             raise SimulationError(f"{case.label}: trial {record.name!r} at the given parameter "
                                   f"values: {record.notes[-1].removeprefix('not scored: ')}")
     freqs = trials[0].frequencies(values)[:N_FREQUENCIES].tolist() if trials else []
-    return Validation(case.label, values, records, _fits(trials, values), freqs,
+    return Validation(case.label, values, records, fits, freqs,
                       [f for t in trials for f in t.experiment.defects])
