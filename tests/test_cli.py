@@ -171,3 +171,24 @@ def test_bench_dynamic_runs_the_residual_methods(tmp_path: Path) -> None:
     rows = json.loads(out.read_text())
     assert [r["method"] for r in rows] == ["multistart-lm", "scipy-lsq"]
     assert rows[0]["successes"] >= 3  # φ < 1e-10: the paper's target
+
+
+def test_success_count_and_verdict_say_what_each_means_where_they_disagree() -> None:
+    # Issue 33: the noise-free bridge printed 'successful runs 25/25' beside 'verdict: not
+    # converged: … 21 different minima' with nothing to reconcile them.
+    from types import SimpleNamespace
+
+    from femupdate.cli import disagreement_words
+
+    def summary(converged: bool, target: float | None, successes: int) -> SimpleNamespace:
+        return SimpleNamespace(settings={"f_target": target}, successes=successes,
+                               runs=[None] * 25,
+                               verdict=SimpleNamespace(converged=converged, minima=21))
+
+    words = disagreement_words(summary(False, 1e-6, 25))  # type: ignore[arg-type]
+    assert words is not None and words.startswith(
+        "success and verdict differ: 25 of 25 runs reached φ ≤ f_target = 1e-06")
+    assert "21 different minima" in words
+    assert disagreement_words(summary(True, 1e-6, 25)) is None  # type: ignore[arg-type]
+    assert disagreement_words(summary(False, None, 0)) is None  # type: ignore[arg-type]
+    assert disagreement_words(summary(False, 1e-6, 0)) is None  # type: ignore[arg-type]

@@ -489,6 +489,8 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
     if summary.verdict is not None:
         say(f"verdict: {summary.verdict.words}", "green" if summary.verdict.converged
             and summary.verdict.fits else "yellow", out=out)
+        if (words := disagreement_words(summary)) is not None:
+            say(words, out=out)
     if restarted:
         counts = [r.restarts for r in summary.runs]
         say(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
@@ -509,6 +511,21 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
         say(f"unsuccessful runs: {len(failed)}, none with a parameter at a bound: stopped "
             "before reaching the target (budget or stopping criteria) or in another minimum",
             out=out)
+
+
+def disagreement_words(summary: Summary) -> str | None:
+    """What the success count and the verdict each mean, where they disagree: runs that
+    reached the target (successes) at different minima (not converged). The noise-free bridge
+    printed 'successful runs 25/25' beside 'not converged: … 21 different minima'."""
+    target = summary.settings.get("f_target")
+    verdict = summary.verdict
+    if target is None or verdict is None or verdict.converged or not summary.successes:
+        return None
+    return (f"success and verdict differ: {summary.successes} of {len(summary.runs)} runs "
+            f"reached φ ≤ f_target = {target:g} (a success), but the verdict asks whether the "
+            f"runs ended at the same point, and they ended in {verdict.minima} different "
+            "minima: below the target the data do not single out one set of parameters (see "
+            "the intervals above)")
 
 
 def _resume_hint(words: list[str]) -> None:
