@@ -192,3 +192,12 @@ def test_success_count_and_verdict_say_what_each_means_where_they_disagree() -> 
     assert disagreement_words(summary(True, 1e-6, 25)) is None  # type: ignore[arg-type]
     assert disagreement_words(summary(False, None, 0)) is None  # type: ignore[arg-type]
     assert disagreement_words(summary(False, 1e-6, 0)) is None  # type: ignore[arg-type]
+
+
+def test_a_rounded_zero_is_printed_without_a_sign() -> None:
+    # Issue 33: `femupdate modes` printed ζ "-0.000" (a damping ratio of -1e-17).
+    from femupdate.cli import _unsigned_zero
+
+    assert _unsigned_zero(f"{-1e-17:.3f}") == "0.000"
+    assert _unsigned_zero(f"{-0.0004:.3f}") == "0.000"
+    assert _unsigned_zero(f"{-0.25:.3f}") == "-0.250" and _unsigned_zero("1.500") == "1.500"

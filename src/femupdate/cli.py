@@ -805,6 +805,11 @@ def _warn_outside_bounds(flag: str, case: Case, values: dict[str, float]) -> Non
 SHAPES_SHOWN = 6
 
 
+def _unsigned_zero(text: str) -> str:
+    """A formatted number without the sign of a rounded zero ("-0.000": ζ of -1e-17)."""
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
 def _shapes_table(labels: list[str], shapes: np.ndarray, freqs: np.ndarray) -> Table:
     """The first mode shapes, each scaled to a largest component of 1."""
     k = min(SHAPES_SHOWN, shapes.shape[1])
@@ -858,7 +863,8 @@ def modes(
         fd = damped.damped_freqs_hz[i] if i < len(damped.freqs_hz) else float("nan")
         zeta = damped.damping_ratios[i] if i < len(damped.freqs_hz) else float("nan")
         above |= bool(fd > f * (1 + 1e-9))
-        table.add_row(str(i + 1), f"{f:.4f}", f"{fd:.4f}", f"{100 * zeta:.3f}")
+        table.add_row(str(i + 1), f"{f:.4f}", _unsigned_zero(f"{fd:.4f}"),
+                      _unsigned_zero(f"{100 * zeta:.3f}"))
     console.print(table)
     if above:
         say("f: undamped, from K and M; damped f and ζ: the complex modes of the damped model. "

@@ -87,8 +87,8 @@ def section_posterior(ctx: Context, page: Page) -> str:
 
     record: PosteriorRecord | None = ctx.res.summary.posterior
     if record is None:
-        return note("No sampled posterior: `femupdate posterior CASE.toml --out DIR` samples "
-                    "it (TMCMC) and adds it to this report.")
+        return ('<p class="note">No sampled posterior: <code>femupdate posterior CASE.toml '
+                "--out DIR</code> samples it (TMCMC) and adds it to this report.</p>")
     out = []
     if not record.reached:
         out.append(warn(f"Not a posterior: {record.message}. No samples are reported.",
