@@ -637,6 +637,9 @@ def run(
     _write_json(json_path, result.summary.model_dump())
 
 
+#: The integrators of `femupdate frame3d` (linear methods of femupdate.simulate).
+FRAME3D_METHODS = ("exact", "newmark", "central_difference")
+
 #: Exit code of a command that finished without the result it is for (a sampled posterior
 #: whose runs did not reach β = 1); 2 is femupdate's errors, 130 Ctrl-C.
 NOT_THE_RESULT = 1
@@ -1024,13 +1027,16 @@ def synth(
 @app.command()
 def frame3d(
     case_file: Annotated[Path, typer.Argument(help="A 3-D frame case file (docs/frames-3d.md).")],
-    out: Annotated[Path | None, typer.Option("--out", help="Write the responses (CSV) here.")
-                   ] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="Write the responses (CSV) here.",
+                                             callback=_output_dir("--out"))] = None,
     method: Annotated[str, typer.Option(help="Integrator: exact, newmark or "
                                              "central_difference.")] = "exact",
 ) -> None:
     """Simulate a 3-D frame under its ground motions (one record per support group)."""
     from femupdate.case.frame3d_case import run_frame3d_case
+
+    if method not in FRAME3D_METHODS:  # before the case is read and assembled
+        raise ConfigError(f"--method: got {method!r} (allowed: {', '.join(FRAME3D_METHODS)})")
 
     for line in run_frame3d_case(case_file, out, method=method):
         say(line)

@@ -34,6 +34,8 @@ class Motion:
 
 #: Fewest samples of a generated motion (as ``synth.artificial_accelerogram``).
 MIN_SAMPLES = 50
+#: ... and at most this many (a --duration of 1e9 s at 1035 Hz asked for 1e12).
+MAX_SAMPLES = 10_000_000
 
 
 def check_motion_settings(*, duration: float, rate: float, pga_g: float,
@@ -55,6 +57,10 @@ def check_motion_settings(*, duration: float, rate: float, pga_g: float,
     if pga_g > 10:
         raise bad("pga_g", "--pga", pga_g, "a peak ground acceleration in (0, 10] g")
     samples = math.floor(duration * rate)
+    if samples > MAX_SAMPLES:  # held in memory several times over before anything is written
+        raise bad("duration", "--duration", duration,
+                  f"at most {MAX_SAMPLES:,} samples: {MAX_SAMPLES / rate:g} s or less at "
+                  f"{rate:g} Hz; {duration:g} s is {samples:,} samples")
     if samples < MIN_SAMPLES:
         raise bad("duration", "--duration", duration,
                   f"at least {MIN_SAMPLES} samples: {MIN_SAMPLES / rate:g} s or more at "
