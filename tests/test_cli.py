@@ -201,3 +201,17 @@ def test_a_rounded_zero_is_printed_without_a_sign() -> None:
     assert _unsigned_zero(f"{-1e-17:.3f}") == "0.000"
     assert _unsigned_zero(f"{-0.0004:.3f}") == "0.000"
     assert _unsigned_zero(f"{-0.25:.3f}") == "-0.250" and _unsigned_zero("1.500") == "1.500"
+
+
+def test_undamped_modes_pair_with_the_damped_mode_of_nearest_frequency() -> None:
+    # Issue 33: with overdamped poles (dashpots, hysteretic links) the damped list is longer,
+    # and pairing by position gave ζ 0 % or 100 % against the wrong modes.
+    import numpy as np
+
+    from femupdate.cli import pair_modes
+
+    undamped = np.array([1.0, 5.0, 12.0])
+    damped = np.array([0.3, 1.01, 4.9, 11.8, 40.0])  # two real poles: 0.3 and 40 Hz
+    assert pair_modes(undamped, damped).tolist() == [1, 2, 3]
+    assert pair_modes(undamped, damped[:2]).tolist() == [1, 0, -1]  # none left for the third
+    assert pair_modes(np.array([0.0, 2.0]), np.array([0.0, 2.0])).tolist() == [0, 1]

@@ -808,6 +808,22 @@ def _warn_outside_bounds(flag: str, case: Case, values: dict[str, float]) -> Non
 SHAPES_SHOWN = 6
 
 
+def pair_modes(undamped: np.ndarray, damped: np.ndarray) -> np.ndarray:
+    """For each undamped frequency, the index of the damped mode of nearest |λ|/2π (relative
+    distance), each used once; -1 where none is left. Overdamped poles make the damped list
+    longer than the undamped one (a frame with dashpots and hysteretic links paired them by
+    position: ζ 0 % or 100 % with a damped frequency 0 against the wrong modes)."""
+    match = np.full(undamped.size, -1)
+    free = list(range(damped.size))
+    for i in np.argsort(undamped, kind="stable"):
+        if not free:
+            break
+        scale = np.maximum(np.maximum(abs(undamped[i]), np.abs(damped[free])), 1e-300)
+        k = int(np.argmin(np.abs(damped[free] - undamped[i]) / scale))
+        match[i] = free.pop(k)
+    return match
+
+
 def _unsigned_zero(text: str) -> str:
     """A formatted number without the sign of a rounded zero ("-0.000": ζ of -1e-17)."""
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
@@ -862,13 +878,23 @@ def modes(
     for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
         table.add_column(col, justify="right")
     above = False
+    match = pair_modes(np.asarray(freqs), np.asarray(damped.freqs_hz))
     for i, f in enumerate(freqs):
-        fd = damped.damped_freqs_hz[i] if i < len(damped.freqs_hz) else float("nan")
-        zeta = damped.damping_ratios[i] if i < len(damped.freqs_hz) else float("nan")
+        j = match[i]
+        fd = damped.damped_freqs_hz[j] if j >= 0 else float("nan")
+        zeta = damped.damping_ratios[j] if j >= 0 else float("nan")
         above |= bool(fd > f * (1 + 1e-9))
         table.add_row(str(i + 1), f"{f:.4f}", _unsigned_zero(f"{fd:.4f}"),
                       _unsigned_zero(f"{100 * zeta:.3f}"))
+    extra = sorted(set(range(len(damped.freqs_hz))) - set(match.tolist()))
+    for j in extra:  # real poles of DOFs that dashpots hold more than springs
+        table.add_row("–", "–", _unsigned_zero(f"{damped.damped_freqs_hz[j]:.4f}"),
+                      _unsigned_zero(f"{100 * damped.damping_ratios[j]:.3f}"))
     console.print(table)
+    if extra:
+        say(f"–: {len(extra)} overdamped pole(s) of the damped model (ζ = 100 %, no "
+            "oscillation: a real pole whose 'f' is its decay rate |λ|/2π) beside the modes of "
+            "K and M; each undamped mode is shown with the damped mode of nearest |λ|/2π.")
     if above:
         say("f: undamped, from K and M; damped f and ζ: the complex modes of the damped model. "
             "Its damping is not proportional (C is not a combination of M and K that the "
