@@ -235,7 +235,7 @@ class MinimizeState:
                     self._record_failure(fun, x[i])
                 evaluated += 1
                 if on_evaluation is not None:
-                    on_evaluation(x[i], f)
+                    on_evaluation(x[i].copy(), f)  # a copy, as fun's
                 fired = loop_criteria(f, self.nfev, self.f_target, self.max_evals)
                 if fired:
                     self.stopped.update(fired)
