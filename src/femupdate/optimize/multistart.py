@@ -680,7 +680,11 @@ class MultistartLM(KeepsBest):
         if self.mode != "residuals" or self.coarse_step is None:
             return False
         if self.valley is not None and at_best and self._inside():
-            if self.phi < self.hop_phi * (1.0 - PATIENCE_TOL):
+            # a new best (beyond patience's tolerance and floor: at φ ≈ 0, ends that differ
+            # by rounding each gave four more hops, and the searches that count waited)
+            better = (not math.isfinite(self.hop_phi) or self.phi < self.hop_phi - max(
+                PATIENCE_TOL * abs(self.hop_phi), self.phi_floor()))
+            if better:
                 self.hops_left = HOPS  # a new best: its valley gets its own hops
             self.hop_x, self.hop_phi, self.hop_hess = self.x.copy(), self.phi, self.valley
         if self.hops_left <= 0 or self.hop_hess is None:
