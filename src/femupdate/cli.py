@@ -92,6 +92,20 @@ def _search_limit(field: str, flag: str) -> Any:
     return check
 
 
+def _seed_check(flag: str) -> Any:
+    """A typer callback holding a seed of a command without a case's [search] (synth, the
+    benchmarks) to the range of every seed."""
+    def check(value: int | None) -> int | None:
+        from femupdate.case.schema import Search
+        from femupdate.inputs import _limit
+
+        rng = _limit(Search, "seed")
+        if value is not None and not rng.contains(value):
+            raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()})")
+        return value
+    return check
+
+
 JsonOption = Annotated[
     Path | None, typer.Option("--json", help="Write machine-readable results to this file.",
                               callback=_output_file("--json"))
@@ -171,7 +185,7 @@ def bench_dynamic(
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
                                       callback=_search_limit("runs", "--runs"))] = 100,
     seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.",
-                                      callback=_search_limit("seed", "--seed"))] = 0,
+                                      callback=_seed_check("--seed"))] = 0,
     json_path: JsonOption = None,
     plots: Annotated[
         Path | None, typer.Option(help="Directory for the paper's Figs. 2–5 (PNG) of run 0.",
@@ -279,7 +293,7 @@ def bench_bridge(
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
                                       callback=_search_limit("runs", "--runs"))] = 25,
     seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.",
-                                      callback=_search_limit("seed", "--seed"))] = 0,
+                                      callback=_seed_check("--seed"))] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="Noise: rms noise / rms signal.")] = 0.02,
     max_evals: Annotated[int | None, typer.Option(min=1, help="Budget per run (default: the "
                                                   "case's: 20,000 viscous, 5,000 friction).",
@@ -992,7 +1006,7 @@ def synth(
     out: Annotated[Path, typer.Option("--out", help="Directory for the records.",
                                       callback=_output_dir("--out"))],
     seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.",
-                                      callback=_search_limit("seed", "--seed"))] = 0,
+                                      callback=_seed_check("--seed"))] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel; 0: "
                                        "noise-free records.")] = 0.02,
     duration: Annotated[float, typer.Option(min=0.01, help="Record length, s (model scale).")
