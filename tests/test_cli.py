@@ -174,3 +174,47 @@ def test_bench_dynamic_runs_the_residual_methods(tmp_path: Path) -> None:
     rows = json.loads(out.read_text())
     assert [r["method"] for r in rows] == ["multistart-lm", "scipy-lsq"]
     assert rows[0]["successes"] >= 3  # φ < 1e-10: the paper's target
+
+
+def test_success_count_and_verdict_say_what_each_means_where_they_disagree() -> None:
+    # Issue 33: the noise-free bridge printed 'successful runs 25/25' beside 'verdict: not
+    # converged: … 21 different minima' with nothing to reconcile them.
+    from types import SimpleNamespace
+
+    from femupdate.cli import disagreement_words
+
+    def summary(converged: bool, target: float | None, successes: int) -> SimpleNamespace:
+        return SimpleNamespace(settings={"f_target": target}, successes=successes,
+                               runs=[None] * 25,
+                               verdict=SimpleNamespace(converged=converged, minima=21))
+
+    words = disagreement_words(summary(False, 1e-6, 25))  # type: ignore[arg-type]
+    assert words is not None and words.startswith(
+        "success and verdict differ: 25 of 25 runs reached φ ≤ f_target = 1e-06")
+    assert "21 different minima" in words
+    assert disagreement_words(summary(True, 1e-6, 25)) is None  # type: ignore[arg-type]
+    assert disagreement_words(summary(False, None, 0)) is None  # type: ignore[arg-type]
+    assert disagreement_words(summary(False, 1e-6, 0)) is None  # type: ignore[arg-type]
+
+
+def test_a_rounded_zero_is_printed_without_a_sign() -> None:
+    # Issue 33: `femupdate modes` printed ζ "-0.000" (a damping ratio of -1e-17).
+    from femupdate.cli import _unsigned_zero
+
+    assert _unsigned_zero(f"{-1e-17:.3f}") == "0.000"
+    assert _unsigned_zero(f"{-0.0004:.3f}") == "0.000"
+    assert _unsigned_zero(f"{-0.25:.3f}") == "-0.250" and _unsigned_zero("1.500") == "1.500"
+
+
+def test_undamped_modes_pair_with_the_damped_mode_of_nearest_frequency() -> None:
+    # Issue 33: with overdamped poles (dashpots, hysteretic links) the damped list is longer,
+    # and pairing by position gave ζ 0 % or 100 % against the wrong modes.
+    import numpy as np
+
+    from femupdate.cli import pair_modes
+
+    undamped = np.array([1.0, 5.0, 12.0])
+    damped = np.array([0.3, 1.01, 4.9, 11.8, 40.0])  # two real poles: 0.3 and 40 Hz
+    assert pair_modes(undamped, damped).tolist() == [1, 2, 3]
+    assert pair_modes(undamped, damped[:2]).tolist() == [1, 0, -1]  # none left for the third
+    assert pair_modes(np.array([0.0, 2.0]), np.array([0.0, 2.0])).tolist() == [0, 1]

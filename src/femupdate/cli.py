@@ -94,6 +94,20 @@ def _search_limit(field: str, flag: str) -> Any:
     return check
 
 
+def _seed_check(flag: str) -> Any:
+    """A typer callback holding a seed of a command without a case's [search] (synth, the
+    benchmarks) to the range of every seed."""
+    def check(value: int | None) -> int | None:
+        from femupdate.case.schema import Search
+        from femupdate.inputs import _limit
+
+        rng = _limit(Search, "seed")
+        if value is not None and not rng.contains(value):
+            raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()})")
+        return value
+    return check
+
+
 JsonOption = Annotated[
     Path | None, typer.Option("--json", help="Write machine-readable results to this file.",
                               callback=_output_file("--json"))
@@ -172,7 +186,8 @@ def bench_dynamic(
     ] = "ab",
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
                                       callback=_search_limit("runs", "--runs"))] = 100,
-    seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.")] = 0,
+    seed: Annotated[int, typer.Option(help="Root seed; run i uses child i.",
+                                      callback=_seed_check("--seed"))] = 0,
     json_path: JsonOption = None,
     plots: Annotated[
         Path | None, typer.Option(help="Directory for the paper's Figs. 2–5 (PNG) of run 0.",
@@ -279,8 +294,8 @@ def bench_bridge(
     )] = "ab",
     runs: Annotated[int, typer.Option(min=1, help="Independent runs.",
                                       callback=_search_limit("runs", "--runs"))] = 25,
-    seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.")
-                    ] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the virtual experiment and of the runs.",
+                                      callback=_seed_check("--seed"))] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="Noise: rms noise / rms signal.")] = 0.02,
     max_evals: Annotated[int | None, typer.Option(min=1, help="Budget per run (default: the "
                                                   "case's: 20,000 viscous, 5,000 friction).",
@@ -491,6 +506,8 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
     if summary.verdict is not None:
         say(f"verdict: {summary.verdict.words}", "green" if summary.verdict.converged
             and summary.verdict.fits else "yellow", out=out)
+        if (words := disagreement_words(summary)) is not None:
+            say(words, out=out)
     if restarted:
         counts = [r.restarts for r in summary.runs]
         say(f"restarts (searches that converged or stalled): {sum(counts)} in all, in "
@@ -511,6 +528,21 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
         say(f"unsuccessful runs: {len(failed)}, none with a parameter at a bound: stopped "
             "before reaching the target (budget or stopping criteria) or in another minimum",
             out=out)
+
+
+def disagreement_words(summary: Summary) -> str | None:
+    """What the success count and the verdict each mean, where they disagree: runs that
+    reached the target (successes) at different minima (not converged). The noise-free bridge
+    printed 'successful runs 25/25' beside 'not converged: … 21 different minima'."""
+    target = summary.settings.get("f_target")
+    verdict = summary.verdict
+    if target is None or verdict is None or verdict.converged or not summary.successes:
+        return None
+    return (f"success and verdict differ: {summary.successes} of {len(summary.runs)} runs "
+            f"reached φ ≤ f_target = {target:g} (a success), but the verdict asks whether the "
+            f"runs ended at the same point, and they ended in {verdict.minima} different "
+            "minima: below the target the data do not single out one set of parameters (see "
+            "the intervals above)")
 
 
 def _resume_hint(words: list[str]) -> None:
@@ -621,13 +653,39 @@ def run(
     _write_json(json_path, result.summary.model_dump())
 
 
+#: The integrators of `femupdate frame3d` (linear methods of femupdate.simulate).
+FRAME3D_METHODS = ("exact", "newmark", "central_difference")
+
+#: Exit code of a command that finished without the result it is for (a sampled posterior
+#: whose runs did not reach β = 1); 2 is femupdate's errors, 130 Ctrl-C.
+NOT_THE_RESULT = 1
+
+
+def _posterior_limit(field: str, flag: str) -> Any:
+    """A typer callback holding an override to the range of [posterior] field."""
+    def check(value: int | None) -> int | None:
+        from femupdate.case.posterior_section import PosteriorSection
+        from femupdate.inputs import _limit
+
+        rng = _limit(PosteriorSection, field)
+        if value is not None and not rng.contains(value):
+            raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()}, as "
+                              f"[posterior] {field} in a case file)")
+        return value
+    return check
+
+
 @app.command()
 def posterior(
     case_file: CaseArgument,
-    out: Annotated[Path, typer.Option("--out", help="Results directory.")] = Path("results"),
-    seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.")] = None,
+    out: Annotated[Path, typer.Option("--out", help="Results directory.",
+                                      callback=_output_dir("--out"))] = Path("results"),
+    seed: Annotated[int | None, typer.Option(help="Override [posterior] seed.",
+                                             callback=_posterior_limit("seed", "--seed"))
+                    ] = None,
     samples: Annotated[int | None, typer.Option(
-        min=20, help="Override [posterior] samples (TMCMC's population, per run).")] = None,
+        min=20, help="Override [posterior] samples (TMCMC's population, per run).",
+        callback=_posterior_limit("samples", "--samples"))] = None,
     runs: Annotated[int | None, typer.Option(
         min=1, max=64, help="Override [posterior] runs (independent sampler runs, pooled; "
         "their agreement checks the effective samples).")] = None,
@@ -638,7 +696,8 @@ def posterior(
         "--recentre", min=0, max=8, help="Override [posterior] recentre (how many times at "
         "most to sample again from a better fit the sampler finds; 0: only say so).")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
-                                                   "instead of [data] directory.")] = None,
+                                                   "instead of [data] directory.",
+                                              callback=_input_dir("--data"))] = None,
     resume: Annotated[bool, typer.Option(
         "--resume", help="Continue the sampler (and the search) stored in --out from its "
         "last checkpoint: the samples are those of an uninterrupted run.")] = False,
@@ -650,10 +709,11 @@ def posterior(
                          ] = None,
     quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
     log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
-                                                       "run event) to this file.")] = None,
+                                                       "run event) to this file.",
+                                                  callback=_output_file("--log-json"))] = None,
     workers: Annotated[int | None, typer.Option(
         "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
-        "workers).")] = None,
+        "workers).", callback=_search_limit("workers", "--workers"))] = None,
     json_path: JsonOption = None,
 ) -> None:
     """The posterior of the parameters by TMCMC, beside the best fit: intervals,
@@ -695,6 +755,8 @@ def posterior(
         print_coverage(result.bands)
     say(f"results in {out.resolve()} (femupdate report {out})")
     _write_json(json_path, result.summary.model_dump())
+    if not result.record.reached:  # finished, but not a posterior: scripts must tell
+        raise SystemExit(NOT_THE_RESULT)
 
 
 def print_coverage(bands: list[Any], title: str = "5–95 % predictive bands") -> None:
@@ -762,6 +824,27 @@ def _warn_outside_bounds(flag: str, case: Case, values: dict[str, float]) -> Non
 SHAPES_SHOWN = 6
 
 
+def pair_modes(undamped: np.ndarray, damped: np.ndarray) -> np.ndarray:
+    """For each undamped frequency, the index of the damped mode of nearest |λ|/2π (relative
+    distance), each used once; -1 where none is left. Overdamped poles make the damped list
+    longer than the undamped one (a frame with dashpots and hysteretic links paired them by
+    position: ζ 0 % or 100 % with a damped frequency 0 against the wrong modes)."""
+    match = np.full(undamped.size, -1)
+    free = list(range(damped.size))
+    for i in np.argsort(undamped, kind="stable"):
+        if not free:
+            break
+        scale = np.maximum(np.maximum(abs(undamped[i]), np.abs(damped[free])), 1e-300)
+        k = int(np.argmin(np.abs(damped[free] - undamped[i]) / scale))
+        match[i] = free.pop(k)
+    return match
+
+
+def _unsigned_zero(text: str) -> str:
+    """A formatted number without the sign of a rounded zero ("-0.000": ζ of -1e-17)."""
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
 def _shapes_table(labels: list[str], shapes: np.ndarray, freqs: np.ndarray) -> Table:
     """The first mode shapes, each scaled to a largest component of 1."""
     k = min(SHAPES_SHOWN, shapes.shape[1])
@@ -811,12 +894,23 @@ def modes(
     for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
         table.add_column(col, justify="right")
     above = False
+    match = pair_modes(np.asarray(freqs), np.asarray(damped.freqs_hz))
     for i, f in enumerate(freqs):
-        fd = damped.damped_freqs_hz[i] if i < len(damped.freqs_hz) else float("nan")
-        zeta = damped.damping_ratios[i] if i < len(damped.freqs_hz) else float("nan")
+        j = match[i]
+        fd = damped.damped_freqs_hz[j] if j >= 0 else float("nan")
+        zeta = damped.damping_ratios[j] if j >= 0 else float("nan")
         above |= bool(fd > f * (1 + 1e-9))
-        table.add_row(str(i + 1), f"{f:.4f}", f"{fd:.4f}", f"{100 * zeta:.3f}")
+        table.add_row(str(i + 1), f"{f:.4f}", _unsigned_zero(f"{fd:.4f}"),
+                      _unsigned_zero(f"{100 * zeta:.3f}"))
+    extra = sorted(set(range(len(damped.freqs_hz))) - set(match.tolist()))
+    for j in extra:  # real poles of DOFs that dashpots hold more than springs
+        table.add_row("–", "–", _unsigned_zero(f"{damped.damped_freqs_hz[j]:.4f}"),
+                      _unsigned_zero(f"{100 * damped.damping_ratios[j]:.3f}"))
     console.print(table)
+    if extra:
+        say(f"–: {len(extra)} overdamped pole(s) of the damped model (ζ = 100 %, no "
+            "oscillation: a real pole whose 'f' is its decay rate |λ|/2π) beside the modes of "
+            "K and M; each undamped mode is shown with the damped mode of nearest |λ|/2π.")
     if above:
         say("f: undamped, from K and M; damped f and ζ: the complex modes of the damped model. "
             "Its damping is not proportional (C is not a combination of M and K that the "
@@ -870,7 +964,7 @@ def validate(
         case = with_data_directory(case, data)
     values = _read_params("--params", params, case)
     _warn_outside_bounds("--params", case, values)
-    result = validate_case(case, values)
+    result = validate_case(case, values, unseen=data is not None)
     if result.frequencies_hz:
         say("natural frequencies of the model [Hz]: "
             + ", ".join(f"{f:.3f}" for f in result.frequencies_hz))
@@ -913,7 +1007,8 @@ def synth(
     truth: Annotated[str, typer.Option(help="Truth parameter values: a JSON object or file.")],
     out: Annotated[Path, typer.Option("--out", help="Directory for the records.",
                                       callback=_output_dir("--out"))],
-    seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.")] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the motion and of the noise.",
+                                      callback=_seed_check("--seed"))] = 0,
     snr: Annotated[float, typer.Option(min=0.0, help="rms noise / rms signal per channel; 0: "
                                        "noise-free records.")] = 0.02,
     duration: Annotated[float, typer.Option(min=0.01, help="Record length, s (model scale).")
@@ -926,7 +1021,9 @@ def synth(
     motion: Annotated[Path | None, typer.Option(
         help="A recorded ground motion (El Centro formats, e.g. "
              "../shared/data/elcentro1940/...) instead of the EC8 artificial one.")] = None,
-    length_scale: Annotated[float, typer.Option(help="Model length scale λ; time scales by √λ.")
+    length_scale: Annotated[float, typer.Option(
+        help="Model length scale λ; time scales by √λ. The default, 1/50, is the paper's 1:50 "
+             "model (a motion 7.1× faster than full scale); 1 for a full-scale structure.")
                             ] = 1 / 50,
     offset: Annotated[float | None, typer.Option(
         min=0.0, help=f"Accelerometer offsets up to this, m/s² (default: {SYNTH_OFFSET:g} with "
@@ -972,13 +1069,16 @@ def synth(
 @app.command()
 def frame3d(
     case_file: Annotated[Path, typer.Argument(help="A 3-D frame case file (docs/frames-3d.md).")],
-    out: Annotated[Path | None, typer.Option("--out", help="Write the responses (CSV) here.")
-                   ] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="Write the responses (CSV) here.",
+                                             callback=_output_dir("--out"))] = None,
     method: Annotated[str, typer.Option(help="Integrator: exact, newmark or "
                                              "central_difference.")] = "exact",
 ) -> None:
     """Simulate a 3-D frame under its ground motions (one record per support group)."""
     from femupdate.case.frame3d_case import run_frame3d_case
+
+    if method not in FRAME3D_METHODS:  # before the case is read and assembled
+        raise ConfigError(f"--method: got {method!r} (allowed: {', '.join(FRAME3D_METHODS)})")
 
     for line in run_frame3d_case(case_file, out, method=method):
         say(line)

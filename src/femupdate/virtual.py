@@ -35,6 +35,8 @@ class Motion:
 
 #: Fewest samples of a generated motion (as ``synth.artificial_accelerogram``).
 MIN_SAMPLES = 50
+#: ... and at most this many (a --duration of 1e9 s at 1035 Hz asked for 1e12).
+MAX_SAMPLES = 10_000_000
 
 
 def check_motion_settings(*, duration: float, rate: float, pga_g: float,
@@ -56,6 +58,10 @@ def check_motion_settings(*, duration: float, rate: float, pga_g: float,
     if pga_g > 10:
         raise bad("pga_g", "--pga", pga_g, "a peak ground acceleration in (0, 10] g")
     samples = math.floor(duration * rate)
+    if samples > MAX_SAMPLES:  # held in memory several times over before anything is written
+        raise bad("duration", "--duration", duration,
+                  f"at most {MAX_SAMPLES:,} samples: {MAX_SAMPLES / rate:g} s or less at "
+                  f"{rate:g} Hz; {duration:g} s is {samples:,} samples")
     if samples < MIN_SAMPLES:
         raise bad("duration", "--duration", duration,
                   f"at least {MIN_SAMPLES} samples: {MIN_SAMPLES / rate:g} s or more at "
@@ -76,8 +82,8 @@ def ec8_motion(rng: np.random.Generator, *, rate: float, duration: float, pga_g:
                                         period_range=(max(0.05, 3 * dt_proto), 4.0))
     return Motion(acc.acceleration, 1.0 / rate,
                   f"EC8 type 1, ground {ground}, ag = {pga_g:g} g, artificial "
-                  f"(max spectral deviation {acc.max_deviation:.1%}), time scale "
-                  f"√{length_scale:g}")
+                  f"(max spectral deviation {acc.max_deviation:.1%}), "
+                  f"{scale_words(length_scale)}")
 
 
 def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50) -> Motion:
@@ -86,7 +92,18 @@ def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50) ->
     t_model = synth.scale_time(t, length_scale)
     _, resampled = io.resample(t_model, ag, rate)
     return Motion(resampled, 1.0 / rate,
-                  f"{Path(path).name}, time scale √{length_scale:g}, resampled to {rate:g} Hz")
+                  f"{Path(path).name}, {scale_words(length_scale)}, resampled to {rate:g} Hz")
+
+
+def scale_words(length_scale: float) -> str:
+    """The time scale of a motion, said so that a full-scale user sees it is not theirs (the
+    default 1:50 model runs a motion 7.1× faster than full scale)."""
+    root = math.sqrt(length_scale)
+    if root == 1.0:
+        return "full scale (time scale 1)"
+    return (f"model scale λ = {length_scale:g} (time ×√λ = {root:.3g}: the motion runs "
+            f"{1.0 / root:.3g}× {'faster' if root < 1.0 else 'slower'} than at full scale; "
+            "--length-scale 1 for a full-scale structure)")
 
 
 def simulate_truth(case: Case, truth: dict[str, float], motion: Motion) -> np.ndarray:

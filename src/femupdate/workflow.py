@@ -21,9 +21,9 @@ import numpy as np
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
 from femupdate.case.overrides import check_search_override
-from femupdate.case.reduced_path import simulation_record
+from femupdate.case.reduced_path import simulation_record, worst_truncation
 from femupdate.data.defects import Finding
-from femupdate.errors import ConfigError, FemupdateError
+from femupdate.errors import ConfigError, FemupdateError, SimulationError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.posterior.best_fit import basin_sentences, laplace_record
@@ -189,16 +189,32 @@ def trial_records(problem: UpdateProblem, x: np.ndarray | dict[str, float]
 def trial_record(trial: TrialProblem, values: dict[str, float]) -> TrialRecord:
     """A trial's NMSE and each channel's at physical ``values``, its delays and notes."""
     exp = trial.experiment
-    per_channel = trial.per_channel(values)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is said in the notes
+        per_channel = trial.per_channel(values)
+    finite = bool(np.all(np.isfinite(per_channel)))
     phi = (float(trial.objective.weights @ per_channel / trial.objective.weights.sum())
-           if np.all(np.isfinite(per_channel)) else math.inf)
+           if finite else math.inf)
     spec = next(s for s in trial.case.trial_specs() if s.name == trial.name)
+    notes = list(exp.notes)
+    if not finite:
+        notes.append(f"not scored: {failure_reason(trial, per_channel)}")
     return TrialRecord(
         name=trial.name, role=exp.role, weight=exp.weight, phi=phi,
         nmse_per_channel=dict(zip(exp.channels, per_channel.tolist(), strict=True)),
         delays_s=dict(exp.delays), samples=int(exp.t.size), dt=exp.dt, start_s=exp.start_s,
         score_window=None if spec.score_window is None else list(spec.score_window),
-        notes=list(exp.notes))
+        notes=notes)
+
+
+def failure_reason(trial: TrialProblem, per_channel: np.ndarray) -> str:
+    """Why a trial's NMSE (``per_channel``, just computed) is not finite: the simulation's
+    failure (an error of the model, a divergence), or the channel whose NMSE overflowed."""
+    if trial.last_failure:
+        return trial.last_failure.removeprefix(f"trial {trial.name!r}: ")
+    bad = [c for c, v in zip(trial.experiment.channels, per_channel.tolist(), strict=True)
+           if not math.isfinite(v)]
+    return (f"the NMSE of {', '.join(bad)} is not finite: the prediction is too large to "
+            "square (an overflow; up to 1e+308 is a float, its square is not)")
 
 
 def _flat(trials: list[TrialRecord], key: str) -> dict[str, float]:
@@ -438,11 +454,13 @@ class Validation:
 
 
 def validate_case(case: Case, params: dict[str, float], *,
-                  experiments: Sequence[Experiment] | None = None) -> Validation:
+                  experiments: Sequence[Experiment] | None = None,
+                  unseen: bool = False) -> Validation:
     """Evaluate fixed parameter values on every trial of ``case``, fitted or not.
 
     Each trial is simulated over its whole window and scored over its ``score_window``, as
-    in an update; nothing is searched.
+    in an update; nothing is searched. ``unseen``: the records are not those the case fits
+    (``femupdate validate --data OTHER``), so every trial's role is "validate".
 
     Raises
     ------
@@ -453,7 +471,17 @@ def validate_case(case: Case, params: dict[str, float], *,
 
     values = check_parameter_values(params, case.parameter_names, "parameter values")
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]
+    if trials and case.simulation_method == "reduced" and trials[0].model.structure is not None:
+        worst_truncation(trials, values)  # warns, as run does, when the modes kept fall short
     records = [trial_record(t, values) for t in trials]
+    fits = _fits(trials, values)
+    if unseen:  # another directory's records: not the ones a fit of this case saw
+        records = [r.model_copy(update={"role": "validate"}) for r in records]
+        fits = [dataclasses.replace(f, role="validate") for f in fits]
+    for record in records:
+        if not math.isfinite(record.phi):  # an inf NMSE printed with exit 0 says nothing
+            raise SimulationError(f"{case.label}: trial {record.name!r} at the given parameter "
+                                  f"values: {record.notes[-1].removeprefix('not scored: ')}")
     freqs = trials[0].frequencies(values)[:N_FREQUENCIES].tolist() if trials else []
-    return Validation(case.label, values, records, _fits(trials, values), freqs,
+    return Validation(case.label, values, records, fits, freqs,
                       [f for t in trials for f in t.experiment.defects])

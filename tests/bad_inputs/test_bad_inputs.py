@@ -43,12 +43,15 @@ from two_storey_case import DATA, MODEL, TRUTH, parameters
 HERE = Path(__file__).resolve().parent
 CASES = sorted((HERE / "cases").glob("*.toml"))
 ROOT = HERE.parents[1]
-#: Seconds a case may take unless it says otherwise (``limit_s``).
-LIMIT_S = 30.0
+#: Seconds a case may take unless it says otherwise (``limit_s``): far above numba's first
+#: compilation of a kernel in a fresh clone under load (30–60 s limits failed there), so a
+#: limit catches a hang, not a cold cache. Cases that must fail fast (refused before any
+#: work, a time-out option) keep limits of 30–60 s: they compile nothing.
+LIMIT_S = 600.0
 #: The keys a case file may have.
 KEYS = {"about", "kind", "args", "code", "expect", "outcome", "result", "limit_s",
         "case_prefix", "case_replace", "case_append", "case_text", "files", "file_replace",
-        "file_lines", "file_remove", "file_folder"}
+        "file_lines", "file_remove", "file_folder", "exit"}
 
 BASE = MODEL + "\n" + parameters() + "\n" + DATA + """
 [search]
@@ -196,8 +199,8 @@ def test_bad_input(path: Path, records: Path, tmp_path: Path,
             assert "Traceback" not in text, text
             if outcome == "error":
                 assert code == 2, f"exit code {code}: {text}"
-            else:
-                assert code == 0, f"exit code {code}: {text}"
+            else:  # a finished command: 0, or the code a case names (1: not the result asked)
+                assert code == spec.get("exit", 0), f"exit code {code}: {text}"
             flat = " ".join(text.split())  # rich may wrap a usage error's box
             assert expect in text or " ".join(expect.split()) in flat, text
             return
@@ -236,7 +239,7 @@ def test_the_console_script_prints_the_same_one_line(name: str, records: Path,
     src = str(Path(femupdate.__file__).resolve().parents[1])
     done = subprocess.run([sys.executable, "-m", "femupdate",
                            *(_fill(a, places) for a in spec["args"])],
-                          capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          capture_output=True, text=True, timeout=600, cwd=tmp_path,
                           env={**os.environ, "PYTHONPATH": src})
     text = done.stdout + done.stderr
     assert done.returncode == 2 and "Traceback" not in text, text

@@ -8,7 +8,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from femupdate.errors import MissingDependencyError, ModelError
-from femupdate.model.hysteresis import bouc_wen_loop, check_bouc_wen_parameters
+from femupdate.model.hysteresis import (
+    bouc_wen_loop,
+    bouc_wen_step_limit,
+    check_bouc_wen_parameters,
+)
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.structure import Structure, shear_building
 from femupdate.simulate import simulate
@@ -144,6 +148,26 @@ def test_parameters_without_hysteresis_are_refused(column: int, value: float,
     with pytest.raises(ModelError) as info:
         s.add_bouc_wen("F1", "ux", **dict(zip(names, table[0], strict=True)), name="b1")
     assert "\n" not in str(info.value) and names[column] in str(info.value)
+
+
+@pytest.mark.parametrize(("beta", "n"), [(2000.0, 0.01), (1e-6, 0.01), (0.3, 0.01),
+                                         (1e5, 0.1)])
+def test_a_small_n_whose_z_u_is_not_representable_is_refused(beta: float, n: float) -> None:
+    # Issue 33: n = 0.01 (inside (0, 100]) with beta + gamma = 2500 made z_u underflow to 0 and
+    # the compiled kernel divide by zero. Its neighbours: z_u overflowing (beta + gamma small),
+    # or tiny without underflowing (a step would need ~1e26 Runge–Kutta parts).
+    table = np.array([[1e4, 0.0, 1.0, beta, beta / 4.0, n]])
+    with pytest.raises(ModelError, match=r"bouc_wen 'b1': z_u = \(A / \(beta \+ gamma\)\)"
+                       r"\^\(1/n\) = 1e[+-]\d+ .* is out of range; allowed z_u from 1e-09"):
+        check_bouc_wen_parameters(table, ("b1",))
+
+
+def test_a_small_n_inside_the_range_simulates_with_finite_steps() -> None:
+    # n = 0.01 with A/(β + γ) = 1.1: z_u = 1.1^100 = 1.4e4, z_u^(n−1) without overflow.
+    assert 0.0 < float(bouc_wen_step_limit(1.0, 0.5, 0.4, 0.01)) < np.inf
+    s = _sdof(k=100.0, beta=0.5, gamma=0.4, n=0.01)
+    response = simulate(s.assemble(), 0.005, ag=_record(400), method="nonlinear", substeps=8)
+    assert np.all(np.isfinite(response.displacement))
 
 
 def test_parameter_values_are_checked_at_assembly() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -389,3 +390,19 @@ def test_other_invalid_descriptions() -> None:
         Structure(2).assemble()
     with pytest.raises(ModelError, match="1 stiffnesses for 2 masses"):
         shear_building([1.0, 2.0], [3.0])
+
+
+@pytest.mark.parametrize(("kwargs", "words"), [
+    ({"m": 400.0, "dofs": ["rx"]}, "names no translation, so m = 400.0 would act on nothing"),
+    ({"m": "m1", "dofs": ["rx", "ry"]}, "names no translation, so m = 'm1'"),
+    ({"m": 0.0, "J": 5.0, "dofs": ["ux", "uy"]}, "names no rotation, so J = 5.0"),
+    ({"m": 400.0, "dofs": ["ux", "ux"]}, "names a DOF more than once"),
+])
+def test_a_mass_its_dofs_cannot_carry_is_refused(kwargs: dict, words: str) -> None:
+    # Issue 33: {m = 400, dofs = ["rx"]} was dropped without a word (the frequencies were
+    # those of the model without it).
+    s = Structure(dofs_per_node=6)
+    s.add_node("C2", x=0.0, z=3.0)
+    with pytest.raises(ModelError, match=re.escape(words)):
+        s.add_mass("C2", **kwargs)
+    s.add_mass("C2", m=0.0, J=5.0, dofs=["rx"])  # what it carries, on the DOFs named

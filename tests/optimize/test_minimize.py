@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -425,3 +426,29 @@ def test_a_scalar_function_may_have_a_negative_target() -> None:
     assert "f_target" in res.stop and res.fun <= -4.9
     with pytest.raises(ConfigError, match="f_target"):
         minimize(lambda x: x, [(-1.0, 1.0)] * 2, "multistart-lm", residuals=True, f_target=-1)
+
+
+@pytest.mark.parametrize("method", ["multistart-lm", "de", "ab", "ga"])
+def test_memory_follows_the_budget_in_many_dimensions(method: str) -> None:
+    # Issue 33: 4,000 parameters and max_evals = 10 took 5.1 GB and 206 s (a pool of 20·n
+    # points, a population of 15·n held whole before the first evaluation).
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        res = minimize(lambda x: float(np.sum((x - 0.3) ** 2)), [(0.0, 1.0)] * 4000, method,
+                       seed=1, max_evals=10)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert res.nfev == 10 and peak < 400e6, peak
+
+
+@pytest.mark.parametrize(("method", "n", "words"), [
+    ("multistart-lm", 4000, "cannot serve 4,000 parameters: it would hold about 2.1 GB"),
+    ("cmaes", 2001, "decompose an n × n covariance (allowed: up to 2,000 parameters)"),
+])
+def test_a_dimension_the_method_cannot_serve_is_refused_up_front(method: str, n: int,
+                                                                 words: str) -> None:
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        minimize(lambda x: 0.0, [(0.0, 1.0)] * n, method, max_evals=50_000)

@@ -366,9 +366,28 @@ def test_patience_ends_a_run_whose_best_is_zero(monkeypatch: pytest.MonkeyPatch)
     assert res.stop == {"patience": 5} and res.fun < 1e-28 and res.nfev < 1_000
     from femupdate.optimize import multistart
     monkeypatch.setattr(multistart, "PATIENCE_FLOOR_NOISE", 0.0)  # the relative rule alone
+    monkeypatch.setattr(multistart.MultistartLM, "phi_floor", lambda self: 0.0)
     without = minimize(residuals, [(-1.0, 1.0)] * 2, "multistart-lm", seed=1,
                        max_evals=3_000, residuals=True)
     assert "max_evals" in without.stop
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3])
+@pytest.mark.parametrize("jitter", [0.0, 1e-14, 1e-13])
+def test_patience_at_zero_does_not_hang_on_the_last_ulps(scale: float, jitter: float) -> None:
+    # Issue 33: an exact fit whose searches end at 0 or at 5e-30 … 6e-28 depending on the
+    # processor's rounding spent all 50,000 evaluations (the floor came from the measured
+    # noise alone, and at φ = 0 the stages alternated forever). ``jitter`` stands for another
+    # processor's last ulps (45 and 450 of them at the third residual); ``scale`` checks the floor
+    # follows the problem's size.
+    def residuals(x: np.ndarray) -> np.ndarray:
+        r = np.array([x[0] - 0.3, 2.0 * (x[1] - 0.7), x[0] * x[1] - 0.21])
+        return scale * (r + jitter * np.sin(1e9 * x[0] + 3e9 * x[1] + np.arange(3)))
+
+    res = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=1, residuals=True)
+    assert res.stop == {"patience": 5} and res.nfev <= 2_000
+    assert np.allclose(res.x, [0.3, 0.7], atol=1e-9)
+    assert res.fun <= scale ** 2 * (1e-26 + 3.0 * jitter ** 2)  # the jitter is a floor
 
 
 def test_patience_is_off_when_a_target_says_when_to_stop() -> None:

@@ -292,9 +292,10 @@ def test_the_command_says_when_it_did_not_reach_the_posterior(case_path: Path,
     path = write_case(folder, max_evals=300)
     got = CliRunner().invoke(app, ["posterior", str(path), "--out", str(folder / "out"),
                                    "--quiet"], terminal_width=100)
-    assert got.exit_code == 0, got.output
+    assert got.exit_code == 1, got.output  # finished, but not a posterior: scripts can tell
     assert ("NOT A POSTERIOR: 4 of 4 sampler runs stopped before tempering exponent β = 1"
             in " ".join(got.output.split()))
+    assert "raise [posterior] max_evals and resume" in " ".join(got.output.split())
 
 
 def test_a_laplace_gaussian_mostly_outside_the_bounds_is_capped_or_left_for_the_prior(
@@ -314,3 +315,27 @@ def test_a_laplace_gaussian_mostly_outside_the_bounds_is_capped_or_left_for_the_
     corner = (np.zeros(12), np.eye(12) * 25.0)
     reference, note = start_reference(*corner, rng)
     assert reference is None and note.startswith("the prior")
+
+
+def test_a_report_without_the_corner_extra_leaves_the_corner_plot_out(
+        result: PosteriorResult, case_path: Path, tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # Issue 33: `femupdate report` on a posterior refused the whole report without `corner`.
+    import shutil
+
+    from femupdate import _optional
+    from femupdate.errors import MissingDependencyError
+    from femupdate.report.html import write_report
+
+    def missing(module: str, extra: str) -> None:
+        raise MissingDependencyError(f"{module!r} is needed for this feature but is not "
+                                     f"installed; install it with: pip install "
+                                     f"'femupdate[{extra}]'")
+
+    monkeypatch.setattr(_optional, "require", missing)
+    out = tmp_path / "out"
+    shutil.copytree(case_path.parent / "out", out)
+    html = write_report(out).read_text(encoding="utf-8")
+    assert "corner plot not drawn: &#x27;corner&#x27; is needed" in html or (
+        "corner plot not drawn: 'corner' is needed" in html)
+    assert "pip install" in html and "predictive band</figcaption>" in html

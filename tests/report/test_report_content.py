@@ -217,6 +217,11 @@ def test_validation_section() -> None:
 def test_a_report_of_one_trial_has_no_validation_section(report: Path) -> None:
     page, text = parse(report)
     assert "section-validation" not in page.ids and "8. Validation" not in text  # one trial: none
+    # the sections after it are numbered on (they jumped from 7 to 9), and the note of the
+    # missing posterior shows its command as code, not in literal backticks
+    assert "7. Identifiability" in text and "8. Uncertainty" in text and "9. " not in text
+    html = report.read_text(encoding="utf-8")
+    assert "`" not in html and "<code>femupdate posterior CASE.toml --out DIR</code>" in html
 
 
 def test_one_channel_draws_one_bar_per_trial(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -245,3 +250,12 @@ def test_a_method_without_beta_trace_has_no_not_drawn_box(many_runs_dir: Path) -
     assert "figure-beta" not in page.ids and "a, b and σ" not in text
     assert len(page.rows("runs")) == 25
     assert {r["stop"][1] for r in page.rows("runs")} == {"code"}
+
+
+def test_a_count_of_one_is_singular() -> None:
+    # Issue 33: the report's model line read '1 storeys; 1 free DOFs'.
+    from femupdate.report.sections_runs import _counted
+
+    assert _counted(1, "storeys") == "1 storey" and _counted(1, "free DOFs") == "1 free DOF"
+    assert _counted(2, "storeys") == "2 storeys" and _counted(1, "masses") == "1 mass"
+    assert _counted(0, "beams") == "0 beams"

@@ -115,3 +115,23 @@ def test_two_horizontal_components_add_up():
     np.testing.assert_allclose(both.dynamic, expected, atol=1e-10 * np.abs(expected).max())
     acc_abs = x.acceleration + y.acceleration
     np.testing.assert_allclose(both.acceleration, acc_abs, atol=1e-10 * np.abs(acc_abs).max())
+
+
+@pytest.mark.parametrize("name", ["velocity", "displacement"])
+def test_given_support_motions_of_another_shape_are_refused(name: str) -> None:
+    # Issue 33: velocity=np.zeros((10, 3)) for 200 samples of 2 records gave numpy's broadcast
+    # error.
+    model = example_frame().assemble()
+    groups = [["N000.ux"], ["N010.ux"]]
+    acc = support_records(200, DT)[:, :2]
+    with pytest.raises(DataError, match=rf"{name} has shape \(10, 3\); expected \(200, 2\)"):
+        multi_support_response(model, groups, acc, DT, **{name: np.zeros((10, 3))})
+    with pytest.raises(DataError, match=f"{name} has non-finite values"):
+        multi_support_response(model, groups, acc, DT, **{name: np.full((200, 2), np.nan)})
+
+
+@pytest.mark.parametrize("group", [[], "N010.ux"])
+def test_an_empty_or_string_support_group_is_refused(group: object) -> None:
+    model = example_frame().assemble()
+    with pytest.raises(ConfigError, match="support motion: group 1 is"):
+        support_matrix(model, [["N000.ux"], group])  # type: ignore[list-item]

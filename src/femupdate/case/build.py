@@ -91,6 +91,23 @@ def build_structure(model: Model) -> Structure:
     return structure
 
 
+def check_base_motion_moves_mass(structure: Structure, case: Case, direction: str) -> None:
+    """ModelError when the base motion along ``direction`` loads no mass (p = M r = 0 at the
+    parameters' nominal values): every response would be zero, and ``synth`` wrote all-zero
+    channels (a building excited along y, its masses all on ux)."""
+    from femupdate.errors import ModelError
+
+    nominal = {p.name: p.nominal_value for p in case.parameters}
+    # sparse: no positive-definite check of M (DOFs without mass are condensed on the
+    # reduced path), and no n² array for a large model
+    load = structure.assemble(nominal, direction=direction, sparse=True).seismic_load
+    if not np.any(np.asarray(load)):
+        raise ModelError(f"{case.label}: model: the base motion along {direction} moves no mass "
+                         f"(no mass acts on a u{direction} DOF that is free): every response "
+                         f"would be zero (allowed: masses whose dofs include u{direction}, or "
+                         "[model] direction along the masses' DOFs)")
+
+
 class CaseModel:
     """The structure of a case with its integrator and outputs (picklable).
 
@@ -159,6 +176,8 @@ class CaseModel:
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
         if self.groups:
             self.influence = np.zeros_like(self.influence)
+        else:  # multi-support cases move their supports, group by group
+            check_base_motion_moves_mass(self.structure, case, self.direction)
         if case.model.dofs_per_node == 6:
             from femupdate.case.model3d import check_not_mechanism
 

@@ -266,8 +266,13 @@ def case_issues(case: Case) -> list[Issue]:
             issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
                            "model never uses it", f'use it in [model] (e.g. k = "{name}") '
                            "or remove it"))
-    if case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear",
-                                                                    "reduced"):
+    if case.model.external is not None and case.simulation.method is not None:
+        kind = "python" if getattr(case.model, "python", None) is not None else "opensees"
+        issues.append(("simulation.method", f"got {case.simulation.method!r} but the model is "
+                       f"external ([model.{kind}]): it computes its own response, femupdate "
+                       "integrates nothing", "no simulation.method with an external model"))
+    elif case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear",
+                                                                      "reduced"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
                        "has friction or Bouc–Wen elements",
                        "'nonlinear' (or leave it out), or 'reduced' for a large model"))

@@ -151,6 +151,19 @@ def _gamma_issue(beta: float | str, gamma: float | str, where: str = "gamma") ->
              f"({format_value(-beta)}, {format_value(beta)}]")]
 
 
+def _ultimate_issue(A: float | str, beta: float | str, gamma: float | str, n: float | str,
+                    where: str = "n") -> list[Issue]:
+    """z_u = (A/(β+γ))^(1/n) within its range when all four are numbers and (β, γ) valid
+    (parameters: at assembly)."""
+    values = (A, beta, gamma, n)
+    if any(isinstance(v, str) for v in values) or _gamma_issue(beta, gamma):
+        return []
+    from femupdate.model.hysteresis import ultimate_deformation_issue  # numba: when needed
+
+    issue = ultimate_deformation_issue(*(float(v) for v in values))  # type: ignore[arg-type]
+    return [] if issue is None else [(where, *issue)]
+
+
 class BoucWen(_Link):
     """``[[model.bouc_wen]]``: a Bouc–Wen hysteretic element, force α k y + (1 − α) k z with
     ż = A ẏ − β |ẏ| |z|^(n−1) z − γ ẏ |z|^n."""
@@ -164,7 +177,8 @@ class BoucWen(_Link):
 
     @model_validator(mode="after")
     def _check_shape(self) -> BoucWen:
-        raise_issues(_gamma_issue(self.beta, self.gamma))
+        raise_issues(_gamma_issue(self.beta, self.gamma)
+                     or _ultimate_issue(self.A, self.beta, self.gamma, self.n))
         return self
 
 
@@ -177,6 +191,28 @@ class Mass(Section):
     m: NodalMass
     J: RotaryInertia = 0.0
     dofs: Annotated[list[DofName], Field(min_length=1, max_length=6)] | None = None
+
+    @model_validator(mode="after")
+    def _check_dofs(self) -> Mass:
+        if self.dofs is not None:
+            raise_issues(mass_dofs_issues(self.m, self.J, self.dofs))
+        return self
+
+
+def mass_dofs_issues(m: float | str, J: float | str, dofs: list[str]) -> list[Issue]:
+    """A mass's ``dofs`` must carry what it gives: ``m`` (non-zero) a translation, ``J`` a
+    rotation, each DOF once. (``{m = 400, dofs = ["rx"]}`` dropped its 400 kg unsaid.)"""
+    repeated = sorted({d for d in dofs if dofs.count(d) > 1})
+    if repeated:
+        return [("dofs", f"names {', '.join(repeated)} more than once", "each DOF once")]
+    issues: list[Issue] = []
+    for value, what, kind, letter in ((m, "m", "translation", "u"), (J, "J", "rotation", "r")):
+        if value != 0.0 and not any(d.startswith(letter) for d in dofs):
+            issues.append(("dofs", f"{dofs} names no {kind}, so {what} = {value!r} would act on "
+                           "nothing", f"dofs with at least one {kind} "
+                           f"({'ux, uy, uz' if letter == 'u' else 'rx, ry, rz'}) for {what}, "
+                           f"or {what} = 0"))
+    return issues
 
 
 class Diaphragm(Section):
@@ -296,12 +332,16 @@ class ShearBuilding(Section):
                                    "every storey"))
         bw = self.bouc_wen
         if bw is not None and not issues:
-            if isinstance(bw.beta, list) or isinstance(bw.gamma, list):
-                for i, storey in enumerate(storey_values(bw, n)):
+            storeys = storey_values(bw, n)
+            if any(isinstance(getattr(bw, key), list) for key in ("A", "beta", "gamma", "n")):
+                for i, storey in enumerate(storeys):
                     issues += _gamma_issue(storey["beta"], storey["gamma"],
                                            f"bouc_wen.gamma (storey {i + 1})")
+                    issues += _ultimate_issue(storey["A"], storey["beta"], storey["gamma"],
+                                              storey["n"], f"bouc_wen.n (storey {i + 1})")
             else:
                 issues += _gamma_issue(bw.beta, bw.gamma, "bouc_wen.gamma")
+                issues += _ultimate_issue(bw.A, bw.beta, bw.gamma, bw.n, "bouc_wen.n")
         raise_issues(issues)
         return self
 

@@ -9,6 +9,7 @@ from the case's validator.
 
 from __future__ import annotations
 
+import math
 import typing
 from typing import Literal
 
@@ -47,6 +48,10 @@ class PriorSpec(Section):
         return {"kind": kind, **{k: v for k in PRIOR_FIELDS[self.kind]
                                  if (v := getattr(self, k)) is not None}}
 
+
+#: The narrowest normal (lognormal) prior: sd (sigma) as a share of the parameter's range
+#: (of log(upper/lower)).
+PRIOR_WIDTH_MIN = 1e-9
 
 #: The fields each kind of prior takes.
 PRIOR_FIELDS = {"uniform": (), "log-uniform": (), "normal": ("mean", "sd"),
@@ -97,6 +102,9 @@ def posterior_issues(case: Case) -> list[Issue]:
     issues: list[Issue] = []
     params = {p.name: p for p in case.parameters}
     need = SAMPLES_PER_PARAMETER * max(len(params), 1)
+    if section.runs > section.max_runs:
+        issues.append(("posterior.runs", f"got {section.runs} with max_runs = "
+                       f"{section.max_runs}", "runs <= max_runs, the most runs there may be"))
     if section.samples < need:
         issues.append(("posterior.samples", f"got {section.samples} for {len(params)} "
                        f"parameters", f"at least {need} ({SAMPLES_PER_PARAMETER} per "
@@ -129,6 +137,17 @@ def posterior_issues(case: Case) -> list[Issue]:
             issues.append((f"{where}.kind", f"'log-uniform' on parameter {name!r} searched "
                            "on a linear scale", f"scale = 'log' on parameter {name!r} (its "
                            "uniform prior is then log-uniform), or kind = 'uniform'"))
+        width = {"normal": (prior.sd, par.upper - par.lower, "sd"),
+                 "lognormal": (prior.sigma, math.log(par.upper / max(par.lower, 1e-300)),
+                               "sigma")}.get(prior.kind)
+        if width is not None and width[0] < PRIOR_WIDTH_MIN * width[1]:
+            # sd = 1e-320 ended in 'NOT A POSTERIOR … raise max_evals' with exit 0
+            issues.append((f"{where}.{width[2]}", f"got {format_value(width[0])}, a degenerate "
+                           f"prior (below {PRIOR_WIDTH_MIN:g} of the range of {name!r}: no "
+                           "sampler resolves it)", f"{width[2]} >= "
+                           f"{format_value(PRIOR_WIDTH_MIN * width[1])}; to hold {name!r} "
+                           "fixed, give the value in [model] instead of a parameter"))
+            continue
         if prior.kind == "normal" and not par.lower <= typing.cast(float, prior.mean) \
                 <= par.upper:
             issues.append((f"{where}.mean", f"got {format_value(prior.mean)}, outside the "

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import threading
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -337,13 +337,31 @@ def simulation_record(problem: Any) -> dict[str, Any] | None:
                   band_hz=worst["band_hz"], cutoff_factor=model.reduced.cutoff_factor,
                   truncation_error=worst["truncation_error"], against=worst["against"],
                   at="the nominal point", trials=trials)
+    warn_truncation(case.label, worst)
+    return record
+
+
+def worst_truncation(trials: Sequence[Any], values: Mapping[str, float]) -> dict[str, Any]:
+    """:func:`trial_truncation` of every trial at ``values``, the worst one, warned about
+    above :data:`TRUNCATION_WARN` (``femupdate validate`` at the values it is given, as
+    ``run`` at the nominal point)."""
+    from femupdate._parallel import single_blas_thread
+
+    with single_blas_thread():
+        worst = max((trial_truncation(t, values) for t in trials),
+                    key=lambda t: t["truncation_error"])
+    warn_truncation(trials[0].case.label, worst)
+    return worst
+
+
+def warn_truncation(label: str, worst: Mapping[str, Any]) -> None:
+    """FemupdateWarning when the worst trial's truncation error exceeds TRUNCATION_WARN."""
     if not worst["truncation_error"] <= TRUNCATION_WARN:
-        warnings.warn(f"{case.label}: simulation: the reduced model's truncation error is "
+        warnings.warn(f"{label}: simulation: the reduced model's truncation error is "
                       f"{worst['truncation_error']:.2g} (trial {worst['trial']!r}, against "
                       f"{worst['against']}), above {TRUNCATION_WARN:g}: φ cannot be trusted "
                       "below it; raise [simulation] cutoff_factor (or n_modes)",
-                      FemupdateWarning, stacklevel=2)
-    return record
+                      FemupdateWarning, stacklevel=3)
 
 
 def describe_simulation(record: Mapping[str, Any]) -> str:

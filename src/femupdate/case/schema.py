@@ -161,6 +161,22 @@ DefectKind = Literal["clock-offset", "clock-drift", "misaligned", "duplicate", "
 RepairableKind = Literal["clock-offset", "spike"]
 
 
+def _defect_list_issues(accept: list[str], repair: list[str]) -> list[Issue]:
+    """``accept`` and ``repair_defects``: each kind once, and never in both (a defect is
+    either left as it is, said, or repaired; both were taken without a word)."""
+    issues: list[Issue] = []
+    for key, kinds in (("accept", accept), ("repair_defects", repair)):
+        twice = sorted({k for k in kinds if kinds.count(k) > 1})
+        if twice:
+            issues.append((key, f"names {', '.join(twice)} more than once", "each kind once"))
+    both = sorted(set(accept) & set(repair))
+    if both:
+        issues.append(("repair_defects", f"names {', '.join(both)}, which accept also names: "
+                       "a defect is either accepted as it is or repaired",
+                       "each kind in one of accept and repair_defects"))
+    return issues
+
+
 class Data(Section):
     """``[data]``: where the measured accelerations are and how to read them."""
 
@@ -257,6 +273,7 @@ class Data(Section):
                                "the name of the channel in the file"))
         issues += duplicates([(f"outputs[{i}]", c.label) for i, c in enumerate(self.outputs)],
                               "output channel", "data")
+        issues += _defect_list_issues(self.accept, self.repair_defects)
         raise_issues(issues)
         return self
 

@@ -29,13 +29,20 @@ from femupdate.evaluation.central import CentralWork
 from femupdate.evaluation.lapack import sygvx_largest
 from femupdate.evaluation.processing import Post, process_and_compare
 from femupdate.model.friction import elasto_slip
-from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, bouc_wen_force, bouc_wen_update
+from femupdate.model.hysteresis import (
+    BOUC_WEN_PARAMETERS,
+    Z_U_RANGE,
+    bouc_wen_force,
+    bouc_wen_update,
+)
 from femupdate.model.structure import Structure
 from femupdate.simulate._common import DIVERGENCE_LIMIT
 
 __all__ = ["BoucWenPlan", "PhysicalWork", "bouc_wen_batch", "bouc_wen_plan", "physical_work"]
 
 _FASTMATH = {"contract", "reassoc"}  # as central._FASTMATH
+#: log z_u's range (a compile-time constant of the kernels)
+LOG_Z_U_LOW, LOG_Z_U_HIGH = math.log(Z_U_RANGE[0]), math.log(Z_U_RANGE[1])
 
 # Status per point, as the evaluator's: DONE, REFERENCE
 _DONE = 0
@@ -122,9 +129,12 @@ def _table(bw: BoucWenPlan, p: np.ndarray) -> bool:
         A, beta, gamma, n = bw.table[e, 2], bw.table[e, 3], bw.table[e, 4], bw.table[e, 5]
         if not (-beta < gamma <= beta):
             return False
-        # bouc_wen_step_limit: 1 / (2 n (β + |γ|) z_u^(n−1))
-        z_u = (A / (beta + gamma)) ** (1.0 / n)
-        bw.dy_max[e] = 0.5 / (n * (beta + abs(gamma)) * z_u ** (n - 1.0))
+        # bouc_wen_step_limit: 1 / (2 n (β + |γ|) z_u^(n−1)), from log z_u (a small n under-
+        # or overflows z_u itself), z_u within Z_U_RANGE (check_bouc_wen_parameters)
+        log_z_u = math.log(A / (beta + gamma)) / n
+        if not LOG_Z_U_LOW <= log_z_u <= LOG_Z_U_HIGH:
+            return False
+        bw.dy_max[e] = 0.5 / (n * (beta + abs(gamma)) * math.exp((n - 1.0) * log_z_u))
     return True
 
 

@@ -117,6 +117,9 @@ def check_prediction(prediction: object, n_samples: int, n_outputs: int, *,
     where : str
         Names the model in messages.
     """
+    if np.iscomplexobj(prediction):  # a float conversion would drop the imaginary part
+        raise EvaluationError(f"{where} returned complex values (allowed: real numbers, e.g. "
+                              "the real part taken on purpose)")
     try:
         arr = np.asarray(prediction, dtype=float)
     except (TypeError, ValueError) as exc:

@@ -96,6 +96,9 @@ def _answer(model: Any, request: tuple[Any, ...], ag: np.ndarray, dt: float,
     # An array of numbers pickles safely; anything else is named, not sent.
     if out is None:
         return ("ok", None)
+    if np.iscomplexobj(out):  # a float conversion would drop the imaginary part
+        return ("fail", "the model returned complex values (allowed: real numbers, e.g. the "
+                        "real part taken on purpose)")
     try:
         return ("ok", np.asarray(out, dtype=float))
     except (TypeError, ValueError) as exc:

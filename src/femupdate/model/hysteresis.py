@@ -35,9 +35,19 @@ from numba import njit
 
 from femupdate.errors import ModelError
 
-__all__ = ["BOUC_WEN_PARAMETERS", "bouc_wen_force", "bouc_wen_initial_tangent", "bouc_wen_loop",
-           "bouc_wen_max_tangent", "bouc_wen_rate", "bouc_wen_step_limit", "bouc_wen_update",
-           "check_bouc_wen_parameters"]
+__all__ = [
+    "BOUC_WEN_PARAMETERS",
+    "Z_U_RANGE",
+    "bouc_wen_force",
+    "bouc_wen_initial_tangent",
+    "bouc_wen_loop",
+    "bouc_wen_max_tangent",
+    "bouc_wen_rate",
+    "bouc_wen_step_limit",
+    "bouc_wen_update",
+    "check_bouc_wen_parameters",
+    "ultimate_deformation_issue",
+]
 
 #: Order of the columns of a Bouc–Wen parameter table (``BoucWenElements.table``).
 BOUC_WEN_PARAMETERS = ("k", "alpha", "A", "beta", "gamma", "n")
@@ -124,9 +134,32 @@ def bouc_wen_step_limit(A: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
     ``A``, and the bound at ``z_u`` keeps the parts as fine as the loop's curvature needs.
     """
     A, beta, gamma, n = (np.asarray(v, dtype=float) for v in (A, beta, gamma, n))
-    z_u = (A / (beta + gamma)) ** (1.0 / n)
-    slope = n * (beta + np.abs(gamma)) * z_u ** (n - 1.0)
+    # z_u^(n−1) from log z_u: (A/(β+γ))^(1/n) itself under- or overflows for a small n.
+    log_z_u = np.log(A / (beta + gamma)) / n
+    slope = n * (beta + np.abs(gamma)) * np.exp((n - 1.0) * log_z_u)
     return 0.5 / slope
+
+
+#: The range allowed for the ultimate hysteretic deformation ``z_u = (A / (β + γ))^(1/n)``
+#: (m, or rad for a rotation). Outside it the loop is not representable: with n = 0.01 and
+#: A/(β + γ) = 1/2500, z_u = 1e-340 underflowed to 0, and the Runge–Kutta parts (about
+#: |Δy| n / z_u per step) divided by zero; near it a step needs billions of parts.
+Z_U_RANGE = (1e-9, 1e9)
+
+
+def ultimate_deformation_issue(A: float, beta: float, gamma: float, n: float
+                               ) -> tuple[str, str] | None:
+    """``(what, allowed)`` when ``z_u = (A / (β + γ))^(1/n)`` is outside :data:`Z_U_RANGE`
+    (None when inside): allowed, the values of ``A / (β + γ)`` that ``n`` admits. Needs
+    β + γ > 0."""
+    log10_z_u = math.log10(A / (beta + gamma)) / n
+    low, high = (math.log10(v) for v in Z_U_RANGE)
+    if low <= log10_z_u <= high:
+        return None
+    return (f"z_u = (A / (beta + gamma))^(1/n) = 1e{log10_z_u:+.0f} (the largest hysteretic "
+            f"deformation, with A = {A!r}, beta + gamma = {beta + gamma!r}, n = {n!r}) is out of "
+            "range", f"z_u from {Z_U_RANGE[0]:g} to {Z_U_RANGE[1]:g}, i.e. with n = {n!r}, "
+            f"A / (beta + gamma) in [{Z_U_RANGE[0] ** n:.4g}, {Z_U_RANGE[1] ** n:.4g}]")
 
 
 def bouc_wen_initial_tangent(k: np.ndarray, alpha: np.ndarray, A: np.ndarray) -> np.ndarray:
@@ -177,3 +210,6 @@ def check_bouc_wen_parameters(table: np.ndarray, names: tuple[str, ...] | None =
                 f"{label}: gamma = {float(gamma)!r} with beta = {float(beta)!r} gives no "
                 f"bounded hysteresis loop; allowed -beta < gamma <= beta, i.e. in "
                 f"({-float(beta)!r}, {float(beta)!r}]")
+        issue = ultimate_deformation_issue(float(A), float(beta), float(gamma), float(n))
+        if issue is not None:
+            raise ModelError(f"{label}: {issue[0]}; allowed {issue[1]}")

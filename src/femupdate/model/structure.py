@@ -519,7 +519,17 @@ class Structure:
             self._dof(d, label) for d in dofs)
         if not carried:
             raise ModelError(f"{label}: dofs = []; name at least one of {self.dof_names}")
+        if len(set(carried)) < len(carried):
+            raise ModelError(f"{label}: dofs = {list(dofs or ())} names a DOF more than once")
         props = {"m": self._value(m, label, "m", _NONNEG), "J": self._value(J, label, "J", _NONNEG)}
+        names = [self.dof_names[d] for d in carried]
+        for what, letter, kind in (("m", "u", "translation"), ("J", "r", "rotation")):
+            # A mass whose DOFs cannot carry it was dropped without a word.
+            if props[what] != 0.0 and dofs is not None and not any(
+                    d.startswith(letter) for d in names):
+                raise ModelError(f"{label}: dofs = {names} names no {kind}, so {what} = "
+                                 f"{props[what]!r} would act on nothing; name a {kind} in "
+                                 f"dofs, or give {what} = 0")
         self._add(_Record("mass", name, props, nodes=(n,), options={"dofs": carried}))
         return name
 

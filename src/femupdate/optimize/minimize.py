@@ -23,6 +23,13 @@ from scipy.optimize import Bounds, OptimizeResult
 from femupdate._parallel import PoolMap, default_workers
 from femupdate.errors import ConfigError, FemupdateError
 from femupdate.optimize.base import Optimizer, stack_rows
+from femupdate.optimize.limits import (
+    as_value,
+    budget_options,
+    check_picklable,
+    real_array,
+    refuse_complex,
+)
 from femupdate.optimize.registry import (  # noqa: F401 (the registry, re-exported)
     METHODS,
     POPULATION_METHODS,
@@ -197,13 +204,15 @@ class MinimizeState:
         rs: list[np.ndarray] = []
         evaluated = 0
         batch = batch_of(fun, self.residuals)
+        # ``fun`` gets copies: one that writes into its x must not move the point recorded
+        # for its value (r.x was not the point of r.fun).
         if map is builtins.map and callable(batch) and k > 1:
             # A population (or a Jacobian's columns) in one call of a function that evaluates
             # batches (femupdate's update problems: compiled), taken in order as below.
-            values = np.asarray(batch(x), dtype=float)
+            values = real_array(batch(x.copy()), x[0], "fun's batch")
             results: Iterator[Any] = iter(values if self.residuals else values.tolist())
         else:
-            results = iter(map(fun, iter(x)))
+            results = iter(map(fun, iter(x.copy())))
         try:
             for i in range(k):
                 fs[i] = f = self._evaluate_next(results, x[i], rs)
@@ -211,7 +220,7 @@ class MinimizeState:
                     self._record_failure(fun, x[i])
                 evaluated += 1
                 if on_evaluation is not None:
-                    on_evaluation(x[i], f)
+                    on_evaluation(x[i].copy(), f)  # a copy, as fun's
                 fired = loop_criteria(f, self.nfev, self.f_target, self.max_evals)
                 if fired:
                     self.stopped.update(fired)
@@ -246,7 +255,7 @@ class MinimizeState:
         elif value is FAILED:
             f = math.inf
         else:
-            f = _as_value(value, x)
+            f = as_value(value, x)
         n = self.nfev - self._hist_first
         if n == self._hist_f.shape[0]:
             self._grow_history()
@@ -329,21 +338,6 @@ class MinimizeState:
         )
 
 
-def _as_value(value: Any, x: np.ndarray) -> float:
-    """``fun``'s value as a float; NaN and ±inf are a failed evaluation (+inf).
-
-    Only real numbers are accepted (a numpy scalar or a one-element array too): a string or a
-    bool is a mistake in ``fun``, not a value to minimise.
-    """
-    if isinstance(value, np.ndarray) and value.size == 1:
-        value = value.reshape(()).item()
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise ConfigError(f"fun(x) must return a real number, got {value!r} (of type "
-                          f"{type(value).__name__}) at x = {x.tolist()}")
-    f = float(value)
-    return f if math.isfinite(f) else math.inf
-
-
 def batch_of(fun: Callable[[np.ndarray], Any], residuals: bool
              ) -> Callable[..., Any] | None:
     """What evaluates a batch of rows for ``fun`` in one call, if anything: its
@@ -368,6 +362,7 @@ def _residual_vector(value: Any, x: np.ndarray, size: int | None) -> tuple[np.nd
     if isinstance(value, bool | np.bool_ | str | bytes):
         raise ConfigError(f"fun(x) must return a vector of real residuals with "
                           f"residuals=True, got {value!r} at x = {x.tolist()}")
+    refuse_complex(value, x, "fun(x)")
     try:
         r = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -410,6 +405,7 @@ def start(fun: ScalarFunction, bounds: Sequence[tuple[float, float]] | Bounds,
         ) from exc
     if not isinstance(residuals, bool):
         raise ConfigError(f"residuals must be True or False, got {residuals!r}")
+    options = budget_options(method, low.size, max_evals, options)
     optimizer = METHODS[method](low.size, rng, **options)
     if getattr(optimizer, "needs_residuals", False) and not residuals:
         optimizer.close()
@@ -551,6 +547,7 @@ def minimize(
                       "callback(intermediate_result), called after every step",
                       DeprecationWarning, stacklevel=2)
     timeout = check_timeout(timeout, workers)
+    check_picklable(fun, workers)
     state = start(fun, bounds, method, seed=seed, max_evals=max_evals, f_target=f_target,
                   residuals=residuals, **options)
     if timeout is not None:

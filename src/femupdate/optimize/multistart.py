@@ -118,6 +118,11 @@ PATIENCE_SEARCHES = 2
 #: first start, whichever is larger). At φ = 0 a relative tolerance is zero: on an exactly
 #: solvable problem searches end at 1e-31, 1e-30, … around a best of 0 and never "equal" it.
 PATIENCE_FLOOR_NOISE = 10.0
+#: ... or, if larger, the φ that a search ending with steps below ``xtol`` cannot resolve:
+#: n·xtol²·‖J‖²_F (J of the run's first Jacobian, unit cube). A floor from the measured
+#: rounding noise alone depends on a processor's last ulps (3.9e-31 on one machine while its
+#: searches of r = (x₀ − 0.3, 2(x₁ − 0.7), x₀x₁ − 0.21) ended at 5e-30 … 6e-28, and the
+#: run spent its whole budget); this one scales with the residuals (×1e3 → φ ×1e6).
 
 #: Valley hops (residual mode): a search that ends inside the box at the lowest φ any search
 #: ended at (within PATIENCE_TOL) is followed by up to HOPS short searches from its end point
@@ -229,6 +234,7 @@ class MultistartLM(KeepsBest):
     updates = 0
     jac: np.ndarray | None = None
     r_prev: np.ndarray | None = None
+    jac_norm2 = 0.0  # ‖J‖²_F of the run's first Jacobian (residual mode; see phi_floor)
 
     def __init__(self, n: int, rng: np.random.Generator, *, pool: int | None = None,
                  min_distance: float = 0.05, stall_iters: int = 5,
@@ -360,12 +366,14 @@ class MultistartLM(KeepsBest):
     def phi_floor(self) -> float:
         """The absolute floor of "the same φ": m·(PATIENCE_FLOOR_NOISE·δ)² with δ the larger of
         the measured noise of a residual component and ε times their RMS at the first start
-        (m = 1 and δ the noise of φ itself in scalar mode). 0 before the noise table."""
+        (m = 1 and δ the noise of φ itself in scalar mode), with residuals at least
+        n·xtol²·‖J‖²_F (see PATIENCE_FLOOR_NOISE). 0 before the noise table."""
         if math.isnan(self.noise):
             return 0.0
         delta = PATIENCE_FLOOR_NOISE * max(self.noise, np.finfo(float).eps * self.scale)
         if self.mode == "residuals":
-            return getattr(self, "components", 1) * delta * delta
+            unresolved = self.n * self.xtol ** 2 * self.jac_norm2
+            return max(getattr(self, "components", 1) * delta * delta, unresolved)
         return delta
 
     def trace_since(self, step: int) -> dict[str, np.ndarray]:
@@ -509,6 +517,8 @@ class MultistartLM(KeepsBest):
         mode); returns J's squared column norms."""
         assert self.r is not None
         self.hess, self.grad, col2 = gram_factor(jac, self.r)
+        if not self.jac_norm2 and np.all(np.isfinite(col2)):
+            self.jac_norm2 = float(np.sum(col2))
         if self.coarse:
             self.valley = self.hess.copy()
         self.d2 = np.maximum(self.d2, 2.0 * col2)
@@ -626,7 +636,10 @@ class MultistartLM(KeepsBest):
     def _end_stage(self, reason: str) -> None:
         """The other stage while the last one paid (the first always does), else the next
         start."""
-        gained = self.stages == 0 or self.phi <= (1.0 - self.stage_gain) * self.stage_phi
+        # Strictly lower: at φ = 0 (an exact fit) "0 ≤ 0.9·0" held forever, and the stages
+        # alternated until the budget ran out.
+        gained = self.stages == 0 or (self.phi < self.stage_phi
+                                      and self.phi <= (1.0 - self.stage_gain) * self.stage_phi)
         if reason != "failed" and self.coarse_step is not None and gained:
             x, r, phi, stages, coarse = self.x, self.r, self.phi, self.stages, self.coarse
             self._clear_search()
@@ -667,7 +680,11 @@ class MultistartLM(KeepsBest):
         if self.mode != "residuals" or self.coarse_step is None:
             return False
         if self.valley is not None and at_best and self._inside():
-            if self.phi < self.hop_phi * (1.0 - PATIENCE_TOL):
+            # a new best (beyond patience's tolerance and floor: at φ ≈ 0, ends that differ
+            # by rounding each gave four more hops, and the searches that count waited)
+            better = (not math.isfinite(self.hop_phi) or self.phi < self.hop_phi - max(
+                PATIENCE_TOL * abs(self.hop_phi), self.phi_floor()))
+            if better:
                 self.hops_left = HOPS  # a new best: its valley gets its own hops
             self.hop_x, self.hop_phi, self.hop_hess = self.x.copy(), self.phi, self.valley
         if self.hops_left <= 0 or self.hop_hess is None:

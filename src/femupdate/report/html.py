@@ -100,21 +100,24 @@ def _render(res: Results) -> str:
     ctx = context(res)
     page = Page()
     sections = [
-        ("case", "1. The case", section_case(ctx)),
-        ("runs", "2. Runs", section_runs(ctx)),
-        ("convergence", "3. Convergence", section_convergence(ctx, page)),
-        ("spread", "4. Spread of the parameters", section_spread(ctx, page)),
-        ("fit", "5. Measured against predicted", section_fit(ctx, page)),
-        ("frequencies", "6. Natural frequencies and damping", section_modes(ctx)),
-        ("identifiability", "7. Identifiability", section_identifiability(ctx, page)),
-        ("validation", "8. Validation",
+        ("case", "The case", section_case(ctx)),
+        ("runs", "Runs", section_runs(ctx)),
+        ("convergence", "Convergence", section_convergence(ctx, page)),
+        ("spread", "Spread of the parameters", section_spread(ctx, page)),
+        ("fit", "Measured against predicted", section_fit(ctx, page)),
+        ("frequencies", "Natural frequencies and damping", section_modes(ctx)),
+        ("identifiability", "Identifiability", section_identifiability(ctx, page)),
+        ("validation", "Validation",
          section_validation(validation_trials(res.summary), page)),
-        ("uncertainty", "9. Uncertainty", section_uncertainty(ctx, page)),
+        ("uncertainty", "Uncertainty", section_uncertainty(ctx, page)),
     ]
+    # numbered once the empty ones are left out (a report without validation trials went
+    # from 7 to 9)
+    sections = [(key, f"{i}. {title}", content) for i, (key, title, content)
+                in enumerate([s for s in sections if s[2]], start=1)]
     defects = section_defects(res.summary.defects)
     if defects:  # shown only when the checks found something, first
         sections.insert(0, ("defects", "Defects in the records", defects))
-    sections = [(key, title, content) for key, title, content in sections if content]
     # sections are "section-KEY": a table may carry the section's name as its own id
     toc = " · ".join(f'<a href="#section-{key}">{esc(title)}</a>' for key, title, _ in sections)
     missing = ""

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from femupdate.errors import MissingDependencyError
 from femupdate.posterior.records import LaplaceRecord, Marginal, PosteriorRecord
 from femupdate.report.facts import Context
 from femupdate.report.markup import Page, esc, note, num, pairs, table, td, warn
@@ -86,8 +87,8 @@ def section_posterior(ctx: Context, page: Page) -> str:
 
     record: PosteriorRecord | None = ctx.res.summary.posterior
     if record is None:
-        return note("No sampled posterior: `femupdate posterior CASE.toml --out DIR` samples "
-                    "it (TMCMC) and adds it to this report.")
+        return ('<p class="note">No sampled posterior: <code>femupdate posterior CASE.toml '
+                "--out DIR</code> samples it (TMCMC) and adds it to this report.</p>")
     out = []
     if not record.reached:
         out.append(warn(f"Not a posterior: {record.message}. No samples are reported.",
@@ -142,9 +143,12 @@ def section_posterior(ctx: Context, page: Page) -> str:
         return "\n".join(out)
     names = [str(n) for n in data["names"]]
     truth = ctx.truth.at(names)
-    out.append(page.figure(plot_corner(data["samples"], names, truth), "corner",
-                           "posterior samples: marginals and pairs (5/50/95 % dashed"
-                           + (", truth in green)" if truth is not None else ")")))
+    try:
+        out.append(page.figure(plot_corner(data["samples"], names, truth), "corner",
+                               "posterior samples: marginals and pairs (5/50/95 % dashed"
+                               + (", truth in green)" if truth is not None else ")")))
+    except MissingDependencyError as exc:  # an optional extra: the rest of the report stands
+        out.append(page.absent("corner plot", str(exc)))
     if "mode_freqs" in data and data["mode_freqs"].size:
         out.append(page.figure(plot_frequency_posteriors(
             data["mode_freqs"], ctx.truth.frequencies_hz or None), "frequency-posteriors",

@@ -28,20 +28,31 @@ from femupdate.runs.stats import BOUND_TOL, bound_flags
 # ----------------------------------------------------------------------------- the case
 
 
+#: The singular of the counted words of :func:`_model_text` ("1 storeys; 1 free DOFs").
+_SINGULAR = {"storeys": "storey", "free DOFs": "free DOF", "nodes": "node", "beams": "beam",
+             "springs": "spring", "dampers": "damper", "frictions": "friction",
+             "masses": "mass", "supports": "support"}
+
+
+def _counted(n: int, plural: str) -> str:
+    """``n`` and the word, singular for one."""
+    return f"{n} {_SINGULAR.get(plural, plural) if n == 1 else plural}"
+
+
 def _model_text(ctx: Context) -> str:
     model = ctx.res.case.model
     if model.shear_building is not None:
-        parts = [f"shear building of {len(model.shear_building.masses)} storeys"]
+        parts = [f"shear building of {_counted(len(model.shear_building.masses), 'storeys')}"]
         parts += [f"{what} in every storey" for what, section in (
             ("friction elements", model.shear_building.frictions),
             ("Bouc–Wen elements", model.shear_building.bouc_wen)) if section is not None]
     else:
-        parts = [f"{len(model.nodes)} nodes"]
-        parts += [f"{len(getattr(model, key))} {key}"
+        parts = [_counted(len(model.nodes), "nodes")]
+        parts += [_counted(len(getattr(model, key)), key)
                   for key in ("beams", "springs", "dampers", "frictions", "bouc_wen", "masses",
                               "supports")
                   if getattr(model, key)]
-    dofs = (f"{ctx.model.structure.n_dof} free DOFs" if ctx.model is not None
+    dofs = (_counted(ctx.model.structure.n_dof, "free DOFs") if ctx.model is not None
             else str(ctx.model_note))
     return ", ".join(parts) + f"; {dofs}"
 

@@ -327,14 +327,26 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         likelihood of the data (:mod:`femupdate.sampling.classes`).
     """
     settings = posterior_settings(case)
-    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre)):
+    # every override checked before any work (a bad --seed raised after the whole search)
+    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre),
+                        ("seed", seed), ("samples", samples)):
         if value is None:
             continue
         allowed = typing.cast(Range, field_range(PosteriorSection.model_fields[name]))
         if isinstance(value, bool) or not isinstance(value, int) or not allowed.contains(value):
             raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: "
                               f"{allowed.describe()})")
-        settings = settings.model_copy(update={name: value})
+        if name in ("runs", "max_runs", "recentre"):
+            settings = settings.model_copy(update={name: value})
+    if settings.runs > settings.max_runs:
+        raise ConfigError(f"{case.label}: runs = {settings.runs} with max_runs = "
+                          f"{settings.max_runs} (allowed: runs <= max_runs, the most runs "
+                          "there may be)")
+    if resume and not restart and not ((out_dir / FILENAME).is_file()
+                                       or (out_dir / POSTERIOR_DIR).is_dir()):
+        raise ConfigError(f"{case.label}: --resume: nothing is stored in {out_dir} to continue "
+                          "(allowed: --resume into the --out of an interrupted `femupdate "
+                          "posterior`; without --resume a posterior starts)")
     seed = settings.seed if seed is None else seed
     population = settings.samples if samples is None else samples
     need = SAMPLES_PER_PARAMETER * len(case.parameters)
@@ -476,8 +488,8 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
         short = [i for i, r in enumerate(reached) if not r]
         message = (f"{len(short)} of {len(outcomes)} sampler runs stopped before tempering "
                    f"exponent β = 1 (lowest β = {min(betas):.4g}; "
-                   f"{outcomes[short[0]].message}; {common['nfev']:,} evaluations): raise "
-                   "[posterior] max_evals and resume")
+                   f"{outcomes[short[0]].message}; {common['nfev']:,} evaluations): "
+                   f"{short_advice([outcomes[i] for i in short])}")
         return PosteriorRecord(**common, samples=population * len(outcomes), reached=False,
                                message=message, log_evidence=None,
                                ess=None), np.empty((0, len(names)))
@@ -503,6 +515,19 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
         params=marginals(physical, names), correlations=correlation_rows(np.atleast_2d(corr)),
         undetermined=undetermined, sentences=words)
     return record, physical
+
+
+def short_advice(short: Sequence[RunOutcome]) -> str:
+    """What to do about sampler runs that stopped before β = 1: a larger budget only when the
+    budget is what stopped them (a degenerate prior or likelihood stops them otherwise, and
+    "raise max_evals" sent users round in circles)."""
+    if all("max_evals" in o.stop for o in short):
+        return "raise [posterior] max_evals and resume"
+    reasons = sorted({k for o in short for k in o.stop if k != "max_evals"})
+    return (f"not the budget: {', '.join(reasons) or 'the runs'} stopped them; look at "
+            "[posterior.priors] (a prior far narrower than the data's information leaves the "
+            "likelihood nothing to temper) and at the failed evaluations, then "
+            "--restart")
 
 
 def _by_name(names: Sequence[str], values: np.ndarray) -> dict[str, float | None]:

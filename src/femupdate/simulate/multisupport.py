@@ -149,6 +149,10 @@ def support_matrix(model: SupportedModel, groups: Sequence[Sequence[str]]) -> np
     index = {lab: i for i, lab in enumerate(model.support_labels)}
     e = np.zeros((len(index), len(groups)))
     for g, dofs in enumerate(groups):
+        if isinstance(dofs, str) or not len(dofs):  # a record that drives nothing
+            raise ConfigError(f"support motion: group {g} is {dofs!r}; allowed: a non-empty "
+                              "list of the support DOFs that follow its record, e.g. "
+                              "[\"A.ux\", \"B.ux\"]")
         for lab in dofs:
             if lab not in index:
                 raise ConfigError(f"support motion: {lab!r} is not a support DOF; the fixed "
@@ -206,6 +210,20 @@ def multi_support_response(
     if a.ndim != 2 or a.shape[1] != len(groups):
         raise DataError(f"acceleration has shape {a.shape}; expected (n_samples, {len(groups)}) "
                         "(one column per record)")
+    given = {"velocity": velocity, "displacement": displacement}
+    for name, value in given.items():
+        if value is None:
+            continue
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim == 1 and a.shape[1] == 1:
+            arr = arr[:, None]
+        if arr.shape != a.shape:  # numpy's broadcast error named neither the field nor why
+            raise DataError(f"{name} has shape {arr.shape}; expected {a.shape}, the shape of "
+                            "acceleration (n_samples, one column per record)")
+        if not np.all(np.isfinite(arr)):
+            raise DataError(f"{name} has non-finite values (allowed: finite numbers)")
+        given[name] = arr
+    velocity, displacement = given["velocity"], given["displacement"]
     if velocity is None or displacement is None:
         v_int, d_int = integrate_record(a, dt)
         velocity = v_int if velocity is None else velocity
