@@ -82,7 +82,7 @@ def budget_options(method: str, n: int, max_evals: int, options: dict[str, Any]
                 f" and decompose an n × n covariance (allowed: up to "
                 f"{CMAES_MAX_PARAMETERS:,} parameters)" if method == "cmaes" else
                 f" (allowed: up to {MAX_WORKING_FLOATS * 8 / 1e9:.0f} GB; a smaller pool or "
-                "popsize option, fewer parameters, or method 'ab', 'ib' or 'ga', whose "
+                "popsize option, fewer parameters, or method 'ab' or 'ib', whose "
                 "memory grows as n)"))
     return options
 
