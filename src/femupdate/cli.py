@@ -98,10 +98,10 @@ def _seed_check(flag: str) -> Any:
     """A typer callback holding a seed of a command without a case's [search] (synth, the
     benchmarks) to the range of every seed."""
     def check(value: int | None) -> int | None:
+        from femupdate.case.fields import field_range
         from femupdate.case.schema import Search
-        from femupdate.inputs import _limit
 
-        rng = _limit(Search, "seed")
+        rng = field_range(Search.model_fields["seed"])
         if value is not None and not rng.contains(value):
             raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()})")
         return value
@@ -622,6 +622,13 @@ def run(
     if resume and restart:
         raise ConfigError("--resume and --restart exclude each other: --resume continues the "
                           "runs stored in --out, --restart discards them and starts over")
+    from femupdate.runs.store import FILENAME
+
+    if resume and not (out / FILENAME).is_file():
+        # a wrong --out is the likely cause: a long search must not start there unasked
+        raise ConfigError(f"--resume: nothing is stored in {out} to continue (allowed: "
+                          "--resume into the --out of an interrupted `femupdate run`; without "
+                          "--resume the runs start)")
     case = _load(case_file)
     if data is not None:
         case = with_data_directory(case, data)
@@ -664,10 +671,10 @@ NOT_THE_RESULT = 1
 def _posterior_limit(field: str, flag: str) -> Any:
     """A typer callback holding an override to the range of [posterior] field."""
     def check(value: int | None) -> int | None:
+        from femupdate.case.fields import field_range
         from femupdate.case.posterior_section import PosteriorSection
-        from femupdate.inputs import _limit
 
-        rng = _limit(PosteriorSection, field)
+        rng = field_range(PosteriorSection.model_fields[field])
         if value is not None and not rng.contains(value):
             raise ConfigError(f"{flag}: got {value!r} (allowed: {rng.describe()}, as "
                               f"[posterior] {field} in a case file)")
