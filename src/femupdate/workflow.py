@@ -45,7 +45,7 @@ from femupdate.runs.changes import file_hashes
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.runs.store import FILENAME, ResultsStore, discard
 from femupdate.runs.verdict import run_verdict, success_rule, successes
-from femupdate.trial_checks import open_defects
+from femupdate.trial_checks import nonfinite_causes, open_defects
 from femupdate.update import TrialProblem, UpdateProblem
 
 #: The success rule of summaries written before the verdict (docs/verdicts.md): without a
@@ -193,12 +193,30 @@ def trial_record(trial: TrialProblem, values: dict[str, float]) -> TrialRecord:
     phi = (float(trial.objective.weights @ per_channel / trial.objective.weights.sum())
            if np.all(np.isfinite(per_channel)) else math.inf)
     spec = next(s for s in trial.case.trial_specs() if s.name == trial.name)
+    notes = list(exp.notes)
+    if not math.isfinite(phi):  # said, never a bare inf: which channel, and why
+        notes += _nonfinite_notes(trial, values, per_channel)
     return TrialRecord(
         name=trial.name, role=exp.role, weight=exp.weight, phi=phi,
         nmse_per_channel=dict(zip(exp.channels, per_channel.tolist(), strict=True)),
         delays_s=dict(exp.delays), samples=int(exp.t.size), dt=exp.dt, start_s=exp.start_s,
         score_window=None if spec.score_window is None else list(spec.score_window),
-        notes=list(exp.notes))
+        notes=notes)
+
+
+def _nonfinite_notes(trial: TrialProblem, values: dict[str, float], per_channel: np.ndarray
+                     ) -> list[str]:
+    """One line per channel whose NMSE is not finite, saying why (`trial_checks`)."""
+    try:
+        predicted: np.ndarray | None = trial.scored(trial.prediction(trial.simulate(values)))
+        failure = None
+    except FemupdateError as exc:
+        predicted, failure = None, str(exc)
+    target = np.asarray(trial.objective.target)
+    if predicted is not None and predicted.shape != target.shape:
+        predicted = None
+    return nonfinite_causes(trial.experiment.channels, per_channel, target,
+                                         predicted, failure)
 
 
 def _flat(trials: list[TrialRecord], key: str) -> dict[str, float]:

@@ -188,11 +188,22 @@ def _delay_values(seconds: float
     return fn
 
 
-def _copy_column(src: int, dst: int, noise: float = 0.0
+def _copy_column(src: int, dst: int, digits: int = 17, factor: float = 1.0
                  ) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Column ``dst`` a copy of ``src`` as an export gives it: times ``factor`` (a unit) and
+    rounded to ``digits`` significant digits."""
     def fn(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rng = np.random.default_rng(7)
-        v[:, dst] = v[:, src] + noise * np.std(v[:, src]) * rng.standard_normal(t.size)
+        v[:, dst] = [float(f"{x:.{digits}g}") for x in v[:, src] * factor]
+        return t, v
+    return fn
+
+
+def _spikes(values: tuple[float, ...], rows: tuple[int, ...], col: int = 0
+            ) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """``values`` at the ``rows`` given (negative: from the end)."""
+    def fn(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        for row, value in zip(rows, values, strict=True):
+            v[row, col] = value
         return t, v
     return fn
 
@@ -244,13 +255,28 @@ SYNTH: list[Record] = [
     # the same record twice
     Record("synth-duplicate-table-is-floor", "synth", "duplicate", _table_is_floor),
     Record("synth-duplicate-floors", "synth", "duplicate", _floors(_copy_column(0, 1))),
-    Record("synth-duplicate-nearly", "synth", "duplicate", _floors(_copy_column(0, 1, 1e-3))),
+    Record("synth-duplicate-6-digits", "synth", "duplicate", _floors(_copy_column(0, 1, 6))),
+    Record("synth-duplicate-in-g", "synth", "duplicate",
+           _floors(_copy_column(0, 1, 8, 1 / 9.80665))),
     # spikes and absurd values
     Record("synth-spike-1e308", "synth", "spike", _floors(_spike(1e308))),
     Record("synth-spike-1e5", "synth", "spike", _floors(_spike(1e5))),
     Record("synth-spike-5x-peak", "synth", "spike", _floors(_spike("5x", at=0.3))),
     Record("synth-spike-2-samples", "synth", "spike", _floors(_spike("3x", width=2, col=1))),
     Record("synth-spike-in-table", "synth", "spike", _table(_spike("4x", at=0.8))),
+    # at the record's ends, of either sign, two-sided, non-finite: in any channel
+    *[Record(f"synth-spike-{v:g}-row-{r}-col-{c}", "synth", "spike",
+             _floors(_spikes((v,), (r,), c))) for v, r, c in
+      ((1e5, -1, 0), (1e308, -1, 1), (-1e5, -2, 0), (1e5, 0, 1), (1e308, 1, 0))],
+    *[Record(f"synth-spike-table-row-{r}", "synth", "spike", _table(_spikes((50.0,), (r,))))
+      for r in (0, -1)],
+    *[Record(f"synth-glitch-two-sided-rows-{r}", "synth", "spike",
+             _floors(_spikes((1e5, -1e5), (r, r + 1)))) for r in (0, 700, -2)],
+    Record("synth-glitch-two-sided-table", "synth", "spike",
+           _table(_spikes((60.0, -60.0), (900, 901)))),
+    # a dead channel: one value throughout
+    Record("synth-constant-channel", "synth", "saturation",
+           _floors(lambda t, v: (t, np.column_stack([np.full(t.size, 0.3), v[:, 1]])))),
     # saturated sensors
     *[Record(f"synth-saturation-{int(100 * s)}pct", "synth", "saturation",
              _floors(_clip(s, col=1))) for s in (0.9, 0.7, 0.5)],
@@ -310,6 +336,15 @@ def _real_spike(value: float, at: float = 0.5) -> Callable[[list[str], np.ndarra
     return fn
 
 
+def _real_rows(values: tuple[float, ...], rows: tuple[int, ...]
+               ) -> Callable[[list[str], np.ndarray], np.ndarray]:
+    def fn(names: list[str], v: np.ndarray) -> np.ndarray:
+        for row, value in zip(rows, values, strict=True):
+            v[row, _real_col(names, "Acc_X")] = value
+        return v
+    return fn
+
+
 def _real_clip(share: float) -> Callable[[list[str], np.ndarray], np.ndarray]:
     def fn(names: list[str], v: np.ndarray) -> np.ndarray:
         j = _real_col(names, "Acc_X")
@@ -337,6 +372,12 @@ REAL: list[Record] = [
              _real_edit(which, _real_spike(v))) for tr, which, v in
       (("elcentro_t1", "top", 1e308), ("northridge_t1", "top", 1e5),
        ("sine2hz_t2", "ground", 40.0))],
+    *[Record(f"real-{tr}-{which}-spike-rows-{'-'.join(map(str, r))}", f"real:{tr}", "spike",
+             _real_edit(which, _real_rows(v, r))) for tr, which, v, r in
+      (("elcentro_t1", "top", (1e5,), (1,)), ("sine2hz_t1", "ground", (-1e5,), (-2,)),
+       ("northridge_t1", "ground", (60.0,), (-1,)), ("elcentro_t2", "ground", (1e308,), (-1,)),
+       ("sine2hz_t2", "top", (1e5, -1e5), (1500, 1501)),
+       ("elcentro_t2", "top", (80.0, -80.0), (-2, -1)))],
     *[Record(f"real-{tr}-saturation-{int(100 * s)}pct", f"real:{tr}", "saturation",
              _real_edit("top", _real_clip(s))) for tr, s in
       (("elcentro_t2", 0.9), ("sine2hz_t1", 0.6))],
