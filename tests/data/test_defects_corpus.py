@@ -666,3 +666,112 @@ def test_validate_keeps_the_defects(clean_synth: Path, tmp_path: Path) -> None:
     found = validation.to_dict()["defects"]
     assert [d["kind"] for d in found] == ["saturation", "saturation"]  # clipped both ways
     assert ["top" in found[0]["evidence"], "bottom" in found[1]["evidence"]] == [True, True]
+
+
+# --------------------------------------------------------------------------- issue 33
+
+
+def test_validate_says_a_spike_in_the_last_row(clean_synth: Path, tmp_path: Path) -> None:
+    from femupdate.workflow import validate_case
+
+    last = Record("last-row", "synth", "spike", _floors(_spikes((1e5,), (-1,))))
+    with pytest.warns(FemupdateWarning, match=r"channel 'F1\.ux': spike: 1 isolated sample\(s\) "
+                                              r"far off the signal: 1e\+05 m/s² at t = 8 s "
+                                              r"\(sample 1600 of 1601\)"):
+        validation = validate_case(_case_on(last, clean_synth, tmp_path / "a"), TRUTH)
+    assert [d["kind"] for d in validation.to_dict()["defects"]] == ["spike"]
+    # repaired, the record is the clean one but for that sample
+    clean = validate_case(_case_on(_record("synth-clean-seed-1"), clean_synth, tmp_path / "b"),
+                          TRUTH)
+    repaired = validate_case(_case_on(last, clean_synth, tmp_path / "c",
+                                      repair_defects=["spike"]), TRUTH)
+    assert [d.status for d in repaired.defects] == ["repaired"]
+    assert repaired.trials[0].phi == pytest.approx(clean.trials[0].phi, rel=0.05)
+
+
+def test_an_absurd_last_sample_is_an_error_naming_the_channel_and_the_spike(
+        clean_synth: Path, tmp_path: Path) -> None:
+    """1e308 in the last row: integrated it overflows every sum of squares; the error says
+    which channel and why, and names the spike that makes it."""
+    last = Record("last-row", "synth", "spike", _floors(_spikes((1e308,), (-1,))))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        with pytest.raises(DataError, match=r"channel 'F1\.ux': the processed record peaks at "
+                                            r".*beyond what a sum of squares can hold.*the "
+                                            r"checks found: .*spike: .*1e\+308 m/s²"):
+            load_experiments(_case_on(last, clean_synth, tmp_path))
+
+
+def test_the_cli_run_on_an_absurd_last_sample_says_the_spike(clean_synth: Path,
+                                                            tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    tmp_path.mkdir(exist_ok=True)
+    folder, _ = _source_folder(_record("synth-clean-seed-1"), clean_synth, tmp_path / "records")
+    _floors(_spikes((1e308,), (-1,)))(folder)
+    (tmp_path / "case.toml").write_text(CASE_TOML)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        result = CliRunner().invoke(app, ["run", str(tmp_path / "case.toml"), "--out",
+                                          str(tmp_path / "out"), "--quiet"], terminal_width=400)
+    # the command raises the one-line DataError that femupdate.cli.main prints (exit code 2)
+    assert isinstance(result.exception, DataError), result.output
+    text = str(result.exception)
+    assert "channel 'F1.ux': the processed record peaks at" in text
+    assert "spike: 1 isolated sample(s) far off the signal: 1e+308 m/s²" in text
+    assert "\n" not in text
+
+
+def test_a_spike_in_a_sample_the_trial_does_not_use_is_not_said(clean_synth: Path,
+                                                               tmp_path: Path) -> None:
+    """Outside ``[data] window`` a spike touches no fitted sample; inside it, it is said."""
+    spiked = Record("early", "synth", "spike", _floors(_spikes((1e5,), (100,))))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        (outside,) = load_experiments(_case_on(spiked, clean_synth, tmp_path / "a",
+                                               window=[2.0, 8.0]))
+        (inside,) = load_experiments(_case_on(spiked, clean_synth, tmp_path / "b",
+                                              window=[0.0, 6.0]))
+    assert outside.defects == ()
+    assert [d.kind for d in inside.defects] == ["spike"]
+
+
+def test_a_spike_in_a_resampled_record_is_found_on_the_file_as_read(clean_synth: Path,
+                                                                   tmp_path: Path) -> None:
+    """Resampling would smear a spike over many samples (a burst, not a spike): it is found
+    on the file's own samples, and the repair interpolates it there, before resampling."""
+    spiked = Record("resampled", "synth", "spike", _floors(_spikes((200.0,), (800,))))
+    case = _case_on(spiked, clean_synth, tmp_path / "a")
+    case = case.model_copy(update={"preprocess": case.preprocess.model_copy(
+        update={"resample_hz": 150.0})})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        (found,) = load_experiments(case)
+    assert [(d.kind, "sample 800 of 1601" in d.evidence) for d in found.defects] == [
+        ("spike", True)]
+
+
+def test_an_nmse_that_is_not_finite_says_which_channel_and_why() -> None:
+    from femupdate.trial_checks import nonfinite_causes
+
+    measured = np.ones((10, 3))
+    measured[4, 1] = np.nan
+    predicted = np.ones((10, 3))
+    predicted[6:, 2] = np.inf
+    lines = nonfinite_causes(["a", "b", "c"], np.array([0.1, np.inf, np.inf]), measured,
+                             predicted)
+    assert lines == [
+        "channel 'b': NMSE inf: the measurement holds 1 non-finite sample(s), the first at "
+        "scored sample 4",
+        "channel 'c': NMSE inf: the prediction holds 4 non-finite sample(s), the first at "
+        "scored sample 6 (the simulation diverged)"]
+    (failed,) = nonfinite_causes(["a"], np.array([np.nan]), np.ones((5, 1)), None,
+                                 "an unstable step")
+    assert failed == ("channel 'a': NMSE nan: the simulation failed at these parameter values "
+                      "(an unstable step)")
+    huge = np.ones((5, 1))
+    huge[2] = 1e300
+    (overflow,) = nonfinite_causes(["a"], np.array([np.inf]), np.ones((5, 1)), huge)
+    assert "the prediction peaks at 1e+300, beyond what a sum of squares can hold" in overflow
