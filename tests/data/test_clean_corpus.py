@@ -105,6 +105,23 @@ def sine(f_hz: float, amplitude: float = 2.0, duration: float = 10.0, rate: floa
                   f"sine {f_hz:g} Hz")
 
 
+def stepped_sine(frequencies: tuple[float, ...], dwell: float = 4.0,
+                 rate: float = RATE) -> Motion:
+    """Sine dwells, one after the other, each ramped up and down over 0.5 s."""
+    t = np.arange(int(dwell * rate)) / rate
+    ramp = np.clip(np.minimum(t, dwell - t) / 0.5, 0.0, 1.0)
+    ag = np.concatenate([ramp * np.sin(2 * np.pi * f * t) for f in frequencies])
+    return Motion(2.0 * ag, 1 / rate, f"stepped sine {frequencies} Hz")
+
+
+def pulse(width: float = 0.1, duration: float = 6.0, rate: float = RATE) -> Motion:
+    """One half-sine pulse of ``width`` s at 1 s, at rest before and after: a free decay."""
+    t = np.arange(int(duration * rate)) / rate
+    inside = (t >= 1.0) & (t <= 1.0 + width)
+    ag = np.where(inside, 5.0 * np.sin(np.pi * (t - 1.0) / width), 0.0)
+    return Motion(ag, 1 / rate, f"half-sine pulse of {width:g} s")
+
+
 def sweep(f0: float, f1: float, duration: float = 20.0, rate: float = RATE) -> Motion:
     t = np.arange(int(duration * rate)) / rate
     ag = 2.0 * scipy.signal.chirp(t, f0, duration, f1) * np.clip(t / 0.5, 0, 1)
@@ -151,7 +168,7 @@ class Clean:
     """A clean record: its test kind, and how it is made (into a folder, giving the case)."""
 
     name: str
-    kind: str  # sine, sweep, white noise, earthquake, free decay, real
+    kind: str  # sine, stepped sine, sweep, white noise, earthquake, pulse
     make: Callable[[Path], dict[str, Any]]
 
 
@@ -224,6 +241,17 @@ CORPUS: list[Clean] = [
             virtual(TWO, [1, 2], lambda: sweep(0.5, 20.0), snr=snr)) for snr in (0.0, 0.02)],
     Clean("three-storey-sweep-below-f1", "sweep",
           virtual(THREE, [1, 2, 3], lambda: sweep(0.2, 0.8 * F3))),
+    *[Clean(f"{name}-stepped-sine-{'free' if snr == 0 else 'noisy'}", "stepped sine",
+            virtual(building, floors, lambda f=f: stepped_sine((0.3 * f, 0.6 * f, f)),
+                    snr=snr))
+      for name, building, floors, f in (("two-storey", TWO, [1, 2], F2),
+                                        ("three-storey", THREE, [1, 2, 3], F3))
+      for snr in (0.0, 0.02)],
+    *[Clean(f"{name}-pulse-{'free' if snr == 0 else 'noisy'}", "pulse",
+            virtual(building, floors, pulse, snr=snr))
+      for name, building, floors in (("two-storey", TWO, [1, 2]),
+                                     ("three-storey", THREE, [1, 2, 3]))
+      for snr in (0.0, 0.02)],
     *[Clean(f"two-storey-white-{band:g}hz-{'free' if snr == 0 else 'noisy'}", "white noise",
             virtual(TWO, [1, 2], lambda band=band: white(4, band), snr=snr))
       for band, snr in ((30.0, 0.0), (30.0, 0.02), (60.0, 0.02))],
@@ -253,7 +281,8 @@ CORPUS: list[Clean] = [
             virtual(([1.0] * 3, 200.0), [1, 2, 3], lambda: elcentro_linear(5.0), snr=snr,
                     bouc_wen=BOUC_WEN)) for snr in (0.0, 0.02)],
     # every real record of the shared data
-    *[Clean(f"minishake-{trial}", "real", real(trial)) for trial in REAL_TRIALS],
+    *[Clean(f"minishake-{trial}", "sine" if trial.startswith("sine") else "earthquake",
+            real(trial)) for trial in REAL_TRIALS],
 ]
 
 
@@ -334,8 +363,9 @@ def test_every_channel_of_both_meloland_earthquakes_is_clean(event: str) -> None
 
 def test_the_corpus_holds_every_kind_of_test() -> None:
     kinds = {r.kind for r in CORPUS}
-    assert len(CORPUS) + 2 >= 30 and len(kinds) >= 5
-    assert {"sine", "sweep", "white noise", "earthquake", "real"} <= kinds
+    assert len(CORPUS) >= 30
+    assert kinds == {"sine", "stepped sine", "sweep", "white noise", "earthquake", "pulse"}
+    assert sum(r.name.startswith("minishake-") for r in CORPUS) == len(REAL_TRIALS)
 
 
 def test_the_hysteretic_record_yields_far() -> None:

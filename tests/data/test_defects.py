@@ -220,3 +220,14 @@ def test_a_gain_where_the_record_has_no_energy_is_not_a_unit_finding() -> None:
         y = x * 1.3 + 0.02 * np.std(x) * rng.standard_normal(x.size)
         x = x + 0.02 * np.std(x) * rng.standard_normal(x.size)
         assert defects.check_units(x, {"roof": y}, rate, {}, {}, first_mode_hz=f1) == []
+
+
+def test_a_record_at_rest_before_and_after_a_pulse_is_not_saturated() -> None:
+    """Noise-free, a pulse's record is exactly 0 before and after it, and 0 is its bottom:
+    the structure at rest, not a clipped sensor. The pulse clipped at its top still is."""
+    t = np.arange(1200) / 200.0
+    y = np.where((t >= 1.0) & (t <= 1.5), np.sin(np.pi * (t - 1.0) / 0.5), 0.0)
+    assert defects.check_saturation("input", y, "") == []
+    clipped = np.minimum(y, 0.8)
+    assert [(f.kind, "top value 0.8" in f.evidence)
+            for f in defects.check_saturation("input", clipped, "")] == [("saturation", True)]

@@ -55,11 +55,12 @@ OFFSET_SAMPLES = 10
 DRIFT_MAX_REL = 0.01
 #: A drift that moves the files by more than this many samples over the record is a defect.
 DRIFT_SAMPLES = 0.5
-#: A channel is a copy of another when a scale and an offset of the other match it to this
-#: share of its rms: the rounding of an export to 6 significant digits (5e-6 of a sample's
-#: value at most) or to single precision (6e-8); two sensors differ by their noise, and
-#: noise-free records of two places by 1e-3 or more.
-DUPLICATE_MISFIT = 1e-5
+#: A channel is a copy of another when a scale of the other matches it at every sample to
+#: within this share of the two values (the rounding of an export to 6 significant digits
+#: leaves at most 5e-6 of a value, single precision 6e-8) and this share of its rms (an
+#: export with a fixed number of decimals).
+DUPLICATE_ROUNDING = 1e-5
+DUPLICATE_QUANTUM = 1e-6
 #: A structure's response follows its base within `LAG_PERIODS` periods of its first mode
 #: (its impulse response has its largest values there) or `LAG_SECONDS`, whichever is longer.
 LAG_SECONDS = 0.5
@@ -265,17 +266,25 @@ def check_alignment(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: floa
 
 
 def copy_scale(a: np.ndarray, b: np.ndarray) -> tuple[float, float] | None:
-    """``(s, misfit)`` when ``b`` is a copy of ``a``: ``b ≈ s·a + c`` with a misfit (the rms
-    of what ``s·a + c`` leaves, over the rms of ``b`` about its mean) of at most
-    `DUPLICATE_MISFIT`; None otherwise (or when either channel is constant or non-finite)."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        ac, bc = a - np.mean(a), b - np.mean(b)
-        aa, bb = float(ac @ ac), float(bc @ bc)
+    """``(s, worst)`` when ``b`` is a copy of ``a``: ``b = s·a`` at every sample to within
+    the rounding of an export, ``|b − s·a| ≤ DUPLICATE_ROUNDING·(|b| + |s·a|) +
+    DUPLICATE_QUANTUM·rms(b)``; ``worst`` is the largest share of that bound a sample uses.
+    None otherwise (or when either channel is 0 throughout or not finite).
+
+    A rounding error is proportional to the value rounded (or, for an export with a fixed
+    number of decimals, a quantum): near a zero crossing it vanishes. The difference of two
+    sensors does not: their own noise, and, noise-free, the modes they mix in other
+    proportions (two adjacent top floors of a 200-storey building: 2.5e-4 of the rms).
+    """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        aa, ab, bb = float(a @ a), float(a @ b), float(b @ b)
         if not (np.isfinite(aa) and np.isfinite(bb) and aa > 0 and bb > 0):
             return None
-        s = float(ac @ bc) / aa
-        misfit = float(np.sqrt(np.sum((bc - s * ac) ** 2) / bb))
-    return (s, misfit) if misfit <= DUPLICATE_MISFIT else None
+        s = ab / aa
+        bound = (DUPLICATE_ROUNDING * (np.abs(b) + np.abs(s * a))
+                 + DUPLICATE_QUANTUM * np.sqrt(bb / b.size))
+        worst = float(np.max(np.abs(b - s * a) / bound))
+    return (s, worst) if worst <= 1.0 else None
 
 
 def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str]
@@ -286,8 +295,8 @@ def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str
     A copy is what a file exported twice, or a column read twice, gives. Two sensors never
     give one: each has its own noise, and even noise-free records of two places of a
     structure differ by more than a rounding (their modes mix in other proportions), however
-    alike they move (a correlation can be 0.9999 between two floors of a tall building, or
-    in a steady sine test below the first mode; their misfit is still 1e-3 or more).
+    alike they move (a correlation can be 0.99999 between two floors of a tall building, or
+    in a steady sine test below the first mode).
     """
     names = list(channels)
     if len(names) < 2 or next(iter(channels.values())).size < MIN_SAMPLES:
@@ -301,7 +310,8 @@ def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str
             if not same and fit is None:
                 continue
             how = (" sample for sample" if same else
-                   f" × {fit[0]:.6g} to {fit[1]:.1e} of its rms" if fit else "")
+                   f" × {fit[0]:.6g} to within the rounding of an export at every sample"
+                   if fit else "")
             findings.append(Finding(
                 "duplicate", " / ".join(dict.fromkeys((files.get(a, ""), files.get(b, "")))),
                 b, "error", f"identical to channel {a!r}{how}: a copy, not a second sensor",
@@ -430,7 +440,8 @@ def check_saturation(name: str, y: np.ndarray, file: str) -> list[Finding]:
     value again at every period), only a run is evidence: at least `SATURATION_RUN` equal
     samples in a row at the extreme (a smooth crest holds at most two, symmetric about it),
     longer than any run of equal values elsewhere, and at least `SATURATION_SAMPLES` held in
-    all. A constant channel (one value throughout) is a dead sensor.
+    all. Runs at the record's start or end are the structure at rest, not evidence. A
+    constant channel (one value throughout) is a dead sensor.
     """
     y = np.asarray(y, dtype=float)
     if y.size < MIN_SAMPLES or not np.all(np.isfinite(y)):
@@ -450,7 +461,14 @@ def check_saturation(name: str, y: np.ndarray, file: str) -> list[Finding]:
     _, counts = np.unique(y[~extremes], return_counts=True)
     recurring = bool(held_elsewhere) or int(np.sum(counts > 1)) >= SATURATION_RECURRING
     for side, extreme in (("top", float(y.max())), ("bottom", float(y.min()))):
+        # a run at the record's start or end is the structure at rest (a noise-free record
+        # of a pulse is 0 before and after it, and 0 is its bottom), not a sensor clipping
+        at_rest = [(a, b) for a, b in _runs(y == extreme) if a == 0 or b == y.size]
         at = y == extreme
+        for a, b in at_rest:
+            at[a:b] = False
+        if not at.any():
+            continue
         runs = [b - a for a, b in _runs(at)]
         held = int(at.sum())
         if recurring:
