@@ -292,11 +292,9 @@ def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str
     """Channels that are copies of another: the same samples, noise and all, up to a unit
     factor and the rounding of an export (see `copy_scale`).
 
-    A copy is what a file exported twice, or a column read twice, gives. Two sensors never
-    give one: each has its own noise, and even noise-free records of two places of a
-    structure differ by more than a rounding (their modes mix in other proportions), however
-    alike they move (a correlation can be 0.99999 between two floors of a tall building, or
-    in a steady sine test below the first mode).
+    A copy is what a file exported twice, or a column read twice, gives; two sensors never
+    give one, however alike they move (a correlation of 0.99999 between two floors of a
+    tall building, or in a steady sine test below the first mode, is no evidence).
     """
     names = list(channels)
     if len(names) < 2 or next(iter(channels.values())).size < MIN_SAMPLES:
@@ -364,9 +362,8 @@ def spike_samples(y: np.ndarray) -> np.ndarray:
     with np.errstate(over="ignore", invalid="ignore"):
         deviation = work - scipy.ndimage.median_filter(work, size=7, mode="mirror")
     off = np.where(np.isfinite(deviation), np.abs(deviation), np.finfo(float).max)
-    # the scale it is measured against: the signal's own steps around it. A crest, a cusp or
-    # a kink of the signal (a hysteretic reversal) is off its median by a step or two; a
-    # spike by many times the steps on both sides of it
+    # against the signal's own steps around it: a crest, a cusp or a kink (a hysteretic
+    # reversal) is a step or two off its median, a spike many times the steps on both sides
     half = min(SPIKE_WINDOW // 2, y.size // 2)
     with np.errstate(over="ignore", invalid="ignore"):
         steps = np.abs(np.diff(work))
@@ -377,12 +374,10 @@ def spike_samples(y: np.ndarray) -> np.ndarray:
     floor = max(0.05 * float(np.percentile(finite_steps, 90)) if finite_steps.size else 0.0,
                 float(positive.min()) if positive.size else 0.0)
     scale = np.maximum(_step_scale(work, half), floor)
-    with np.errstate(over="ignore", invalid="ignore"):
-        far = off > SPIKE_FACTOR * scale
-        near = off > SPIKE_NEAR * scale
-    # a burst of motion (the table starting, a knock) is many samples off, a glitch one or two
-    # (of either sign: a two-sided glitch is +A, -A): samples above SPIKE_NEAR × the scale
-    # less than SPIKE_GAP apart make one event, of at most SPIKE_WIDTH samples
+    with np.errstate(over="ignore"):
+        far, near = off > SPIKE_FACTOR * scale, off > SPIKE_NEAR * scale
+    # a burst of motion (a knock) is many samples off, a glitch one or two (+A, -A: two-sided):
+    # samples above SPIKE_NEAR × the scale less than SPIKE_GAP apart are one event
     bridged = scipy.ndimage.binary_closing(near, structure=np.ones(SPIKE_GAP + 1, dtype=bool))
     bridged |= near
     keep = bad.copy()
@@ -408,8 +403,7 @@ def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str, *,
     hysteretic reversal, a linearly interpolated record) is a step or two off its median,
     never ten. Non-finite samples are spikes of any size.
 
-    ``within``: report only the spikes at times in this closed interval (the samples a fit
-    uses; ``t`` on the same clock).
+    ``within``: only the spikes at times in this closed interval are said (``t``'s clock).
     """
     y = np.asarray(y, dtype=float)
     idx = spike_samples(y)
@@ -417,8 +411,7 @@ def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str, *,
         idx = idx[(t[idx] >= within[0]) & (t[idx] <= within[1])]
     if idx.size == 0:
         return []
-    others = np.delete(np.abs(y), spike_samples(y))
-    others = others[np.isfinite(others)]
+    others = np.delete(np.abs(y), spike_samples(y))  # every spike, said or not
     peak = float(others.max()) if others.size else 0.0
     shown = ", ".join(f"{y[i]:.4g} m/s² at t = {t[i]:.6g} s (sample {i} of {y.size})"
                       for i in idx[:3])
@@ -426,8 +419,7 @@ def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str, *,
     return [Finding("spike", file, name, "error",
                     f"{idx.size} isolated sample(s) far off the signal: {shown}{more}; the "
                     f"rest of the record peaks at {peak:.4g} m/s²",
-                    "interpolate them from their neighbours: [data] repair_defects = "
-                    "[\"spike\"]")]
+                    'interpolate them from their neighbours: [data] repair_defects = ["spike"]')]
 
 
 def check_saturation(name: str, y: np.ndarray, file: str) -> list[Finding]:
