@@ -84,20 +84,23 @@ def clock_findings(records: Sequence[tuple[str, str, Measurement]], data: Data, 
 
 
 def spike_findings(records: Sequence[tuple[str, str, Measurement]], data: Data, trial: str,
-                   *, used: tuple[float, float] | None) -> tuple[list[Measurement],
-                                                              list[defects.Finding]]:
+                   origin: float, used: tuple[float, float] | None
+                   ) -> tuple[list[Measurement], list[defects.Finding]]:
     """The spikes of each channel as read from its file (before alignment or resampling
     moves, drops or smears a sample), and the records with their spikes interpolated when
     ``repair_defects`` holds ``"spike"``.
 
-    ``records``: (file, channel, record of that one channel, m/s²); ``used``: the span of
-    time (on the files' clock) whose samples the trial uses (None: all); spikes outside it
-    (a sample an alignment drops, or outside ``[data] window``) do not touch the fit and are
-    not said.
+    ``records``: (file, channel, record of that one channel, m/s²); ``origin``: the time on
+    the files' clock where the trial's time starts (times are said from there, as
+    ``[data] window`` gives them); ``used``: the span of time (on the files' clock) whose
+    samples the trial uses (None: all); spikes outside it (a sample an alignment drops, or
+    outside ``[data] window``) do not touch the fit and are not said.
     """
     found: list[defects.Finding] = []
+    within = None if used is None else (used[0] - origin, used[1] - origin)
     for file, channel, rec in records:
-        found += defects.check_spikes(channel, rec[channel], rec.t, file, within=used)
+        found += defects.check_spikes(channel, rec[channel], rec.t - origin, file,
+                                      within=within)
     found = settle(found, data, trial)
     recs = [rec for _, _, rec in records]
     if any(f.status == "repaired" for f in found):
