@@ -324,7 +324,15 @@ def findings_of(spec: dict[str, Any], folder: Path) -> list[str]:
     return [f.describe() for e in experiments for f in e.defects]
 
 
-@pytest.mark.parametrize("record", CORPUS, ids=[r.name for r in CORPUS])
+#: Records that take more than 5 s to make and read here (measured with --durations):
+#: run by CI, left out of the everyday suite.
+SLOW = ("200-storey-top-floors-free", "200-storey-top-floors-noisy",
+        "bouc-wen-1khz-elcentro-free", "bouc-wen-1khz-elcentro-noisy",
+        "two-storey-ec8-seed-2-noisy")
+
+
+@pytest.mark.parametrize("record", [pytest.param(r, marks=pytest.mark.slow) if r.name in SLOW
+                                    else r for r in CORPUS], ids=[r.name for r in CORPUS])
 def test_a_clean_record_gives_no_finding(record: Clean, folders: Path) -> None:
     folder = folders / record.name
     folder.mkdir()
@@ -386,6 +394,7 @@ def test_every_channel_of_both_meloland_earthquakes_is_clean(event: str) -> None
 
 
 def test_the_corpus_holds_every_kind_of_test() -> None:
+    assert set(SLOW) <= {r.name for r in CORPUS}
     kinds = {r.kind for r in CORPUS}
     assert len(CORPUS) >= 30
     assert kinds == {"sine", "stepped sine", "sweep", "white noise", "earthquake", "pulse"}
