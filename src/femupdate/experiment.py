@@ -300,6 +300,10 @@ def _read_checked(case: Case, data: Data | None = None, trial: str = ""
         [(rec.source, name, rec) for (name, _), rec in zip(specs, records, strict=True)],
         data, trial)
     rate = case.preprocess.resample_hz
+    records, spikes = trial_checks.spike_findings(
+        [(rec.source, name, rec) for (name, _), rec in zip(specs, records, strict=True)],
+        data, trial, *_used_span(records, rate, data.window))
+    clocks += spikes
     drift = [f for f in trial_checks.open_defects(clocks) if f.kind == "clock-drift"]
     if rate is None and drift:
         raise DataError(f"{case.label}: {drift[0].describe()}")
@@ -324,6 +328,26 @@ def _read_checked(case: Case, data: Data | None = None, trial: str = ""
         merged = merged.window(*data.window)
     _check_motion(case, data, merged)
     return replace(merged, notes=tuple(notes)), clocks
+
+
+def _used_span(records: list[io.Measurement], rate: float | None,
+               window: Sequence[float] | None) -> tuple[float, tuple[float, float] | None]:
+    """The record time's origin on the files' clock (their first common sample, where the
+    trial's time starts at 0), and the span of time on that clock whose samples the trial
+    uses: the records' overlap as `io.align` takes it, within ``window``, widened by half a
+    sample (an alignment moves a file by less). The span is None when the records cannot be
+    aligned (that error comes later, said by the alignment)."""
+    try:
+        common = io.align(*records, rate=rate, zero=False)[0]
+    except (DataError, ConfigError):
+        return max(float(r.t[0]) for r in records), None
+    t = common.t
+    if window is not None:
+        t = t[(t - t[0] >= window[0]) & (t - t[0] <= window[1])]
+        if t.size == 0:
+            return float(common.t[0]), None
+    half = 0.5 * max(float(np.max([r.dt for r in records])), common.dt)
+    return float(common.t[0]), (float(t[0]) - half, float(t[-1]) + half)
 
 
 def apply_delays(
@@ -477,6 +501,8 @@ def load_experiment(case: Case, trial: TrialSpec | None = None) -> Experiment:
     trial_checks.say(found)
     try:
         experiment = _processed(case, spec, measurement)
+        trial_checks.check_scorable(experiment.channels, experiment.target,
+                                    f"{case.label}: trial {spec.name!r}")
     except (DataError, ConfigError) as exc:  # a defect found may be why: name it
         blocking = trial_checks.open_defects(found)
         if not blocking:

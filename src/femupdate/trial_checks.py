@@ -2,8 +2,9 @@
 
 :func:`femupdate.experiment.load_experiment` calls these on every read (``run``, ``validate``,
 the benchmarks, the report's fits): the clocks of the files as read (`clock_findings`, before
-they are aligned; the offset repaired by row on request), then the channels on one time base
-(`channel_findings`, spikes interpolated on request). Every finding is said on the console (a
+they are aligned; the offset repaired by row on request), the spikes of each channel as read
+(`spike_findings`, interpolated on request), then the channels on one time base
+(`channel_findings`). Every finding is said on the console (a
 :class:`~femupdate.errors.FemupdateWarning`, one line each), kept in the `Experiment` and in
 ``summary.json``; one neither repaired nor accepted (``[data] accept``) makes a run no success.
 """
@@ -19,10 +20,23 @@ import numpy as np
 from femupdate.case import Case, Data
 from femupdate.data import defects
 from femupdate.data.io import Measurement
-from femupdate.errors import FemupdateError, FemupdateWarning
+from femupdate.errors import DataError, FemupdateError, FemupdateWarning
 
-__all__ = ["channel_findings", "clock_findings", "first_mode_hz", "open_defects", "say",
-           "settle"]
+__all__ = [
+    "channel_findings",
+    "check_scorable",
+    "clock_findings",
+    "first_mode_hz",
+    "nonfinite_causes",
+    "open_defects",
+    "say",
+    "settle",
+    "spike_findings",
+]
+
+#: Values whose square overflows a float (|y| above about 1.3e154): a sum of squares of a
+#: channel holding one is inf.
+_SQUARE_OVERFLOW = float(np.sqrt(np.finfo(float).max))
 
 
 def first_mode_hz(case: Case) -> float | None:
@@ -69,6 +83,33 @@ def clock_findings(records: Sequence[tuple[str, str, Measurement]], data: Data, 
     return recs, found
 
 
+def spike_findings(records: Sequence[tuple[str, str, Measurement]], data: Data, trial: str,
+                   origin: float, used: tuple[float, float] | None
+                   ) -> tuple[list[Measurement], list[defects.Finding]]:
+    """The spikes of each channel as read from its file (before alignment or resampling
+    moves, drops or smears a sample), and the records with their spikes interpolated when
+    ``repair_defects`` holds ``"spike"``.
+
+    ``records``: (file, channel, record of that one channel, m/s²); ``origin``: the time on
+    the files' clock where the trial's time starts (times are said from there, as
+    ``[data] window`` gives them); ``used``: the span of time (on the files' clock) whose
+    samples the trial uses (None: all); spikes outside it (a sample an alignment drops, or
+    outside ``[data] window``) do not touch the fit and are not said.
+    """
+    found: list[defects.Finding] = []
+    within = None if used is None else (used[0] - origin, used[1] - origin)
+    for file, channel, rec in records:
+        found += defects.check_spikes(channel, rec[channel], rec.t - origin, file,
+                                      within=within)
+    found = settle(found, data, trial)
+    recs = [rec for _, _, rec in records]
+    if any(f.status == "repaired" for f in found):
+        recs = [replace(rec, channels={channel: defects.interpolate_samples(
+                    rec[channel], defects.spike_samples(rec[channel]))})
+                for (_, channel, _), rec in zip(records, recs, strict=True)]
+    return recs, found
+
+
 def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str, str],
                      data: Data, trial: str, *, f1: float | None, time_unit: str | None,
                      inputs: tuple[str, ...] = ("input",),
@@ -83,10 +124,10 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
     found = defects.check_length_and_rate(n, rate, f1, files[inputs[0]], time_unit=time_unit)
     clean = dict(merged.channels)
     if n >= defects.MIN_SAMPLES:
-        # the other checks see the channels without their spikes: one 1e308 sample would
-        # otherwise make every statistic of its channel say something
+        # the other checks see the channels without their spikes (found and said on the
+        # files as read, `spike_findings`): one 1e308 sample would otherwise make every
+        # statistic of its channel say something
         for name in merged.names:
-            found += defects.check_spikes(name, merged[name], merged.t, files[name])
             clean[name] = defects.interpolate_samples(merged[name],
                                                       defects.spike_samples(merged[name]))
         found += defects.check_duplicates(clean, files)
@@ -96,16 +137,13 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
             for name in inputs:
                 found += [replace(f, channel=name) for f in defects.check_units(
                     clean[name], {}, rate, {"input": units[name]}, {"input": files[name]})]
-        elif not found or all(f.kind in ("spike", "duplicate", "saturation") for f in found):
+        elif not found or all(f.kind in ("duplicate", "saturation") for f in found):
             x = clean["input"]
             outputs = {name: y for name, y in clean.items() if name != "input"}
             # lags and spectra in seconds and hertz mean nothing on a wrong time base
             found += defects.check_alignment(x, outputs, rate, files, first_mode_hz=f1)
             found += defects.check_units(x, outputs, rate, units, files, first_mode_hz=f1)
-    found = settle(found, data, trial)
-    if any(f.kind == "spike" and f.status == "repaired" for f in found):
-        merged = Measurement(merged.t, clean, merged.units, merged.source, merged.time_rtol)
-    return merged, found
+    return merged, settle(found, data, trial)
 
 
 def say(findings: Sequence[defects.Finding]) -> None:
@@ -117,3 +155,67 @@ def say(findings: Sequence[defects.Finding]) -> None:
 def open_defects(findings: Sequence[defects.Finding]) -> list[defects.Finding]:
     """The findings that make a run no success: errors neither repaired nor accepted."""
     return [f for f in findings if f.status == "open" and f.severity == "error"]
+
+
+def _first_bad(y: np.ndarray) -> str:
+    bad = np.flatnonzero(~np.isfinite(y))
+    return f"{bad.size} non-finite sample(s), the first at scored sample {bad[0]}"
+
+
+def nonfinite_causes(channels: Sequence[str], per_channel: np.ndarray, measured: np.ndarray,
+                     predicted: np.ndarray | None, failure: str | None = None) -> list[str]:
+    """Why each channel's NMSE is not a finite number: one line per such channel.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The channels' labels.
+    per_channel : ndarray (k,)
+        Each channel's NMSE as computed.
+    measured, predicted : ndarray (n, k)
+        The scored measurement and prediction (``predicted`` None: the simulation failed).
+    failure : str, optional
+        What the simulation said when it failed.
+    """
+    lines = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j, name in enumerate(channels):
+            if np.isfinite(per_channel[j]):
+                continue
+            y = measured[:, j]
+            yhat = None if predicted is None else predicted[:, j]
+            if not np.all(np.isfinite(y)):
+                cause = f"the measurement holds {_first_bad(y)}"
+            elif np.max(np.abs(y)) > _SQUARE_OVERFLOW:
+                cause = (f"the measurement peaks at {np.max(np.abs(y)):.4g}, beyond what a sum "
+                         "of squares can hold (an absurd sample: see the defect checks)")
+            elif yhat is None:
+                cause = ("the simulation failed at these parameter values"
+                         + (f" ({failure})" if failure else ""))
+            elif not np.all(np.isfinite(yhat)):
+                cause = f"the prediction holds {_first_bad(yhat)} (the simulation diverged)"
+            elif np.max(np.abs(yhat)) > _SQUARE_OVERFLOW:
+                cause = (f"the prediction peaks at {np.max(np.abs(yhat)):.4g}, beyond what a sum "
+                         "of squares can hold (the simulation diverged)")
+            elif not np.any(y):
+                cause = "the measurement is 0 over the scored samples: it has no energy to scale by"
+            else:
+                cause = "the error's sum of squares overflows"
+            lines.append(f"channel {name!r}: NMSE {per_channel[j]}: {cause}")
+    return lines
+
+
+def check_scorable(channels: Sequence[str], target: np.ndarray, where: str) -> None:
+    """A DataError naming the first channel of a processed record that no NMSE can be formed
+    on: non-finite samples, or values whose squares overflow (an absurd sample integrated)."""
+    target = np.asarray(target, dtype=float).reshape(len(target), -1)
+    for j, name in enumerate(channels):
+        y = target[:, j]
+        if not np.all(np.isfinite(y)):
+            raise DataError(f"{where}: channel {name!r}: the processed record holds "
+                            f"{_first_bad(y)}: no NMSE can be formed on it")
+        peak = float(np.max(np.abs(y))) if y.size else 0.0
+        if peak > _SQUARE_OVERFLOW:
+            raise DataError(f"{where}: channel {name!r}: the processed record peaks at "
+                            f"{peak:.4g}, beyond what a sum of squares can hold: no NMSE can "
+                            "be formed on it")

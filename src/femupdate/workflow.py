@@ -45,7 +45,7 @@ from femupdate.runs.changes import file_hashes
 from femupdate.runs.stats import at_bounds, evaluation_stats, spread
 from femupdate.runs.store import FILENAME, ResultsStore, discard
 from femupdate.runs.verdict import run_verdict, success_rule, successes
-from femupdate.trial_checks import open_defects
+from femupdate.trial_checks import nonfinite_causes, open_defects
 from femupdate.update import TrialProblem, UpdateProblem
 
 #: The success rule of summaries written before the verdict (docs/verdicts.md): without a
@@ -196,8 +196,8 @@ def trial_record(trial: TrialProblem, values: dict[str, float]) -> TrialRecord:
            if finite else math.inf)
     spec = next(s for s in trial.case.trial_specs() if s.name == trial.name)
     notes = list(exp.notes)
-    if not finite:
-        notes.append(f"not scored: {failure_reason(trial, per_channel)}")
+    if not finite:  # said, never a bare inf: which channel, and why
+        notes += _nonfinite_notes(trial, values, per_channel)
     return TrialRecord(
         name=trial.name, role=exp.role, weight=exp.weight, phi=phi,
         nmse_per_channel=dict(zip(exp.channels, per_channel.tolist(), strict=True)),
@@ -206,15 +206,24 @@ def trial_record(trial: TrialProblem, values: dict[str, float]) -> TrialRecord:
         notes=notes)
 
 
-def failure_reason(trial: TrialProblem, per_channel: np.ndarray) -> str:
-    """Why a trial's NMSE (``per_channel``, just computed) is not finite: the simulation's
-    failure (an error of the model, a divergence), or the channel whose NMSE overflowed."""
-    if trial.last_failure:
-        return trial.last_failure.removeprefix(f"trial {trial.name!r}: ")
-    bad = [c for c, v in zip(trial.experiment.channels, per_channel.tolist(), strict=True)
-           if not math.isfinite(v)]
-    return (f"the NMSE of {', '.join(bad)} is not finite: the prediction is too large to "
-            "square (an overflow; up to 1e+308 is a float, its square is not)")
+def _nonfinite_notes(trial: TrialProblem, values: dict[str, float], per_channel: np.ndarray
+                     ) -> list[str]:
+    """One line per channel whose NMSE (``per_channel``, just computed) is not finite, saying
+    why (:func:`~femupdate.trial_checks.nonfinite_causes`): the model's failure as the
+    evaluation recorded it (an error of the model, a divergence), else the samples at fault."""
+    predicted: np.ndarray | None = None
+    failure = trial.last_failure
+    if failure is None:
+        try:
+            predicted = trial.scored(trial.prediction(trial.simulate(values)))
+        except FemupdateError as exc:
+            failure = str(exc)
+    target = np.asarray(trial.objective.target)
+    if predicted is not None and predicted.shape != target.shape:
+        predicted = None
+    if failure is not None:
+        failure = failure.removeprefix(f"trial {trial.name!r}: ")
+    return nonfinite_causes(trial.experiment.channels, per_channel, target, predicted, failure)
 
 
 def _flat(trials: list[TrialRecord], key: str) -> dict[str, float]:

@@ -188,11 +188,22 @@ def _delay_values(seconds: float
     return fn
 
 
-def _copy_column(src: int, dst: int, noise: float = 0.0
+def _copy_column(src: int, dst: int, digits: int = 17, factor: float = 1.0
                  ) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Column ``dst`` a copy of ``src`` as an export gives it: times ``factor`` (a unit) and
+    rounded to ``digits`` significant digits."""
     def fn(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rng = np.random.default_rng(7)
-        v[:, dst] = v[:, src] + noise * np.std(v[:, src]) * rng.standard_normal(t.size)
+        v[:, dst] = [float(f"{x:.{digits}g}") for x in v[:, src] * factor]
+        return t, v
+    return fn
+
+
+def _spikes(values: tuple[float, ...], rows: tuple[int, ...], col: int = 0
+            ) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """``values`` at the ``rows`` given (negative: from the end)."""
+    def fn(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        for row, value in zip(rows, values, strict=True):
+            v[row, col] = value
         return t, v
     return fn
 
@@ -244,13 +255,28 @@ SYNTH: list[Record] = [
     # the same record twice
     Record("synth-duplicate-table-is-floor", "synth", "duplicate", _table_is_floor),
     Record("synth-duplicate-floors", "synth", "duplicate", _floors(_copy_column(0, 1))),
-    Record("synth-duplicate-nearly", "synth", "duplicate", _floors(_copy_column(0, 1, 1e-3))),
+    Record("synth-duplicate-6-digits", "synth", "duplicate", _floors(_copy_column(0, 1, 6))),
+    Record("synth-duplicate-in-g", "synth", "duplicate",
+           _floors(_copy_column(0, 1, 8, 1 / 9.80665))),
     # spikes and absurd values
     Record("synth-spike-1e308", "synth", "spike", _floors(_spike(1e308))),
     Record("synth-spike-1e5", "synth", "spike", _floors(_spike(1e5))),
     Record("synth-spike-5x-peak", "synth", "spike", _floors(_spike("5x", at=0.3))),
     Record("synth-spike-2-samples", "synth", "spike", _floors(_spike("3x", width=2, col=1))),
     Record("synth-spike-in-table", "synth", "spike", _table(_spike("4x", at=0.8))),
+    # at the record's ends, of either sign, two-sided, non-finite: in any channel
+    *[Record(f"synth-spike-{v:g}-row-{r}-col-{c}", "synth", "spike",
+             _floors(_spikes((v,), (r,), c))) for v, r, c in
+      ((1e5, -1, 0), (1e308, -1, 1), (-1e5, -2, 0), (1e5, 0, 1), (1e308, 1, 0))],
+    *[Record(f"synth-spike-table-row-{r}", "synth", "spike", _table(_spikes((50.0,), (r,))))
+      for r in (0, -1)],
+    *[Record(f"synth-glitch-two-sided-rows-{r}", "synth", "spike",
+             _floors(_spikes((1e5, -1e5), (r, r + 1)))) for r in (0, 700, -2)],
+    Record("synth-glitch-two-sided-table", "synth", "spike",
+           _table(_spikes((60.0, -60.0), (900, 901)))),
+    # a dead channel: one value throughout
+    Record("synth-constant-channel", "synth", "saturation",
+           _floors(lambda t, v: (t, np.column_stack([np.full(t.size, 0.3), v[:, 1]])))),
     # saturated sensors
     *[Record(f"synth-saturation-{int(100 * s)}pct", "synth", "saturation",
              _floors(_clip(s, col=1))) for s in (0.9, 0.7, 0.5)],
@@ -310,6 +336,15 @@ def _real_spike(value: float, at: float = 0.5) -> Callable[[list[str], np.ndarra
     return fn
 
 
+def _real_rows(values: tuple[float, ...], rows: tuple[int, ...]
+               ) -> Callable[[list[str], np.ndarray], np.ndarray]:
+    def fn(names: list[str], v: np.ndarray) -> np.ndarray:
+        for row, value in zip(rows, values, strict=True):
+            v[row, _real_col(names, "Acc_X")] = value
+        return v
+    return fn
+
+
 def _real_clip(share: float) -> Callable[[list[str], np.ndarray], np.ndarray]:
     def fn(names: list[str], v: np.ndarray) -> np.ndarray:
         j = _real_col(names, "Acc_X")
@@ -337,6 +372,12 @@ REAL: list[Record] = [
              _real_edit(which, _real_spike(v))) for tr, which, v in
       (("elcentro_t1", "top", 1e308), ("northridge_t1", "top", 1e5),
        ("sine2hz_t2", "ground", 40.0))],
+    *[Record(f"real-{tr}-{which}-spike-rows-{'-'.join(map(str, r))}", f"real:{tr}", "spike",
+             _real_edit(which, _real_rows(v, r))) for tr, which, v, r in
+      (("elcentro_t1", "top", (1e5,), (1,)), ("sine2hz_t1", "ground", (-1e5,), (-2,)),
+       ("northridge_t1", "ground", (60.0,), (-1,)), ("elcentro_t2", "ground", (1e308,), (-1,)),
+       ("sine2hz_t2", "top", (1e5, -1e5), (1500, 1501)),
+       ("elcentro_t2", "top", (80.0, -80.0), (-2, -1)))],
     *[Record(f"real-{tr}-saturation-{int(100 * s)}pct", f"real:{tr}", "saturation",
              _real_edit("top", _real_clip(s))) for tr, s in
       (("elcentro_t2", 0.9), ("sine2hz_t1", 0.6))],
@@ -625,3 +666,112 @@ def test_validate_keeps_the_defects(clean_synth: Path, tmp_path: Path) -> None:
     found = validation.to_dict()["defects"]
     assert [d["kind"] for d in found] == ["saturation", "saturation"]  # clipped both ways
     assert ["top" in found[0]["evidence"], "bottom" in found[1]["evidence"]] == [True, True]
+
+
+# --------------------------------------------------------------------------- issue 33
+
+
+def test_validate_says_a_spike_in_the_last_row(clean_synth: Path, tmp_path: Path) -> None:
+    from femupdate.workflow import validate_case
+
+    last = Record("last-row", "synth", "spike", _floors(_spikes((1e5,), (-1,))))
+    with pytest.warns(FemupdateWarning, match=r"channel 'F1\.ux': spike: 1 isolated sample\(s\) "
+                                              r"far off the signal: 1e\+05 m/s² at t = 8 s "
+                                              r"\(sample 1600 of 1601\)"):
+        validation = validate_case(_case_on(last, clean_synth, tmp_path / "a"), TRUTH)
+    assert [d["kind"] for d in validation.to_dict()["defects"]] == ["spike"]
+    # repaired, the record is the clean one but for that sample
+    clean = validate_case(_case_on(_record("synth-clean-seed-1"), clean_synth, tmp_path / "b"),
+                          TRUTH)
+    repaired = validate_case(_case_on(last, clean_synth, tmp_path / "c",
+                                      repair_defects=["spike"]), TRUTH)
+    assert [d.status for d in repaired.defects] == ["repaired"]
+    assert repaired.trials[0].phi == pytest.approx(clean.trials[0].phi, rel=0.05)
+
+
+def test_an_absurd_last_sample_is_an_error_naming_the_channel_and_the_spike(
+        clean_synth: Path, tmp_path: Path) -> None:
+    """1e308 in the last row: integrated it overflows every sum of squares; the error says
+    which channel and why, and names the spike that makes it."""
+    last = Record("last-row", "synth", "spike", _floors(_spikes((1e308,), (-1,))))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        with pytest.raises(DataError, match=r"channel 'F1\.ux': the processed record peaks at "
+                                            r".*beyond what a sum of squares can hold.*the "
+                                            r"checks found: .*spike: .*1e\+308 m/s²"):
+            load_experiments(_case_on(last, clean_synth, tmp_path))
+
+
+def test_the_cli_run_on_an_absurd_last_sample_says_the_spike(clean_synth: Path,
+                                                            tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    tmp_path.mkdir(exist_ok=True)
+    folder, _ = _source_folder(_record("synth-clean-seed-1"), clean_synth, tmp_path / "records")
+    _floors(_spikes((1e308,), (-1,)))(folder)
+    (tmp_path / "case.toml").write_text(CASE_TOML)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        result = CliRunner().invoke(app, ["run", str(tmp_path / "case.toml"), "--out",
+                                          str(tmp_path / "out"), "--quiet"], terminal_width=400)
+    # the command raises the one-line DataError that femupdate.cli.main prints (exit code 2)
+    assert isinstance(result.exception, DataError), result.output
+    text = str(result.exception)
+    assert "channel 'F1.ux': the processed record peaks at" in text
+    assert "spike: 1 isolated sample(s) far off the signal: 1e+308 m/s²" in text
+    assert "\n" not in text
+
+
+def test_a_spike_in_a_sample_the_trial_does_not_use_is_not_said(clean_synth: Path,
+                                                               tmp_path: Path) -> None:
+    """Outside ``[data] window`` a spike touches no fitted sample; inside it, it is said."""
+    spiked = Record("early", "synth", "spike", _floors(_spikes((1e5,), (100,))))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        (outside,) = load_experiments(_case_on(spiked, clean_synth, tmp_path / "a",
+                                               window=[2.0, 8.0]))
+        (inside,) = load_experiments(_case_on(spiked, clean_synth, tmp_path / "b",
+                                              window=[0.0, 6.0]))
+    assert outside.defects == ()
+    assert [d.kind for d in inside.defects] == ["spike"]
+
+
+def test_a_spike_in_a_resampled_record_is_found_on_the_file_as_read(clean_synth: Path,
+                                                                   tmp_path: Path) -> None:
+    """Resampling would smear a spike over many samples (a burst, not a spike): it is found
+    on the file's own samples, and the repair interpolates it there, before resampling."""
+    spiked = Record("resampled", "synth", "spike", _floors(_spikes((200.0,), (800,))))
+    case = _case_on(spiked, clean_synth, tmp_path / "a")
+    case = case.model_copy(update={"preprocess": case.preprocess.model_copy(
+        update={"resample_hz": 150.0})})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemupdateWarning)
+        (found,) = load_experiments(case)
+    assert [(d.kind, "sample 800 of 1601" in d.evidence) for d in found.defects] == [
+        ("spike", True)]
+
+
+def test_an_nmse_that_is_not_finite_says_which_channel_and_why() -> None:
+    from femupdate.trial_checks import nonfinite_causes
+
+    measured = np.ones((10, 3))
+    measured[4, 1] = np.nan
+    predicted = np.ones((10, 3))
+    predicted[6:, 2] = np.inf
+    lines = nonfinite_causes(["a", "b", "c"], np.array([0.1, np.inf, np.inf]), measured,
+                             predicted)
+    assert lines == [
+        "channel 'b': NMSE inf: the measurement holds 1 non-finite sample(s), the first at "
+        "scored sample 4",
+        "channel 'c': NMSE inf: the prediction holds 4 non-finite sample(s), the first at "
+        "scored sample 6 (the simulation diverged)"]
+    (failed,) = nonfinite_causes(["a"], np.array([np.nan]), np.ones((5, 1)), None,
+                                 "an unstable step")
+    assert failed == ("channel 'a': NMSE nan: the simulation failed at these parameter values "
+                      "(an unstable step)")
+    huge = np.ones((5, 1))
+    huge[2] = 1e300
+    (overflow,) = nonfinite_causes(["a"], np.array([np.inf]), np.ones((5, 1)), huge)
+    assert "the prediction peaks at 1e+300, beyond what a sum of squares can hold" in overflow

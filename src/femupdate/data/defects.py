@@ -55,8 +55,12 @@ OFFSET_SAMPLES = 10
 DRIFT_MAX_REL = 0.01
 #: A drift that moves the files by more than this many samples over the record is a defect.
 DRIFT_SAMPLES = 0.5
-#: Correlations at or above this (|ρ|) between two channels: the same record twice.
-DUPLICATE_CORRELATION = 0.999
+#: A channel is a copy of another when a scale of the other matches it at every sample to
+#: within this share of the two values (the rounding of an export to 6 significant digits
+#: leaves at most 5e-6 of a value, single precision 6e-8) and this share of its rms (an
+#: export with a fixed number of decimals).
+DUPLICATE_ROUNDING = 1e-5
+DUPLICATE_QUANTUM = 1e-6
 #: A structure's response follows its base within `LAG_PERIODS` periods of its first mode
 #: (its impulse response has its largest values there) or `LAG_SECONDS`, whichever is longer.
 LAG_SECONDS = 0.5
@@ -67,14 +71,12 @@ LAG_GAIN = 2.0
 #: The longest lag searched, s, and the share of the record it may reach.
 LAG_SEARCH_S = 30.0
 LAG_SEARCH_SHARE = 0.5
-#: A spike: a sample further from the mean of its neighbours (the high-passed signal) than
-#: this many times the 90th percentile of that distance just before or after it, over
-#: `SPIKE_WINDOW` // 2 samples (16 σ for Gaussian noise), in an event of at most `SPIKE_RUN`
-#: samples.
+#: A spike: a sample further from the median of the 7 around it than this many times the
+#: 90th percentile of the signal's steps |Δy| just before or after it, over `SPIKE_WINDOW`
+#: // 2 steps (for Gaussian noise of σ: 10 × 2.3 σ).
 SPIKE_FACTOR = 10.0
 SPIKE_WINDOW = 121
-SPIKE_RUN = 4
-#: The samples of a spike: at most this many in a row, off the signal to one side.
+#: The samples of a spike: at most this many in a row (of either sign).
 SPIKE_WIDTH = 2
 #: Samples beyond this many times the scale, less than `SPIKE_GAP` samples apart, are one event.
 SPIKE_NEAR = 3.0
@@ -83,6 +85,10 @@ SPIKE_GAP = 3
 #: repeats its peak value; a clipped sensor does); in a quantized record (equal neighbours
 #: elsewhere) held over at least this many samples, in a run longer than any elsewhere.
 SATURATION_SAMPLES = 4
+SATURATION_RUN = 3
+#: Values recur in a record when this many distinct values (away from its extremes) occur
+#: more than once: a periodic signal sampled in step with its period, or a quantized one.
+SATURATION_RECURRING = 3
 #: The peak of the input beyond this many g: stronger than any earthquake record (about 4 g)
 #: or shake-table test: data in m/s² declared as g, or cm/s² as m/s².
 INPUT_PEAK_G = 4.0
@@ -91,6 +97,11 @@ INPUT_PEAK_G = 4.0
 GAIN_FACTOR = 3.0
 #: Coherence needed at a frequency for its gain to count.
 GAIN_COHERENCE = 0.8
+#: The spectra's segments: at least this many (half-overlapping) in the record, each at
+#: least this many periods of the first mode long (frequencies spaced by f1 / 6 or finer:
+#: two or more below f1 / 3).
+GAIN_SEGMENTS = 8
+GAIN_RESOLUTION = 6.0
 #: A record shorter than this many periods of the first mode cannot show it.
 MIN_PERIODS = 5.0
 #: Fewer samples than this: no statistics are meaningful, only the length is checked.
@@ -254,31 +265,56 @@ def check_alignment(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: floa
     return findings
 
 
+def copy_scale(a: np.ndarray, b: np.ndarray) -> tuple[float, float] | None:
+    """``(s, worst)`` when ``b`` is a copy of ``a``: ``b = s·a`` at every sample to within
+    the rounding of an export, ``|b − s·a| ≤ DUPLICATE_ROUNDING·(|b| + |s·a|) +
+    DUPLICATE_QUANTUM·rms(b)``; ``worst`` is the largest share of that bound a sample uses.
+    None otherwise (or when either channel is 0 throughout or not finite).
+
+    A rounding error is proportional to the value rounded (or, for an export with a fixed
+    number of decimals, a quantum): near a zero crossing it vanishes. The difference of two
+    sensors does not: their own noise, and, noise-free, the modes they mix in other
+    proportions (two adjacent top floors of a 200-storey building: 2.5e-4 of the rms).
+    """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        aa, ab, bb = float(a @ a), float(a @ b), float(b @ b)
+        if not (np.isfinite(aa) and np.isfinite(bb) and aa > 0 and bb > 0):
+            return None
+        s = ab / aa
+        bound = (DUPLICATE_ROUNDING * (np.abs(b) + np.abs(s * a))
+                 + DUPLICATE_QUANTUM * np.sqrt(bb / b.size))
+        worst = float(np.max(np.abs(b - s * a) / bound))
+    return (s, worst) if worst <= 1.0 else None
+
+
 def check_duplicates(channels: Mapping[str, np.ndarray], files: Mapping[str, str]
                      ) -> list[Finding]:
-    """Pairs of channels identical or nearly so (|ρ| ≥ `DUPLICATE_CORRELATION`).
+    """Channels that are copies of another: the same samples, noise and all, up to a unit
+    factor and the rounding of an export (see `copy_scale`).
 
-    Two sensors at different places of a structure never agree to 0.1 %: one file exported
-    twice, or a column read twice.
+    A copy is what a file exported twice, or a column read twice, gives; two sensors never
+    give one, however alike they move (a correlation of 0.99999 between two floors of a
+    tall building, or in a steady sine test below the first mode, is no evidence).
     """
     names = list(channels)
     if len(names) < 2 or next(iter(channels.values())).size < MIN_SAMPLES:
         return []
-    values = np.column_stack([_detrended(channels[n]) for n in names])
-    with np.errstate(over="ignore", invalid="ignore"):
-        norms = np.linalg.norm(values, axis=0)
-        rho = (values.T @ values) / np.outer(norms, norms)  # every pair at once
     findings = []
-    for i, j in zip(*np.nonzero(np.triu(np.abs(np.nan_to_num(rho)) >= DUPLICATE_CORRELATION,
-                                        k=1)), strict=True):
-        a, b = names[i], names[j]
-        same = np.array_equal(channels[a], channels[b])
-        findings.append(Finding(
-            "duplicate", " / ".join(dict.fromkeys((files.get(a, ""), files.get(b, "")))),
-            b, "error",
-            f"identical to channel {a!r}" + (" sample for sample" if same else
-                                            f" (correlation {rho[i, j]:.5f})"),
-            "read each channel from its own record (the same file exported twice?)"))
+    for j, b in enumerate(names):
+        for a in names[:j]:
+            same = np.array_equal(channels[a], channels[b])
+            fit = None if same else copy_scale(np.asarray(channels[a], dtype=float),
+                                               np.asarray(channels[b], dtype=float))
+            if not same and fit is None:
+                continue
+            how = (" sample for sample" if same else
+                   f" × {fit[0]:.6g} to within the rounding of an export at every sample"
+                   if fit else "")
+            findings.append(Finding(
+                "duplicate", " / ".join(dict.fromkeys((files.get(a, ""), files.get(b, "")))),
+                b, "error", f"identical to channel {a!r}{how}: a copy, not a second sensor",
+                "read each channel from its own record (the same file exported twice?)"))
+            break
     return findings
 
 
@@ -292,108 +328,152 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
                     strict=True))
 
 
+def _step_scale(y: np.ndarray, half: int) -> np.ndarray:
+    """At each sample, the larger of the 90th percentiles of the sample-to-sample steps
+    ``|Δy|`` over the ``half`` steps just before it and just after it (windows that leave a
+    spike's own steps out). At the record's ends only the side inside the record counts."""
+    n = y.size
+    with np.errstate(over="ignore", invalid="ignore"):
+        step = np.abs(np.diff(y))
+    step = np.where(np.isfinite(step), step, np.finfo(float).max)
+    centred = scipy.ndimage.percentile_filter(step, 90, size=half, mode="reflect")
+    positions = np.arange(n)
+    shift = half // 2 + SPIKE_WIDTH + 2
+    before_at, after_at = positions - shift - 1, positions + shift
+    before = np.where(before_at >= 0, centred[np.clip(before_at, 0, n - 2)], 0.0)
+    after = np.where(after_at <= n - 2, centred[np.clip(after_at, 0, n - 2)], 0.0)
+    return np.maximum(before, after)
+
+
 def spike_samples(y: np.ndarray) -> np.ndarray:
-    """Indices of isolated spikes of ``y`` (see `check_spikes`)."""
+    """Indices of the spikes of ``y``: its non-finite samples, and isolated samples far off
+    the signal (see `check_spikes`), anywhere in the record, its first and last samples
+    included."""
     y = np.asarray(y, dtype=float)
+    bad = ~np.isfinite(y)
     if y.size < MIN_SAMPLES:
-        return np.zeros(0, dtype=int)
-    big = np.finfo(float).max
+        return np.flatnonzero(bad)
+    if bad.all():
+        return np.arange(y.size)
+    work = interpolate_samples(y, np.flatnonzero(bad)) if bad.any() else y
+    # each sample's distance from the median of the 7 samples around it (mirrored at the
+    # ends): a median is not moved by a spike of up to 3 samples, even at the record's end,
+    # and follows a monotone stretch of the signal exactly
     with np.errstate(over="ignore", invalid="ignore"):
-        # the high-passed signal: each sample's distance from the mean of its neighbours (a
-        # second difference: a spike A shows as A/2, A, A/2; a smooth signal as its curvature)
-        curvature = np.abs(y[1:-1] - 0.5 * (y[:-2] + y[2:]))
-        deviation = y - scipy.ndimage.median_filter(y, size=5, mode="nearest")
-    residual = np.concatenate(([0.0], np.where(np.isfinite(curvature), curvature, big), [0.0]))
-    off_median = np.where(np.isfinite(deviation), np.abs(deviation), big)
-    # the larger of the 90th percentiles just before and just after each sample: a spike is
-    # quiet on both sides, the onset of motion is not
+        deviation = work - scipy.ndimage.median_filter(work, size=7, mode="mirror")
+    off = np.where(np.isfinite(deviation), np.abs(deviation), np.finfo(float).max)
+    # against the signal's own steps around it: a crest, a cusp or a kink (a hysteretic
+    # reversal) is a step or two off its median, a spike many times the steps on both sides
     half = min(SPIKE_WINDOW // 2, y.size // 2)
-    centred = scipy.ndimage.percentile_filter(residual, 90, size=half, mode="nearest")
-    positions = np.arange(y.size)
-    shift = half // 2 + SPIKE_RUN + 2  # windows that leave out the event's samples
-    before = centred[np.clip(positions - shift, 0, y.size - 1)]
-    after = centred[np.clip(positions + shift, 0, y.size - 1)]
-    floor = 0.05 * float(np.percentile(residual, 90))
-    scale = np.maximum(np.maximum(before, after), floor)
     with np.errstate(over="ignore", invalid="ignore"):
-        far = residual > SPIKE_FACTOR * scale
-        near = residual > SPIKE_NEAR * scale
-    # a burst (the table starting, a knock) is many samples off, a spike of one or two samples
-    # at most four (its neighbours by half): samples above SPIKE_NEAR × the scale less than
-    # SPIKE_GAP apart make one event
+        steps = np.abs(np.diff(work))
+    finite_steps = steps[np.isfinite(steps)]
+    positive = finite_steps[finite_steps > 0]
+    # a floor: a twentieth of the record's typical step, and its quantum (the smallest step):
+    # a quiet or quantized stretch does not make a sample one step off a spike
+    floor = max(0.05 * float(np.percentile(finite_steps, 90)) if finite_steps.size else 0.0,
+                float(positive.min()) if positive.size else 0.0)
+    scale = np.maximum(_step_scale(work, half), floor)
+    with np.errstate(over="ignore"):
+        far, near = off > SPIKE_FACTOR * scale, off > SPIKE_NEAR * scale
+    # a burst of motion (a knock) is many samples off, a glitch one or two (+A, -A: two-sided):
+    # samples above SPIKE_NEAR × the scale less than SPIKE_GAP apart are one event
     bridged = scipy.ndimage.binary_closing(near, structure=np.ones(SPIKE_GAP + 1, dtype=bool))
     bridged |= near
-    keep = np.zeros(y.size, dtype=bool)
+    keep = bad.copy()
     for a, b in _runs(bridged):
-        if b - a > SPIKE_RUN or not far[a:b].any():
-            continue
-        # the spike itself: the samples the median of 5 would replace, one or two in a row
-        # and off to one side (a bipolar transient of a few samples is motion: a knock)
-        lo, hi = max(a - 1, 0), min(b + 1, y.size)
-        part = np.flatnonzero(off_median[lo:hi] >= 0.5 * off_median[lo:hi].max()) + lo
-        signs = np.sign(np.nan_to_num(deviation[part], posinf=1.0, neginf=-1.0))
-        if part.size <= SPIKE_WIDTH and np.ptp(part) < part.size and abs(signs.sum()) == part.size:
-            keep[part] = True
+        if b - a <= SPIKE_WIDTH and far[a:b].any():
+            keep[a:b] |= near[a:b]
     return np.flatnonzero(keep)
 
 
-def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str) -> list[Finding]:
-    """Isolated spikes, said with their values, times and the rest of the record's peak.
+def check_spikes(name: str, y: np.ndarray, t: np.ndarray, file: str, *,
+                 within: tuple[float, float] | None = None) -> list[Finding]:
+    """Spikes, said with their values, times and the rest of the record's peak.
 
-    The high-passed signal is each sample's distance from the mean of its two neighbours (a
-    second difference: a spike A shows as A/2, A, A/2; a smooth signal as its curvature). Its
-    scale at a sample is the larger of its 90th percentiles over the `SPIKE_WINDOW` // 2
-    samples just before and just after (windows that leave the sample's neighbourhood out: a
-    percentile is not moved by the spike, and the larger side keeps the onset of motion from
-    looking like a spike). A spike exceeds `SPIKE_FACTOR` times that scale, in an event of at
-    most `SPIKE_RUN` samples above `SPIKE_NEAR` times it; its own samples (those the running
-    median of 5 would replace) are at most `SPIKE_WIDTH` in a row and off to one side, where a
-    burst of motion (the table starting, a knock) swings both ways. Non-finite and absurd
-    values (1e308) are spikes of any size.
+    Each sample is measured by its distance from the median of the 7 samples around it
+    (mirrored at the record's ends, so that the first and last samples are measured like any
+    other; a median is not moved by a glitch of up to 3 samples). Its scale is the signal's
+    own step there: the larger of the 90th percentiles of ``|Δy|`` over the `SPIKE_WINDOW`
+    // 2 steps just before and just after it (windows that leave the glitch's own steps out;
+    at the ends, the side inside the record). A spike is more than `SPIKE_FACTOR` times that
+    scale off, in an event of at most `SPIKE_WIDTH` samples more than `SPIKE_NEAR` times it
+    off (either sign: +A then -A is a two-sided glitch), where a burst of motion (the table
+    starting, a knock) is many samples off. A crest, a cusp or a kink of the signal (a
+    hysteretic reversal, a linearly interpolated record) is a step or two off its median,
+    never ten. Non-finite samples are spikes of any size.
+
+    ``within``: only the spikes at times in this closed interval are said (``t``'s clock).
     """
+    y = np.asarray(y, dtype=float)
     idx = spike_samples(y)
+    if within is not None and idx.size:
+        idx = idx[(t[idx] >= within[0]) & (t[idx] <= within[1])]
     if idx.size == 0:
         return []
-    others = np.delete(np.abs(y), idx)
+    others = np.delete(np.abs(y), spike_samples(y))  # every spike, said or not
     peak = float(others.max()) if others.size else 0.0
-    shown = ", ".join(f"{y[i]:.4g} m/s² at t = {t[i]:.6g} s (sample {i})" for i in idx[:3])
+    shown = ", ".join(f"{y[i]:.4g} m/s² at t = {t[i]:.6g} s (sample {i} of {y.size})"
+                      for i in idx[:3])
     more = f" and {idx.size - 3} more" if idx.size > 3 else ""
     return [Finding("spike", file, name, "error",
                     f"{idx.size} isolated sample(s) far off the signal: {shown}{more}; the "
                     f"rest of the record peaks at {peak:.4g} m/s²",
-                    "interpolate them from their neighbours: [data] repair_defects = "
-                    "[\"spike\"]")]
+                    'interpolate them from their neighbours: [data] repair_defects = ["spike"]')]
 
 
 def check_saturation(name: str, y: np.ndarray, file: str) -> list[Finding]:
-    """A flat top: the record's extreme value reached by 2 samples or more, at the top or the
-    bottom (a sensor at the end of its range; a float record never repeats its peak value).
-    A quantized record holds values too: there, at least `SATURATION_SAMPLES` samples,
-    in a run longer than any run of equal values elsewhere."""
+    """A flat top: a sensor at the end of its range holds its extreme value.
+
+    A record whose samples never recur (floating-point samples of a noisy signal) never
+    repeats its peak value: there, the extreme value reached by 2 samples or more, at the top
+    or the bottom, is a flat top. Where values recur anyway (a quantized record: equal
+    neighbours; a noise-free periodic signal sampled in step with its period: each crest's
+    value again at every period), only a run is evidence: at least `SATURATION_RUN` equal
+    samples in a row at the extreme (a smooth crest holds at most two, symmetric about it),
+    longer than any run of equal values elsewhere, and at least `SATURATION_SAMPLES` held in
+    all. Runs at the record's start or end are the structure at rest, not evidence. A
+    constant channel (one value throughout) is a dead sensor.
+    """
     y = np.asarray(y, dtype=float)
     if y.size < MIN_SAMPLES or not np.all(np.isfinite(y)):
         return []
+    if y.max() == y.min():
+        return [Finding(
+            "saturation", file, name, "error",
+            f"constant: all {y.size} samples are {y[0]:.6g} m/s² (a dead sensor, or a column "
+            "that holds no record)",
+            "read the channel's own column, or record it again")]
     findings = []
     extremes = (y == y.max()) | (y == y.min())
     # equal neighbours away from the extremes: a quantized record, where holding a value is
     # no evidence by itself
     held_elsewhere = [b - a for a, b in
                       _runs(np.concatenate(([False], np.diff(y) == 0.0)) & ~extremes)]
-    quantized = bool(held_elsewhere)
+    _, counts = np.unique(y[~extremes], return_counts=True)
+    recurring = bool(held_elsewhere) or int(np.sum(counts > 1)) >= SATURATION_RECURRING
     for side, extreme in (("top", float(y.max())), ("bottom", float(y.min()))):
+        # a run at the record's start or end is the structure at rest (a noise-free record
+        # of a pulse is 0 before and after it, and 0 is its bottom), not a sensor clipping
+        at_rest = [(a, b) for a, b in _runs(y == extreme) if a == 0 or b == y.size]
         at = y == extreme
-        runs = [(a, b) for a, b in _runs(at) if b - a >= 2]
+        for a, b in at_rest:
+            at[a:b] = False
+        if not at.any():
+            continue
+        runs = [b - a for a, b in _runs(at)]
         held = int(at.sum())
-        if quantized:
-            if (sum(b - a for a, b in runs) < SATURATION_SAMPLES
-                    or max(b - a for a, b in runs) <= max(held_elsewhere) + 1):
+        if recurring:
+            longest = max(runs)
+            if (longest < SATURATION_RUN or sum(r for r in runs if r >= 2) < SATURATION_SAMPLES
+                    or longest <= max(held_elsewhere, default=0) + 1):
                 continue
         elif held < 2:
             continue
         findings.append(Finding(
             "saturation", file, name, "error",
             f"{held} samples at exactly its {side} value {extreme:.6g} m/s² (longest run "
-            f"{max((b - a for a, b in _runs(at)), default=1)}): a sensor at the end of its range",
+            f"{max(runs)}): a sensor at the end of its range",
             "record again with a larger range, or fit a window without the clipped part"))
     return findings
 
@@ -426,9 +506,11 @@ def check_units(x: np.ndarray, outputs: Mapping[str, np.ndarray], rate: float,
                 "too large)"))
     if first_mode_hz is None or x.size < 4 * MIN_SAMPLES:
         return findings
-    # segments long enough for several frequencies below a third of the first mode
-    nperseg = int(min(x.size // 2, 2 ** np.ceil(np.log2(16 * rate / first_mode_hz))))
-    if nperseg < 8:
+    # segments long enough for frequencies below a third of the first mode, and few enough
+    # in the record for `GAIN_SEGMENTS` averages: a coherence of fewer is near 1 whatever
+    # the signals (of one segment it is 1), and a gain where the record has no energy passes
+    nperseg = int(2 ** np.ceil(np.log2(GAIN_RESOLUTION * rate / first_mode_hz)))
+    if nperseg < 8 or x.size < (GAIN_SEGMENTS + 1) * nperseg // 2:
         return findings
     for name, y in outputs.items():
         with np.errstate(all="ignore"):  # absurd values give inf and NaN: no gain, no finding
