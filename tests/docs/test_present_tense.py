@@ -117,3 +117,19 @@ def test_my_pages_in_the_present_tense() -> None:
            if r[2] > MAX_HISTORY_SHARE * r[1] or (r[0] > MAX_LINES and name not in LONG_PAGES)}
     assert not bad, f"pages with history or too long: {', '.join(sorted(bad))}\n" \
                     f"{counts_table(rows)}"
+
+
+# The counts of a docs folder, page by page: python tests/docs/test_present_tense.py [DIR]
+if __name__ == "__main__":
+    import sys
+
+    folder = Path(sys.argv[1]) if len(sys.argv) > 1 else DOCS
+    counts = {p.name: page_counts(p) for p in sorted(folder.glob("*.md"))
+              if p.name not in NOT_GUIDANCE}
+    if not counts:
+        raise SystemExit(f"{folder}: no *.md pages")
+    total_nonblank = sum(r[1] for r in counts.values())
+    total_history = sum(r[2] for r in counts.values())
+    print(counts_table(counts))
+    print(f"all pages but history.md: {total_history} of {total_nonblank} non-blank lines "
+          f"({total_history / total_nonblank:.1%}) are history")
