@@ -1,6 +1,6 @@
 """The friction recurrence: the written-out SIMD kernel against the generic numba kernel.
 
-    python benchmarks/friction_kernels.py [--repeat N] [--quick]
+    python benchmarks/friction_kernels.py [--repeat N] [--quick] [--table]
 
 One run, one process, the same points: the friction bridge of the paper (central differences,
 10 substeps, 47,680 steps), evaluated the way the product's default search (multistart-lm)
@@ -14,7 +14,8 @@ calls of φ. Each figure is the median wall time per point, with one BLAS thread
   (:func:`femupdate.evaluation.evaluator._central_batch`), no lanes.
 
 Both must give the same residuals to rounding (checked). The ratio generic / written is the
-measured reason to keep the hand-written kernel (issue 32: kept only if ≥ 1.5×).
+measured reason to keep the hand-written kernel (kept only if ≥ 1.5×). ``--table`` also
+writes the figures to ``docs/tables/friction-kernels.md``, which docs/benchmarks.md includes.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from doc_tables import write_table
 from threadpoolctl import threadpool_limits
 
 from femupdate.case import parse_case
@@ -75,9 +77,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=15)
     parser.add_argument("--quick", action="store_true", help="3 repeats (CI)")
+    parser.add_argument("--table", action="store_true",
+                        help="write the figures to docs/tables/friction-kernels.md")
     args = parser.parse_args()
     repeat = 3 if args.quick else args.repeat
-    print(f"load average at start: {os.getloadavg()[0]:.1f}")
+    load = os.getloadavg()[0]
+    print(f"load average at start: {load:.1f}")
     with tempfile.TemporaryDirectory() as tmp, threadpool_limits(1):
         written = friction_bridge(Path(tmp))
         generic = friction_bridge(Path(tmp))
@@ -99,10 +104,23 @@ def main() -> None:
     print(f"friction bridge, {X.shape[1]} parameters, batches of {k}; residuals agree to "
           f"{worst:.1e} (relative)")
     print(f"{'':28s}{'written ms':>12s}{'generic ms':>12s}{'generic/written':>17s}")
+    table = []
     for label in rows["written"]:
         w, g = rows["written"][label], rows["generic"][label]
         print(f"{label:28s}{w:12.3f}{g:12.3f}{g / w:17.2f}")
-    print(f"load average at end: {os.getloadavg()[0]:.1f}")
+        table.append((label, f"{w:.3f}", f"{g:.3f}", f"{g / w:.2f}×"))
+    end = os.getloadavg()[0]
+    print(f"load average at end: {end:.1f}")
+    if args.table:
+        path = write_table(
+            "friction-kernels",
+            ("friction bridge, median per point", "written-out, SIMD lanes (ms)",
+             "generic numba (ms)", "generic / written"),
+            table, f"python benchmarks/friction_kernels.py --table --repeat {repeat}",
+            f"{X.shape[1]} parameters, batches of {k}, one BLAS thread; residuals agree to "
+            f"{worst:.1e} (relative); the 1-minute load average of the 2-core machine was "
+            f"{load:.1f} at the start and {end:.1f} at the end.")
+        print(f"table written to {path}")
 
 
 if __name__ == "__main__":

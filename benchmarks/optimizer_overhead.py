@@ -9,14 +9,17 @@ stops them, until the requested number of evaluations is done.
 
     python benchmarks/optimizer_overhead.py [--evals 20000] [--n 8]
     python benchmarks/optimizer_overhead.py --quick     # 500 evaluations: a smoke run (CI)
+    python benchmarks/optimizer_overhead.py --table     # writes docs/tables/optimizer-overhead.md
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
+from doc_tables import write_table
 from plugins import register_optimizers
 
 from femupdate.optimize import METHODS, minimize
@@ -85,9 +88,12 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=8)
     parser.add_argument("--quick", action="store_true",
                         help="500 evaluations per method, short warm-up (a smoke run)")
+    parser.add_argument("--table", action="store_true",
+                        help="write the figures to docs/tables/optimizer-overhead.md")
     args = parser.parse_args()
     if args.quick:
         args.evals = 500
+    load = os.getloadavg()[0]
     for method in METHODS:  # one warm-up run each: numba's cache, imports
         through_minimize(method, args.n, 50 if args.quick else 200)
     t0 = time.perf_counter()
@@ -96,10 +102,22 @@ def main() -> None:
     phi_us = 1e2 * (time.perf_counter() - t0)
     print(f"n = {args.n}, {args.evals} evaluations per method; trivial φ costs {phi_us:.2f} µs")
     print(f"{'method':13s} {'alone µs/step':>14s} {'alone µs/eval':>14s} {'minimize µs/eval':>17s}")
+    rows = []
     for method in METHODS:
         per_step, per_eval = optimizer_alone(method, args.n, args.evals)
         total = through_minimize(method, args.n, args.evals)
         print(f"{method:13s} {per_step:14.1f} {per_eval:14.1f} {total:17.1f}")
+        rows.append((f"`{method}`", f"{per_step:.1f}", f"{per_eval:.1f}", f"{total:.1f}"))
+    if args.table:
+        path = write_table(
+            "optimizer-overhead",
+            ("method", "alone, µs per step", "alone, µs per evaluation",
+             "through `minimize`, µs per evaluation"),
+            rows, f"python benchmarks/optimizer_overhead.py --table --evals {args.evals} "
+                  f"--n {args.n}",
+            f"One process; the 1-minute load average of the 2-core machine was {load:.1f} at "
+            f"the start and {os.getloadavg()[0]:.1f} at the end.")
+        print(f"table written to {path}")
 
 
 if __name__ == "__main__":
