@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.errors import ConfigError, SimulationError
+from femupdate.errors import ConfigError
 from femupdate.model.hysteresis import bouc_wen_update
 from femupdate.model.structure import shear_building
 from femupdate.simulate import nonlinear_method, simulate
@@ -133,9 +133,7 @@ def test_stiff_links_choose_the_implicit_scheme() -> None:
     assert nonlinear_method(stiff, DT, substeps=int(np.floor(1.95 * DT / h_stiff))) == "implicit"
 
 
-def test_bad_alpha_and_a_step_newton_cannot_take_are_refused() -> None:
+def test_bad_alpha_is_refused() -> None:
     system = _hysteretic()
     with pytest.raises(ConfigError, match=r"hht_alpha = -0\.5 .*\[-1/3, 0\]"):
         simulate(system, DT, ag=_record(), method="implicit", hht_alpha=-0.5)
-    with pytest.raises(SimulationError, match="Newton–Raphson did not converge"):
-        simulate(system, DT, ag=1e6 * _record(), method="implicit")

@@ -21,16 +21,20 @@ with ``u_lin`` linear in the previous state and the load. Only the element defor
 
     R(y) = y - B u_lin + S f(y) = 0,      S = (1+α) B K̂⁻¹ Bᵀ   (m × m, constant),
 
-with the consistent tangent ``I + S diag(∂f/∂y)``. The friction element's return mapping
+with the iteration matrix ``I + S diag(∂f/∂y)``. The friction element's return mapping
 (:func:`femupdate.model.friction.elasto_slip`, the slider's offset from the previous step) is
 backward Euler by itself; its tangent is ``k_r`` while stuck and 0 while slipping. The
 Bouc–Wen ``z`` follows its rate-independent law over the step's deformation increment by the
 same fourth-order Runge–Kutta rule as the explicit path
 (:func:`femupdate.model.hysteresis.bouc_wen_update`, in parts of at most ``1/(2λ)``: adaptive
 sub-steps inside the step), differentiated exactly (forward sensitivity through the four
-stages) for its tangent ``k (α + (1 - α) ∂z/∂y)``. Each Newton iteration costs one ``m × m``
-solve, whatever the number of DOFs; the ``n × n`` work per step is three matrix-vector
-products, as linear Newmark.
+stages, :func:`bouc_wen_update_tangent`) for its consistent tangent
+``k (α + (1 - α) ∂z/∂y)``; the iteration matrix takes the element's secant over the step
+instead (robust where the deformation turns inside the step, see :func:`_element_laws`). The
+iteration matrix is factorised when the iterations stop contracting by half and reused
+otherwise, and a backtracking line search keeps the residual falling. Each iteration costs
+``m × m`` work, whatever the number of DOFs; the ``n × n`` work per step is three
+matrix-vector products, as linear Newmark.
 
 The scheme is unconditionally stable for the linear part (``α`` in [-1/3, 0]); it needs no
 step below the highest frequency, so stiff zero-length links do not set the step. Its error is
@@ -62,7 +66,7 @@ HHT_ALPHA_RANGE = (-1.0 / 3.0, 0.0)
 #: Newton–Raphson stops when every deformation moved by less than this, relative to the
 #: element's own scale (its ``|y|`` plus its yield deformation).
 NEWTON_TOLERANCE = 1e-10
-NEWTON_MAX_ITERATIONS = 50
+NEWTON_MAX_ITERATIONS = 100
 
 
 def check_hht_alpha(alpha: float) -> float:
@@ -127,7 +131,8 @@ def bouc_wen_update_tangent(z: float, dy: float, A: float, beta: float, gamma: f
 @njit(cache=True, inline="always")
 def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
                   kr: np.ndarray, fu: np.ndarray, bw: np.ndarray, parts: np.ndarray,
-                  f: np.ndarray, df: np.ndarray, trial: np.ndarray) -> None:
+                  dy_max: np.ndarray, f: np.ndarray, df: np.ndarray,
+                  trial: np.ndarray) -> None:
     """Forces ``f``, tangents ``df`` and the trial internal state (slip offset or ``z``) of
     every element at deformations ``y`` from the committed ``state`` (friction first)."""
     for e in range(nf):
@@ -150,11 +155,81 @@ def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
             trial[e] = y[e] - sign * limit
     for b in range(bw.shape[0]):
         e = nf + b
-        z, s = bouc_wen_update_tangent(state[e], y[e] - y_old[e], bw[b, 2], bw[b, 3],
-                                       bw[b, 4], bw[b, 5], parts[b])
+        step = y[e] - y_old[e]
+        # the step's parts, or more where an iterate went further (never parts above 1/(2λ))
+        count = max(parts[b], math.ceil(abs(step) / dy_max[b]))
+        z, s = bouc_wen_update_tangent(state[e], step, bw[b, 2], bw[b, 3], bw[b, 4],
+                                       bw[b, 5], count)
         trial[e] = z
         f[e] = bouc_wen_force(y[e], z, bw[b, 0], bw[b, 1])
-        df[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * s)
+        # The iteration matrix takes the element's secant over the step, (z - z_n) / Δy, and
+        # the consistent tangent s only at Δy = 0: the law has a kink where the deformation
+        # turns (loading and unloading slopes differ), and with the tangent Newton overshoots
+        # across it; the secant of a monotone law does not (on a 3-D frame with 100 links:
+        # 8.9 iterations per step against 20.5 with the tangent).
+        df[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * ((z - state[e]) / step if step != 0.0
+                                                              else s))
+
+
+@njit(cache=True)
+def _lu_factor(a: np.ndarray, piv: np.ndarray) -> bool:
+    """LU factorisation with partial pivoting of ``a`` in place (Doolittle); False if singular."""
+    m = a.shape[0]
+    for c in range(m):
+        p = c
+        big = abs(a[c, c])
+        for r in range(c + 1, m):
+            if abs(a[r, c]) > big:
+                big = abs(a[r, c])
+                p = r
+        piv[c] = p
+        if big == 0.0:
+            return False
+        if p != c:
+            for j in range(m):
+                a[c, j], a[p, j] = a[p, j], a[c, j]
+        inv = 1.0 / a[c, c]
+        for r in range(c + 1, m):
+            lrc = a[r, c] * inv
+            a[r, c] = lrc
+            if lrc != 0.0:
+                for j in range(c + 1, m):
+                    a[r, j] -= lrc * a[c, j]
+    return True
+
+
+@njit(cache=True)
+def _lu_solve(a: np.ndarray, piv: np.ndarray, b: np.ndarray) -> None:
+    """Solve ``a x = b`` in place with the factors of :func:`_lu_factor`."""
+    m = a.shape[0]
+    for c in range(m):
+        p = piv[c]
+        if p != c:
+            b[c], b[p] = b[p], b[c]
+    for r in range(m):
+        s = b[r]
+        for j in range(r):
+            s -= a[r, j] * b[j]
+        b[r] = s
+    for r in range(m - 1, -1, -1):
+        s = b[r]
+        for j in range(r + 1, m):
+            s -= a[r, j] * b[j]
+        b[r] = s / a[r, r]
+
+
+@njit(cache=True, inline="always")
+def _residual(y: np.ndarray, ylin: np.ndarray, S: np.ndarray, f: np.ndarray,
+              res: np.ndarray) -> float:
+    """``R = y - y_lin + S f`` into ``res``; returns ``‖R‖₂``."""
+    total = 0.0
+    for r in range(y.shape[0]):
+        acc_r = y[r] - ylin[r]
+        for c in range(y.shape[0]):
+            acc_r += S[r, c] * f[c]
+        res[r] = acc_r
+        total += acc_r * acc_r
+    return math.sqrt(total)
 
 
 @njit(cache=True)
@@ -165,10 +240,19 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
     ``AuT, AvT, AaT`` (n, n) the transposes of ``K̂⁻¹`` times the coefficients of ``u_n, v_n,
     a_n`` in the right-hand side; ``HT`` (m, n) the transpose of ``K̂⁻¹ Bᵀ``; ``S`` (m, m)
     ``(1+α) B K̂⁻¹ Bᵀ``; ``q`` (ns, n) ``K̂⁻¹ F`` at the samples, linear in between;
-    ``ei, ej`` the elements' DOFs (friction then Bouc–Wen; -1: ground). Returns displacement,
-    velocity and relative acceleration at the outputs, friction force and slip, Bouc–Wen force
-    and z at the samples, whether the solution diverged, the index of the first sample whose
-    step failed to converge (-1: none) and the total number of Newton iterations.
+    ``ei, ej`` the elements' DOFs (friction then Bouc–Wen; -1: ground).
+
+    The tangent ``I + S diag(∂f/∂y)`` is factorised when the iterations need it: at the first
+    step, and whenever an iteration shrinks the correction by less than half (then the
+    factors of the current tangent replace the old ones and the step goes on). Between, the
+    factors are reused across iterations and steps (modified Newton): each iteration costs an
+    ``m × m`` back-substitution instead of a factorisation, and the contraction of at most ½
+    keeps the error below the last correction.
+
+    Returns displacement, velocity and relative acceleration at the outputs, friction force
+    and slip, Bouc–Wen force and z at the samples, whether the solution diverged, the index
+    of the first sample whose step failed to converge (-1: none), the total number of Newton
+    iterations and of factorisations.
     """
     ns = q.shape[0]
     n = u0.shape[0]
@@ -176,13 +260,9 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
     nf = kr.shape[0]
     nb = bw.shape[0]
     no = out.shape[0]
-    disp = np.empty((ns, no))
-    vel = np.empty((ns, no))
-    acc = np.empty((ns, no))
-    ff = np.empty((ns, nf))
-    slip = np.empty((ns, nf))
-    bf = np.empty((ns, nb))
-    bz = np.empty((ns, nb))
+    disp, vel, acc = np.empty((ns, no)), np.empty((ns, no)), np.empty((ns, no))
+    ff, slip = np.empty((ns, nf)), np.empty((ns, nf))
+    bf, bz = np.empty((ns, nb)), np.empty((ns, nb))
     u = u0.copy()
     v = v0.copy()
     a = a0.copy()
@@ -196,25 +276,27 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
     f = np.empty(m)
     df = np.empty(m)
     trial = np.empty(m)
+    dy = np.empty(m)
+    y_try = np.empty(m)
     res = np.empty(m)
-    jac = np.empty((m, m))
+    lu = np.empty((m, m))
+    piv = np.zeros(m, dtype=np.int64)
     parts = np.ones(nb, dtype=np.int64)
-    c0 = 1.0 / (beta * h * h)
-    cu = h * h * (0.5 - beta)
-    cv = h * (1.0 - gamma)
-    iterations = 0
+    c0, cu, cv = 1.0 / (beta * h * h), h * h * (0.5 - beta), h * (1.0 - gamma)
+    iterations = factorisations = 0
+    stale = True  # no factors yet
     for e in range(m):
         d = u[ei[e]] - (u[ej[e]] if ej[e] >= 0 else 0.0)
         y_old[e] = d
         y[e] = d
     # the forces at the initial state (slip offsets and z start at zero)
-    _element_laws(y, y_old, state, nf, kr, fu, bw, parts, f_old, df, trial)
+    _element_laws(y, y_old, state, nf, kr, fu, bw, parts, dy_max, f_old, df, trial)
     for k in range(ns):
         s = 0.0
         for i in range(n):
             s += abs(u[i]) + abs(v[i])
         if not s < DIVERGENCE_LIMIT:  # NaN fails too
-            return disp, vel, acc, ff, slip, bf, bz, True, -1, iterations
+            return disp, vel, acc, ff, slip, bf, bz, True, -1, iterations, factorisations
         for o in range(no):
             d = out[o]
             disp[k, o] = u[d]
@@ -249,36 +331,59 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
                 ylin[e] = d
                 y[e] = d
                 if e >= nf:
-                    parts[e - nf] = max(1, math.ceil(abs(d - y_old[e]) / dy_max[e - nf]))
-            converged = m == 0
+                    parts[e - nf] = max(1, math.ceil(2.0 * abs(d - y_old[e]) / dy_max[e - nf]))
             it = 0
+            converged = m == 0
+            if m:
+                _element_laws(y, y_old, state, nf, kr, fu, bw, parts, dy_max, f, df, trial)
+                norm = _residual(y, ylin, S, f, res)
+            last = np.inf
             while not converged and it < max_iter:
                 it += 1
-                _element_laws(y, y_old, state, nf, kr, fu, bw, parts, f, df, trial)
-                for r in range(m):
-                    acc_r = y[r] - ylin[r]
-                    for c in range(m):
-                        acc_r += S[r, c] * f[c]
-                        jac[r, c] = S[r, c] * df[c]
-                    jac[r, r] += 1.0
-                    res[r] = -acc_r
-                dy = np.linalg.solve(jac, res)
-                converged = True
+                if stale:
+                    for r in range(m):
+                        for c in range(m):
+                            lu[r, c] = S[r, c] * df[c]
+                        lu[r, r] += 1.0
+                    if not _lu_factor(lu, piv):
+                        return disp, vel, acc, ff, slip, bf, bz, False, k, iterations, \
+                            factorisations
+                    factorisations += 1
+                    stale = False
                 for e in range(m):
-                    y[e] += dy[e]
-                    if not abs(dy[e]) <= tol * (abs(y[e]) + y_scale[e]):
-                        converged = False
-                # more Runge–Kutta parts when an increment outgrew them (then iterate again)
-                for b in range(nb):
-                    need = math.ceil(abs(y[nf + b] - y_old[nf + b]) / dy_max[b])
-                    if need > parts[b]:
-                        parts[b] = need
-                        converged = False
+                    dy[e] = -res[e]
+                _lu_solve(lu, piv, dy)
+                size = 0.0
+                for e in range(m):
+                    size = max(size, abs(dy[e]) / (abs(y[e]) + y_scale[e] + 1e-300))
+                if size <= tol:  # the correction is below the tolerance: take it, done
+                    converged = True
+                    for e in range(m):
+                        y[e] += dy[e]
+                    _element_laws(y, y_old, state, nf, kr, fu, bw, parts, dy_max, f, df, trial)
+                else:
+                    # backtracking: the residual must fall (a kink of the law at a turning
+                    # point can make the full step overshoot)
+                    t = 1.0
+                    for _ in range(40):
+                        for e in range(m):
+                            y_try[e] = y[e] + t * dy[e]
+                        _element_laws(y_try, y_old, state, nf, kr, fu, bw, parts, dy_max, f,
+                                      df, trial)
+                        norm_try = _residual(y_try, ylin, S, f, res)
+                        if norm_try <= (1.0 - 1e-4 * t) * norm:
+                            break
+                        t *= 0.5
+                        stale = True  # the old tangent led astray: factorise the current one
+                    for e in range(m):
+                        y[e] = y_try[e]
+                    norm = norm_try
+                    if t * size > 0.5 * last:  # contracting too slowly: a fresh tangent
+                        stale = True
+                    last = t * size
             iterations += it
             if not converged:
-                return disp, vel, acc, ff, slip, bf, bz, False, k, iterations
-            if m:
-                _element_laws(y, y_old, state, nf, kr, fu, bw, parts, f, df, trial)
+                return disp, vel, acc, ff, slip, bf, bz, False, k, iterations, factorisations
             for i in range(n):
                 ut[i] = u[i] + h * v[i] + cu * a[i]  # the predictor ũ
             for e in range(m):
@@ -294,7 +399,7 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
                 y_old[e] = y[e]
                 f_old[e] = f[e]
                 state[e] = trial[e]
-    return disp, vel, acc, ff, slip, bf, bz, False, -1, iterations
+    return disp, vel, acc, ff, slip, bf, bz, False, -1, iterations, factorisations
 
 
 def explicit_stable_step(system: System) -> float:
@@ -321,8 +426,8 @@ class ImplicitSimulator(Simulator):
     ----------
     alpha, beta, gamma : float
         The HHT parameters and the Newmark ones they imply.
-    iterations : int
-        Newton iterations of the last run (their mean per step says how nonlinear it was).
+    iterations, factorisations : int
+        Newton iterations and factorisations of the tangent in the last run.
     """
 
     def __init__(
@@ -337,7 +442,7 @@ class ImplicitSimulator(Simulator):
         self.alpha = check_hht_alpha(alpha)
         self.beta = (1.0 - self.alpha) ** 2 / 4.0
         self.gamma = 0.5 - self.alpha
-        self.iterations = 0
+        self.iterations = self.factorisations = 0
         n, h, al, be, ga = self.n_dof, self.h, self.alpha, self.beta, self.gamma
         M, C, K = system.M, system.C, system.K
         c0 = 1.0 / (be * h * h)
@@ -416,8 +521,8 @@ class ImplicitSimulator(Simulator):
     ) -> tuple:
         q = sample_loads(ag, force, self._g, self._G)
         a0 = self._initial_acceleration(ag, force, x0, v0, self._initial_force(x0))
-        (disp, vel, acc, ff, slip, bf, bz, diverged, failed,
-         self.iterations) = _implicit_kernel(
+        (disp, vel, acc, ff, slip, bf, bz, diverged, failed, self.iterations,
+         self.factorisations) = _implicit_kernel(
             self._AuT, self._AvT, self._AaT, self._HT, self._S, q, self.substeps, self.h,
             self.alpha, self.beta, self.gamma, x0, v0, a0, self.outputs, self._ei, self._ej,
             self._kr, self._fu, self._bw, self._dy_max, self._y_scale, NEWTON_TOLERANCE,
