@@ -42,6 +42,11 @@ def _shared_data_missing() -> str | None:
     return None if data.is_dir() else f"needs the shared mini shake-table records ({data})"
 
 
+def _meloland_missing() -> str | None:
+    data = REPO.parent / "shared" / "data" / "cesmd_meloland"
+    return None if data.is_dir() else f"needs the shared Meloland records ({data})"
+
+
 def _module_missing(*modules: str) -> str | None:
     for module in modules:
         try:
@@ -67,6 +72,8 @@ QUICK = {
     "frame3d_opensees.py": ("worst ", _opensees_missing),
     "friction_kernels.py": ("jacobian batch, per point", lambda: None),
     "hysteresis.py": ("4. Three storeys, a slider per storey", lambda: None),
+    "hysteretic_frame.py": ("cost per second of record, explicit / implicit",
+                            lambda: _meloland_missing()),
     "jacobian_cost.py": ("fd err", lambda: None),
     "jenkins_reliability.py": ("verdict: ", _shared_data_missing),
     "model_classes.py": ("β = 1 reached", _shared_data_missing),

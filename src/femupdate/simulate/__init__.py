@@ -16,7 +16,12 @@ central_difference
 newmark
     Newmark's method (average acceleration by default), with ``substeps``.
 nonlinear
-    Central differences with the elasto-slip friction elements; also runs linear systems.
+    Central differences with the elasto-slip friction and Bouc–Wen elements; also runs linear
+    systems.
+implicit
+    HHT-α (Newmark's average acceleration by default) with Newton–Raphson on the friction and
+    Bouc–Wen elements: unconditionally stable, for systems whose stiff elements would hold
+    central differences to a step far below the record's (:func:`nonlinear_method` chooses).
 """
 
 from __future__ import annotations
@@ -35,6 +40,11 @@ from femupdate.simulate.central_difference import (
     prepare_central_difference,
 )
 from femupdate.simulate.exact import ExactSimulator, prepare_exact
+from femupdate.simulate.implicit import (
+    ImplicitSimulator,
+    explicit_stable_step,
+    prepare_implicit,
+)
 from femupdate.simulate.newmark import NewmarkSimulator, prepare_newmark
 from femupdate.simulate.nonlinear import NonlinearSimulator, prepare_nonlinear
 from femupdate.simulate.response import Response
@@ -43,21 +53,41 @@ __all__ = [
     "METHODS",
     "CentralDifferenceSimulator",
     "ExactSimulator",
+    "ImplicitSimulator",
     "NewmarkSimulator",
     "NonlinearSimulator",
     "Response",
+    "nonlinear_method",
     "prepare",
     "prepare_central_difference",
     "prepare_exact",
+    "prepare_implicit",
     "prepare_newmark",
     "prepare_nonlinear",
     "simulate",
 ]
 
-METHODS: tuple[str, ...] = ("exact", "central_difference", "newmark", "nonlinear")
+METHODS: tuple[str, ...] = ("exact", "central_difference", "newmark", "nonlinear", "implicit")
 LINEAR_METHODS: tuple[str, ...] = ("exact", "central_difference", "newmark")
 
-Simulator = ExactSimulator | CentralDifferenceSimulator | NewmarkSimulator | NonlinearSimulator
+Simulator = (ExactSimulator | CentralDifferenceSimulator | NewmarkSimulator | NonlinearSimulator
+             | ImplicitSimulator)
+
+#: Central differences need ``h ω_max < 2``; the default keeps them only where ``h ω_max`` stays
+#: below this at the nominal point (a factor 2 of room for the stiffer corners of a search box).
+EXPLICIT_MARGIN = 1.0
+
+
+def nonlinear_method(system: System, dt: float, substeps: int = 1) -> str:
+    """The default integrator of a nonlinear ``system`` at ``h = dt / substeps``.
+
+    ``"nonlinear"`` (central differences, the paper's) where their stable step ``2/ω_max``
+    (sliders stuck, Bouc–Wen elements at their largest tangent) is at least twice ``h``;
+    ``"implicit"`` where it is below: stiff elements (zero-length links) would hold the
+    explicit scheme to a step far below the record's, which the implicit one does not need.
+    """
+    h = float(dt) / int(substeps)
+    return "nonlinear" if h * 2.0 / explicit_stable_step(system) < EXPLICIT_MARGIN else "implicit"
 
 
 def prepare(
@@ -69,6 +99,7 @@ def prepare(
     substeps: int = 1,
     newmark_beta: float = 0.25,
     newmark_gamma: float = 0.5,
+    hht_alpha: float = 0.0,
 ) -> Simulator:
     """Prepare an integrator for ``system`` by name; call ``.run(ag, force, x0=, v0=)`` on it.
 
@@ -92,6 +123,8 @@ def prepare(
         return prepare_central_difference(system, dt, outputs, substeps)
     if method == "newmark":
         return prepare_newmark(system, dt, outputs, substeps, newmark_beta, newmark_gamma)
+    if method == "implicit":
+        return prepare_implicit(system, dt, outputs, substeps, hht_alpha)
     return prepare_nonlinear(system, dt, outputs, substeps)
 
 
@@ -108,6 +141,7 @@ def simulate(
     v0: np.ndarray | None = None,
     newmark_beta: float = 0.25,
     newmark_gamma: float = 0.5,
+    hht_alpha: float = 0.0,
 ) -> Response:
     """Response of ``system`` to a base acceleration and/or nodal forces sampled every ``dt``.
 
@@ -124,8 +158,9 @@ def simulate(
         Base acceleration.
     force : ndarray (n_samples, n_dof), optional
         Nodal forces on the free DOFs. At least one of ``ag`` and ``force`` is needed.
-    method : {"exact", "central_difference", "newmark", "nonlinear"}
-        Integrator. Systems with friction elements need ``"nonlinear"``.
+    method : {"exact", "central_difference", "newmark", "nonlinear", "implicit"}
+        Integrator. Systems with friction or Bouc–Wen elements need ``"nonlinear"`` or
+        ``"implicit"`` (:func:`nonlinear_method` says which suits them).
     outputs : sequence of int, optional
         DOF indices to output (default: all).
     substeps : int
@@ -134,6 +169,8 @@ def simulate(
         Initial displacement and velocity relative to the base (default: rest).
     newmark_beta, newmark_gamma : float
         Newmark parameters (method ``"newmark"`` only).
+    hht_alpha : float
+        HHT ``α`` in [-1/3, 0] (method ``"implicit"`` only; 0 is average acceleration).
 
     Returns
     -------
@@ -158,6 +195,7 @@ def simulate(
         substeps=substeps,
         newmark_beta=newmark_beta,
         newmark_gamma=newmark_gamma,
+        hht_alpha=hht_alpha,
     )
     return sim.run(ag, force, x0=x0, v0=v0)
 

@@ -1,0 +1,139 @@
+"""The implicit integrator (HHT-α / Newmark with Newton–Raphson on the nonlinear elements):
+against the exact solution of a linear system, linear Newmark to rounding, the explicit path at
+a fine step, its own Bouc–Wen tangent, and its refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femupdate.errors import ConfigError
+from femupdate.model.hysteresis import bouc_wen_update
+from femupdate.model.structure import shear_building
+from femupdate.simulate import nonlinear_method, simulate
+from femupdate.simulate.implicit import (
+    bouc_wen_update_tangent,
+    explicit_stable_step,
+    step_halving_error,
+)
+
+MASSES = (1.0, 0.8)
+LAWS = [{"k": 4000.0, "alpha": 0.1, "A": 1.0, "beta": 7.5e5, "gamma": 2.5e5, "n": 2.0},
+        {"k": 3000.0, "alpha": 0.1, "A": 1.0, "beta": 1.0e6, "gamma": 2.5e5, "n": 2.0}]
+DT = 0.005
+
+
+def _nmse(y: np.ndarray, ref: np.ndarray) -> float:
+    return float(np.sum((y - ref) ** 2) / np.sum(ref**2))
+
+
+def _record() -> np.ndarray:
+    t = np.arange(400) * DT
+    return 8.0 * np.sin(2.0 * np.pi * 3.0 * t) * np.sin(np.pi * t / t[-1]) ** 2
+
+
+def _hysteretic():
+    s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=LAWS)
+    s.set_rayleigh(alpha=0.6)
+    return s.assemble()
+
+
+def test_linear_system_converges_to_the_exact_solution_at_second_order() -> None:
+    s = shear_building(list(MASSES), [4000.0, 3000.0])
+    s.set_rayleigh(alpha=0.6)
+    system = s.assemble()
+    ag = _record()
+    exact = simulate(system, DT, ag=ag, method="exact").displacement
+    errors = []
+    for substeps in (2, 4, 8):
+        ours = simulate(system, DT, ag=ag, method="implicit", substeps=substeps).displacement
+        newmark = simulate(system, DT, ag=ag, method="newmark", substeps=substeps).displacement
+        assert np.abs(ours - newmark).max() < 1e-12 * np.abs(exact).max()  # the same scheme
+        errors.append(np.sqrt(_nmse(ours, exact)))
+    order = np.log2(errors[0] / errors[1]), np.log2(errors[1] / errors[2])
+    assert all(1.9 < o < 2.1 for o in order), errors
+    assert errors[-1] < 1e-4
+
+
+def test_elastic_links_give_the_linear_solution() -> None:
+    """Bouc–Wen links that never yield (α = 1: the force is k y) are springs: the implicit
+    path gives the exact linear solution at its own order, and linear Newmark to rounding."""
+    laws = [dict(law, alpha=1.0) for law in LAWS]
+    s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=laws)
+    s.set_rayleigh(alpha=0.6)
+    linear = shear_building(list(MASSES), [4000.0, 3000.0])
+    linear.set_rayleigh(alpha=0.6)
+    ag = _record()
+    ours = simulate(s.assemble(), DT, ag=ag, method="implicit", substeps=4)
+    newmark = simulate(linear.assemble(), DT, ag=ag, method="newmark", substeps=4).displacement
+    exact = simulate(linear.assemble(), DT, ag=ag, method="exact").displacement
+    assert np.abs(ours.displacement - newmark).max() < 1e-11 * np.abs(newmark).max()
+    assert _nmse(ours.displacement, exact) < 1e-7
+
+
+def test_hysteretic_building_agrees_with_the_explicit_path() -> None:
+    system = _hysteretic()
+    ag = _record()
+    explicit = simulate(system, DT, ag=ag, method="nonlinear", substeps=80)
+    ours = simulate(system, DT, ag=ag, method="implicit", substeps=8)
+    assert np.abs(explicit.hysteretic_z).max() > 0.9 * (1.0 / (7.5e5 + 2.5e5)) ** 0.5  # yields
+    assert _nmse(ours.displacement, explicit.displacement) < 1e-6
+    assert _nmse(ours.hysteretic_force, explicit.hysteretic_force) < 1e-6
+    assert _nmse(ours.acceleration, explicit.acceleration) < 1e-5
+    hht = simulate(system, DT, ag=ag, method="implicit", substeps=8, hht_alpha=-0.1)
+    assert _nmse(hht.displacement, explicit.displacement) < 1e-5
+
+
+def test_friction_agrees_with_the_explicit_path() -> None:
+    s = shear_building([1.0, 0.8], [4000.0, 3000.0], dampers=[0.5, 0.5],
+                       frictions=[{"k_r": 2000.0, "f_u": 2.0}, {"k_r": 1500.0, "f_u": 1.5}])
+    system = s.assemble()
+    ag = _record()
+    explicit = simulate(system, DT, ag=ag, method="nonlinear", substeps=200)
+    ours = simulate(system, DT, ag=ag, method="implicit", substeps=20)
+    assert np.abs(explicit.slip).max() > 1e-3  # the sliders slip
+    assert _nmse(ours.displacement, explicit.displacement) < 1e-5
+    assert _nmse(ours.friction_force, explicit.friction_force) < 1e-4
+
+
+def test_the_bouc_wen_tangent_is_the_derivative_of_the_update() -> None:
+    A, beta, gamma = 1.0, 7.5e5, 2.5e5
+    for n in (1.0, 1.5, 2.0, 5.0):
+        for z, dy in ((0.0, 4e-4), (6e-4, 3e-4), (6e-4, -8e-4), (-9e-4, 2e-4)):
+            zn, s = bouc_wen_update_tangent(z, dy, A, beta, gamma, n, 3)
+            assert zn == pytest.approx(bouc_wen_update(z, dy, A, beta, gamma, n, abs(dy) / 3),
+                                       rel=1e-12, abs=1e-18)
+            eps = 1e-9
+            up = bouc_wen_update_tangent(z, dy + eps, A, beta, gamma, n, 3)[0]
+            down = bouc_wen_update_tangent(z, dy - eps, A, beta, gamma, n, 3)[0]
+            assert s == pytest.approx((up - down) / (2 * eps), rel=1e-5, abs=1e-8)
+
+
+def test_step_halving_estimates_the_error() -> None:
+    system = _hysteretic()
+    ag = _record()
+    fine = simulate(system, DT, ag=ag, method="implicit", substeps=64).displacement
+    coarse = simulate(system, DT, ag=ag, method="implicit", substeps=2).displacement
+    estimate = step_halving_error(system, DT, ag, substeps=2)
+    actual = _nmse(coarse, fine)
+    assert 0.3 * actual < estimate < 3.0 * actual
+
+
+def test_stiff_links_choose_the_implicit_scheme() -> None:
+    system = _hysteretic()
+    h_cd = explicit_stable_step(system)
+    assert h_cd == pytest.approx(2.0 / np.sqrt(np.linalg.eigvals(
+        np.linalg.solve(system.M, system.K + system.bouc_wen.max_stiffness(2))).real.max()))
+    assert nonlinear_method(system, DT) == "nonlinear"  # 2/ω_max above twice the step
+    stiff = shear_building(list(MASSES), [0.0, 0.0],
+                           bouc_wen=[dict(law, k=1e3 * law["k"]) for law in LAWS]).assemble()
+    h_stiff = explicit_stable_step(stiff)
+    assert nonlinear_method(stiff, DT) == "implicit"
+    assert nonlinear_method(stiff, DT, substeps=int(np.ceil(2.05 * DT / h_stiff))) == "nonlinear"
+    assert nonlinear_method(stiff, DT, substeps=int(np.floor(1.95 * DT / h_stiff))) == "implicit"
+
+
+def test_bad_alpha_is_refused() -> None:
+    system = _hysteretic()
+    with pytest.raises(ConfigError, match=r"hht_alpha = -0\.5 .*\[-1/3, 0\]"):
+        simulate(system, DT, ag=_record(), method="implicit", hht_alpha=-0.5)
