@@ -1,0 +1,151 @@
+"""The surrogate-aided posterior against the exact one of a cheap analytic model, and what it
+says when it cannot reach its accuracy or the model fails at design points."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femupdate.errors import ConfigError, ModelError
+from femupdate.posterior.likelihood import ErrorModel
+from femupdate.posterior.priors import Prior
+from femupdate.posterior.surrogate import (
+    ChannelSurrogate,
+    centred_error,
+    log_sums,
+    pseudo_model,
+    spread_points,
+    surrogate_loglike,
+    surrogate_posterior,
+)
+
+pytest.importorskip("sklearn", reason="the surrogate needs scikit-learn (extra 'posterior')")
+
+T = np.linspace(0.0, 2.0, 200)
+TRUTH = (1.5, 0.8)
+PRIOR = Prior(["f", "d"], [1.0, 0.2], [2.0, 2.0], ["linear", "linear"], {})
+#: One channel of 200 independent values (an unknown variance integrated out).
+MODEL = ErrorModel("iid", np.array([0]), np.array([T.size]), np.array([float(T.size)]),
+                   np.zeros(1))
+
+
+def response(f: float, d: float) -> np.ndarray:
+    """A decaying oscillation of frequency f (Hz) and decay rate d (1/s)."""
+    return np.exp(-d * T) * np.sin(2.0 * np.pi * f * T)
+
+
+DATA = response(*TRUTH) + 0.05 * np.random.default_rng(1).standard_normal(T.size)
+
+
+def evaluate(X: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
+    return np.array([response(*x) - DATA for x in X]), [None] * len(X)
+
+
+def fixed_model(x: np.ndarray, r: np.ndarray) -> tuple[ErrorModel, int]:
+    return MODEL, 0
+
+
+def exact_moments() -> tuple[np.ndarray, np.ndarray]:
+    """Means and standard deviations of the exact posterior by quadrature on a fine grid."""
+    f, d = np.meshgrid(np.linspace(1.0, 2.0, 801), np.linspace(0.2, 2.0, 801), indexing="ij")
+    ll = np.array([MODEL.loglike_rows(np.array([response(a, b) - DATA
+                                               for a, b in zip(fa, da, strict=True)]))
+                   for fa, da in zip(f, d, strict=True)])
+    w = np.exp(ll - ll.max())
+    w /= w.sum()
+    means = np.array([(w * f).sum(), (w * d).sum()])
+    sds = np.sqrt([(w * (f - means[0]) ** 2).sum(), (w * (d - means[1]) ** 2).sum()])
+    return means, sds
+
+
+@pytest.mark.slow
+def test_matches_the_exact_posterior_in_few_runs() -> None:
+    result = surrogate_posterior(evaluate, PRIOR, fixed_model, rng=np.random.default_rng(3),
+                                 population=1000)
+    means, sds = exact_moments()
+    assert result.reached, result.message
+    assert result.model_runs <= 80
+    np.testing.assert_allclose(result.means(), means, rtol=0.005)
+    np.testing.assert_allclose(result.sds(), sds, rtol=0.15)
+    assert result.check_error <= result.tolerance
+    assert "model runs" in result.message
+
+
+def test_a_surrogate_short_of_its_budget_says_what_it_reached() -> None:
+    result = surrogate_posterior(evaluate, PRIOR, fixed_model, rng=np.random.default_rng(3),
+                                 max_runs=18, initial=12, batch=4, check=2, population=100)
+    assert not result.reached
+    assert result.model_runs == 18
+    assert result.accuracy > result.tolerance
+    assert "did not reach its accuracy" in result.message
+    assert f"{result.accuracy:.3g} nats against a tolerance of 0.5" in result.message
+
+
+def test_failing_design_points_are_reported() -> None:
+    def fragile(X: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
+        rows, why = evaluate(X)
+        for i, x in enumerate(X):
+            if x[0] > 1.8:
+                rows[i], why[i] = np.nan, f"no convergence at f = {x[0]:.3f}"
+        return rows, why
+
+    result = surrogate_posterior(fragile, PRIOR, fixed_model, rng=np.random.default_rng(3),
+                                 max_runs=18, initial=12, batch=4, check=2, population=100)
+    assert result.failures and all("no convergence at f = 1.8" in f or
+                                   "no convergence at f = 1.9" in f for f in result.failures)
+    assert f"the model failed at {len(result.failures)} of {result.model_runs}" in \
+        result.message
+    assert result.failures[0].startswith("f = ")
+
+
+def test_a_model_failing_everywhere_is_an_error() -> None:
+    def broken(X: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
+        return np.full((len(X), T.size), np.nan), ["section undefined"] * len(X)
+
+    with pytest.raises(ModelError, match=r"failed at all 20 initial design points.*section"):
+        surrogate_posterior(broken, PRIOR, fixed_model, rng=np.random.default_rng(0),
+                            initial=20)
+
+
+@pytest.mark.parametrize(("option", "value", "words"), [
+    ("max_runs", 10, "max_runs: got 10"), ("tolerance", 0.0, "tolerance: got 0.0"),
+    ("initial", 3, "initial: got 3"), ("batch", 1, "batch: got 1"),
+    ("check", True, "check: got True")])
+def test_bad_settings_are_refused(option: str, value: object, words: str) -> None:
+    with pytest.raises(ConfigError, match=words):
+        surrogate_posterior(evaluate, PRIOR, fixed_model, rng=np.random.default_rng(0),
+                            **{option: value})
+
+
+@pytest.mark.slow
+def test_the_same_seed_gives_the_same_bits() -> None:
+    runs = [surrogate_posterior(evaluate, PRIOR, fixed_model, rng=np.random.default_rng(5),
+                                max_runs=18, initial=12, batch=4, check=2, population=100)
+            for _ in range(2)]
+    assert np.array_equal(runs[0].samples, runs[1].samples)
+
+
+def test_the_pseudo_rows_give_the_surrogate_likelihood() -> None:
+    rng = np.random.default_rng(2)
+    unit = rng.random((30, 2))
+    rows, _ = evaluate(PRIOR.to_search(unit))
+    surrogate = ChannelSurrogate(unit, log_sums(MODEL, rows), rng)
+    mean, var = surrogate.predict(unit[:5])
+    pseudo = np.exp(0.5 * (mean + 0.5 * var))
+    np.testing.assert_allclose(pseudo_model(MODEL).loglike_rows(pseudo),
+                               surrogate_loglike(MODEL, mean, var), rtol=1e-12)
+    # at its own design points the surrogate interpolates log S
+    np.testing.assert_allclose(mean[:, 0], log_sums(MODEL, rows[:5])[:, 0], atol=1e-3)
+
+
+def test_the_surrogate_variance_only_lowers_the_likelihood() -> None:
+    mean = np.array([[0.0], [0.0]])
+    ll = surrogate_loglike(MODEL, mean, np.array([[0.0], [0.1]]))
+    assert ll[1] < ll[0]
+
+
+def test_spread_points_and_centred_error() -> None:
+    x = np.array([[0.0, 0.0], [0.01, 0.0], [1.0, 1.0], [0.5, 0.5]])
+    assert set(spread_points(x, 2, np.ones(2)).tolist()) == {0, 2}
+    assert centred_error(np.array([1.0, 2.0, 3.0]), np.array([0.0, 1.0, 2.0])) == 0.0
+    assert centred_error(np.array([1.0]), np.array([0.0])) == np.inf
