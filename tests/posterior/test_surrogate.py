@@ -3,21 +3,30 @@ says when it cannot reach its accuracy or the model fails at design points."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
+from femupdate.case import parse_case
+from femupdate.case.posterior_section import PosteriorSection
 from femupdate.errors import ConfigError, ModelError
+from femupdate.experiment import Experiment
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.surrogate import (
     ChannelSurrogate,
     centred_error,
     log_sums,
+    problem_evaluator,
     pseudo_model,
     spread_points,
     surrogate_loglike,
     surrogate_posterior,
+    wants_surrogate,
 )
+from femupdate.update import UpdateProblem
 
 pytest.importorskip("sklearn", reason="the surrogate needs scikit-learn (extra 'posterior')")
 
@@ -149,3 +158,65 @@ def test_spread_points_and_centred_error() -> None:
     assert set(spread_points(x, 2, np.ones(2)).tolist()) == {0, 2}
     assert centred_error(np.array([1.0, 2.0, 3.0]), np.array([0.0, 1.0, 2.0])) == 0.0
     assert centred_error(np.array([1.0]), np.array([0.0])) == np.inf
+
+
+# ------------------------------------------------------------- a case's model and the default
+
+FRAGILE = '''
+def model(values, ag, dt):
+    if values["a"] > 3.5:
+        raise ValueError("unstable above a = 3.5")
+    return (values["a"] * ag)[:, None]
+'''
+
+
+def fragile_problem(tmp_path: Path) -> UpdateProblem:
+    """A one-channel Python model that fails above a = 3.5, on a target made by a = 2."""
+    (tmp_path / "fragile.py").write_text(FRAGILE)
+    case = parse_case({
+        "case": {"name": "fragile"},
+        "model": {"python": {"function": f"{tmp_path / 'fragile.py'}:model",
+                             "isolate": False}},
+        "parameters": [{"name": "a", "lower": 0.0, "upper": 5.0}],
+        "data": {"format": "csv", "rate": 100.0, "input": {"file": "x.csv", "column": 0},
+                 "outputs": [{"file": "x.csv", "column": 1, "name": "roof"}]},
+    })
+    t = np.arange(200) * 0.01
+    ag = np.sin(2 * np.pi * 3.0 * t) * np.exp(-t)
+    exp = Experiment(t=t, ag=ag, accelerations=(2.0 * ag)[:, None], target=(2.0 * ag)[:, None],
+                     quantity="acceleration", channels=("roof",), weights=np.ones(1),
+                     name="fragile")
+    return UpdateProblem(case, exp)
+
+
+def test_a_case_model_failure_comes_back_with_its_message(tmp_path: Path) -> None:
+    problem = fragile_problem(tmp_path)
+    rows, why = problem_evaluator(problem)(np.array([[2.0], [4.0]]))
+    assert np.all(np.isfinite(rows[0])) and np.all(np.isnan(rows[1]))
+    assert why[0] is None and "unstable above a = 3.5" in str(why[1])
+    assert np.allclose(rows[0], problem.residuals(np.array([2.0])))
+
+
+def test_the_surrogate_is_on_for_external_models_unless_asked_otherwise(tmp_path: Path
+                                                                        ) -> None:
+    external = fragile_problem(tmp_path).case
+    assert wants_surrogate(external)
+    assert not wants_surrogate(external, False)
+    spec = external.to_dict()
+    spec["posterior"] = {"surrogate": False}
+    assert not wants_surrogate(parse_case(spec))
+    built_in = parse_case({
+        "case": {"name": "one-storey"},
+        "model": {"shear_building": {"masses": [1.0], "stiffnesses": ["k"]}},
+        "parameters": [{"name": "k", "lower": 1.0, "upper": 10.0}],
+        "data": {"format": "csv", "rate": 100.0, "input": {"file": "x.csv", "column": 0},
+                 "outputs": [{"file": "x.csv", "column": 1, "name": "F1", "node": "F1",
+                              "dof": "ux"}]},
+    })
+    assert not wants_surrogate(built_in)
+    assert wants_surrogate(built_in, True)
+
+
+def test_the_surrogate_field_takes_only_a_boolean() -> None:
+    with pytest.raises(ValidationError):
+        PosteriorSection(surrogate="often")

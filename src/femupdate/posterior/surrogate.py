@@ -8,9 +8,11 @@ the (whitened) residual sums S_c = ‖r_c‖² of its blocks (one per trial × c
 so a surrogate of the C functions y_c(x) = log S_c(x) is a surrogate of the likelihood. Each
 y_c is modelled on the unit cube by a quadratic trend (least squares) plus a Gaussian process
 (scikit-learn's ``GaussianProcessRegressor``, Matérn 5/2 with one length per parameter) on
-what the trend leaves. The surrogate's own uncertainty enters the likelihood through the
-expected residual energy: with y_c ~ N(μ_c, σ_c²), E[S_c] = exp(μ_c + σ_c²/2) takes the place
-of S_c, so where the surrogate is unsure the likelihood is lower, never spuriously higher.
+what the trend leaves; design points far below the best in log L are fitted loosely (they
+only need to say "unlikely here"), those near it exactly. The surrogate's own uncertainty
+enters the likelihood through the expected residual energy: with y_c ~ N(μ_c, σ_c²),
+E[S_c] = exp(μ_c + σ_c²/2) takes the place of S_c, so where the surrogate is unsure the
+likelihood is lower, never spuriously higher.
 
 The design points (true model runs) are chosen where the posterior mass is, in the spirit of
 quoFEM's GP-aided TMCMC (Taflanidis et al. 2025): an initial Latin hypercube over the bounds,
@@ -51,6 +53,10 @@ TOLERANCE = 0.5
 CHECK_RUNS = 8
 #: TMCMC's population on the surrogate (evaluations there are cheap).
 POPULATION = 2000
+#: Design points within this log-likelihood deficit of the best (per channel, nats) are
+#: interpolated; those farther below are fitted with an error of LOOSENESS × their excess
+#: (they only need to say "unlikely here"), and weigh less in the quadratic trend.
+NEAR_NATS, LOOSENESS = 20.0, 0.2
 #: A batch: this share of it from the surrogate's posterior, the rest where it is unsure.
 EXPLOIT_SHARE = 0.75
 
@@ -96,30 +102,45 @@ class ChannelSurrogate:
         log S_c there (finite).
     rng : numpy.random.Generator
         Seeds the optimiser restarts of the kernel's hyperparameters.
+    counts : ndarray (C,) or None
+        The error model's N_c: with them, points more than :data:`NEAR_NATS` below the best
+        in log L are fitted loosely and weigh less in the trend (None: all alike).
     """
 
-    def __init__(self, unit: np.ndarray, targets: np.ndarray, rng: np.random.Generator) -> None:
+    def __init__(self, unit: np.ndarray, targets: np.ndarray, rng: np.random.Generator,
+                 counts: np.ndarray | None = None) -> None:
         gp_module = require("sklearn.gaussian_process", "posterior")
         kernels = require("sklearn.gaussian_process.kernels", "posterior")
         unit, targets = np.atleast_2d(unit), np.atleast_2d(targets)
-        n = unit.shape[1]
+        n, channels = unit.shape[1], targets.shape[1]
         features = quadratic_features(unit)
         if features.shape[1] > unit.shape[0] // 2:  # too few points for the quadratic terms
             features = features[:, :n + 1]
         self._terms = features.shape[1]
-        self.coef = np.linalg.lstsq(features, targets, rcond=None)[0]
-        remainder = targets - features @ self.coef
+        self.coef = np.empty((self._terms, channels))
         self.models = []
-        for c in range(targets.shape[1]):
+        for c in range(channels):
+            y = targets[:, c]
+            # each point's share of the log-likelihood deficit from the best (nats): points
+            # far below the posterior are fitted loosely, those near it exactly
+            excess = (np.zeros_like(y) if counts is None
+                      else 0.5 * counts[c] * (y - y.min()))
+            weight = 1.0 / (1.0 + excess / NEAR_NATS)
+            self.coef[:, c] = np.linalg.lstsq(features * weight[:, None], y * weight,
+                                              rcond=None)[0]
+            remainder = y - features @ self.coef[:, c]
+            loose = (np.zeros_like(y) if counts is None else
+                     LOOSENESS * np.maximum(excess - NEAR_NATS, 0.0) / (0.5 * counts[c]))
+            alpha = (loose / max(float(remainder.std()), 1e-300)) ** 2 + 1e-10
             kernel = (kernels.ConstantKernel(1.0, (1e-6, 1e6))
                       * kernels.Matern(np.full(n, 0.3), (1e-3, 1e2), nu=2.5)
                       + kernels.WhiteKernel(1e-8, (1e-12, 1e-3)))
             gp = gp_module.GaussianProcessRegressor(
-                kernel, normalize_y=True, n_restarts_optimizer=2,
+                kernel, alpha=alpha, normalize_y=True, n_restarts_optimizer=2,
                 random_state=int(rng.integers(2**31 - 1)))
             with warnings.catch_warnings():  # a kernel bound reached is no error here
                 warnings.simplefilter("ignore", category=Warning)
-                self.models.append(gp.fit(unit, remainder[:, c]))
+                self.models.append(gp.fit(unit, remainder))
 
     def predict(self, unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean and variance of log S_c at rows of the unit cube: two (k, C) arrays."""
@@ -363,7 +384,7 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
             design.runs += extra
         targets = log_sums(model, rows)
         keep = np.all(np.isfinite(targets), axis=1)
-        return ChannelSurrogate(unit[keep], targets[keep], rng), model
+        return ChannelSurrogate(unit[keep], targets[keep], rng, model.counts), model
 
     while True:
         surrogate, model = refit()
@@ -454,3 +475,89 @@ def problem_evaluator(problem: Any, executor: Any = None) -> Evaluate:
         return out, [why for _, why in got]
 
     return evaluate
+
+
+#: The file of the surrogate-aided posterior in a results directory: its record (JSON) and
+#: samples (NPZ).
+RECORD_FILE, SAMPLES_FILE = "surrogate.json", "surrogate.npz"
+#: The error model when ``[posterior] error_model`` names none: the Laplace record's default,
+#: which needs no Jacobian ("adjusted" takes one, 2n model runs, at each better best run).
+SURROGATE_KIND = "neff"
+
+
+def wants_surrogate(case: Any, flag: bool | None = None) -> bool:
+    """``flag`` (``--surrogate``/``--no-surrogate``) when given, else ``[posterior]
+    surrogate`` when set, else on for an external model (``[model.python]``,
+    ``[model.opensees]``) and off for femupdate's own."""
+    if flag is not None:
+        return bool(flag)
+    section = getattr(case, "posterior", None)
+    if section is not None and section.surrogate is not None:
+        return bool(section.surrogate)
+    return case.model.python is not None or case.model.opensees is not None
+
+
+def case_error_model_at(problem: Any, kind: str) -> ErrorModelAt:
+    """:data:`ErrorModelAt` of an UpdateProblem: ``kind`` fixed at a run's residuals (with a
+    Jacobian there for ``"adjusted"``: 2n more model runs, counted)."""
+    from femupdate.posterior.jacobian import residual_jacobian
+    from femupdate.posterior.likelihood import problem_error_model
+
+    def at(x: np.ndarray, r: np.ndarray) -> tuple[ErrorModel, int]:
+        if kind != "adjusted":
+            return problem_error_model(problem, r, kind, point=x), 0
+        _, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+        return problem_error_model(problem, r, kind, jac, point=x), 2 * len(x)
+
+    return at
+
+
+def run_case_surrogate(case: Any, out_dir: Any, *, seed: int | None = None,
+                       workers: int = 1, scheduler: str | None = None,
+                       progress: Callable[[str], None] | None = None) -> SurrogateResult:
+    """The surrogate-aided posterior of a case, its design batches on ``workers`` local
+    processes or the Dask ``scheduler``; its record into ``out_dir/surrogate.json`` and its
+    samples into ``out_dir/surrogate.npz``.
+
+    The error model is ``[posterior] error_model`` (default :data:`SURROGATE_KIND`), the seed
+    ``seed`` or ``[posterior] seed``; ``"known"``-like kinds are not of residual sums and the
+    case schema does not offer them.
+    """
+    import json
+    from pathlib import Path
+
+    from femupdate.case.posterior_section import DEFAULT_POSTERIOR
+    from femupdate.experiment import load_experiments
+    from femupdate.posterior.best_fit import case_priors
+    from femupdate.runs.executors import open_executor
+    from femupdate.update import UpdateProblem
+
+    settings = case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
+    seed = settings.seed if seed is None else seed
+    kind = settings.error_model or SURROGATE_KIND
+    problem = UpdateProblem(case, load_experiments(case))
+    prior = case_priors(case)
+    try:
+        with open_executor(workers, scheduler) as executor:
+            result = surrogate_posterior(problem_evaluator(problem, executor), prior,
+                                         case_error_model_at(problem, kind),
+                                         rng=np.random.default_rng(seed), progress=progress)
+    finally:
+        problem.close()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez(out / SAMPLES_FILE, names=np.array(result.names), samples=result.samples)
+    record = {"reached": result.reached, "message": result.message,
+              "model_runs": result.model_runs, "accuracy_nats": result.accuracy,
+              "check_error_nats": result.check_error, "tolerance_nats": result.tolerance,
+              "error_model": result.error_model.kind, "seed": seed,
+              "log_evidence": result.log_evidence, "wall_s": result.wall_s,
+              "failures": result.failures, "history": result.history,
+              "params": {n: {"mean": float(m), "sd": float(s), "q05": float(a),
+                             "q95": float(b)}
+                         for n, m, s, a, b in zip(
+                             result.names, result.means(), result.sds(),
+                             *np.quantile(result.samples, [0.05, 0.95], axis=0),
+                             strict=True)}}
+    (out / RECORD_FILE).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+    return result
