@@ -4,8 +4,8 @@ The model: examples/surrogate/shear_frame_opensees.py, a three-storey shear fram
 OpenSeesPy (storey stiffnesses k1, k2, k3 updated, uniform priors on [1e5, 4e5] N/m), under a
 seeded EC8-compatible artificial record (``--duration`` s at ``--rate`` Hz); its measured
 records are its own response at the truth (2.4e5, 2.0e5, 1.6e5 N/m) at floors 1 and 3 plus
-white noise of ``--noise`` of each channel's RMS. The likelihood is femupdate's (error model
-``neff``, fixed at the surrogate's best true run); both posteriors use that same error model.
+white noise of ``--noise`` of each channel's RMS. The likelihood is femupdate's, error model
+``neff`` fixed at the truth's residuals, the same for both posteriors.
 
 1. The surrogate-aided posterior (femupdate.posterior.surrogate) with its design batches on
    ``--workers`` local worker processes: model runs, wall time, the final check.
@@ -95,11 +95,13 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--population", type=int, default=1000, help="direct TMCMC's")
-    parser.add_argument("--duration", type=float, default=6.0, help="record, s")
-    parser.add_argument("--rate", type=float, default=100.0, help="Hz")
-    parser.add_argument("--noise", type=float, default=0.05, help="share of each RMS")
+    parser.add_argument("--duration", type=float, default=3.0, help="record, s")
+    parser.add_argument("--rate", type=float, default=50.0, help="Hz")
+    parser.add_argument("--noise", type=float, default=0.3, help="share of each RMS")
     parser.add_argument("--max-runs", type=int, default=300)
     parser.add_argument("--no-direct", action="store_true", help="skip direct TMCMC")
+    parser.add_argument("--no-surrogate", action="store_true",
+                        help="direct TMCMC only (the reference alone)")
     parser.add_argument("--json", type=Path)
     parser.add_argument("--quick", action="store_true",
                         help="a 2 s record, 60 model runs at most, no direct TMCMC (smoke run)")
@@ -114,57 +116,68 @@ def main() -> None:
     print(f"OpenSeesPy shear frame, {names}, record {args.duration:g} s at {args.rate:g} Hz, "
           f"noise {args.noise:.0%}, {args.workers} workers", flush=True)
 
-    def neff_at(x: np.ndarray, r: np.ndarray) -> tuple[ErrorModel, int]:
-        return problem_error_model(problem, r, "neff"), 0
+    # one likelihood for both: error model neff fixed at the truth's residuals
+    model = problem_error_model(problem, problem.residuals(problem.case.to_search(TRUTH)),
+                                "neff")
+
+    def fixed(x: np.ndarray, r: np.ndarray) -> tuple[ErrorModel, int]:
+        return model, 0
 
     root = np.random.SeedSequence(args.seed)
     rows: dict[str, Any] = {}
+    result = None
     with open_executor(args.workers) as ex:
-        t0 = time.perf_counter()
-        result = surrogate_posterior(
-            problem_evaluator(problem, ex), prior, neff_at,
-            rng=np.random.default_rng(root.spawn(1)[0]), max_runs=args.max_runs,
-            progress=lambda line: print(f"  {line}", flush=True))
-        sur_wall = time.perf_counter() - t0
-        print(f"surrogate: {result.message}")
-        print(f"surrogate: {result.model_runs} model runs, {sur_wall:.1f} s wall "
-              f"({args.workers} workers)", flush=True)
-        rows["surrogate"] = {"model_runs": result.model_runs, "wall_s": sur_wall,
-                             "reached": result.reached, "accuracy": result.accuracy,
-                             "check_error": result.check_error,
-                             "means": result.means().tolist(), "sds": result.sds().tolist()}
+        if not args.no_surrogate:
+            t0 = time.perf_counter()
+            result = surrogate_posterior(
+                problem_evaluator(problem, ex), prior, fixed,
+                rng=np.random.default_rng(root.spawn(1)[0]), max_runs=args.max_runs,
+                progress=lambda line: print(f"  {line}", flush=True))
+            wall = time.perf_counter() - t0
+            print(f"surrogate: {result.message}")
+            print(f"surrogate: {result.model_runs} model runs, {wall:.1f} s wall "
+                  f"({args.workers} workers)", flush=True)
+            rows["surrogate"] = {"model_runs": result.model_runs, "wall_s": wall,
+                                 "reached": result.reached, "accuracy": result.accuracy,
+                                 "check_error": result.check_error,
+                                 "means": result.means().tolist(),
+                                 "sds": result.sds().tolist()}
         if not args.no_direct:
             t0 = time.perf_counter()
-            post, _ = run_tmcmc(Rows(problem, ex).residuals, prior, result.error_model,
+            post, _ = run_tmcmc(Rows(problem, ex).residuals, prior, model,
                                 seed=np.random.default_rng(root.spawn(2)[1]),
                                 population=args.population)
-            direct_wall = time.perf_counter() - t0
+            wall = time.perf_counter() - t0
             direct = prior.to_physical(post.samples)
-            print(f"direct TMCMC: {post.evaluations:,} model runs, {direct_wall:.1f} s wall "
+            print(f"direct TMCMC: {post.evaluations:,} model runs, {wall:.1f} s wall "
                   f"({args.workers} workers), {len(post.stages)} stages", flush=True)
-            rows["direct"] = {"model_runs": post.evaluations, "wall_s": direct_wall,
+            rows["direct"] = {"model_runs": post.evaluations, "wall_s": wall,
                               "means": direct.mean(axis=0).tolist(),
-                              "sds": direct.std(axis=0, ddof=1).tolist()}
+                              "sds": direct.std(axis=0, ddof=1).tolist(),
+                              "samples": direct}
     problem.close()
-    q = np.quantile(result.samples, [0.05, 0.95], axis=0)
+    samples = result.samples if result is not None else rows["direct"].pop("samples")
+    rows.get("direct", {}).pop("samples", None)
+    label = "surrogate" if result is not None else "direct"
+    q = np.quantile(samples, [0.05, 0.95], axis=0)
     inside = (q[0] <= truth) & (truth <= q[1])
-    print(f"{'':>4} {'truth':>10} {'surrogate mean':>15} {'sd':>9}" +
-          ("" if args.no_direct else f" {'direct mean':>12} {'sd':>9} {'Δmean':>7} "
-                                     f"{'sd ratio':>8}") + "  truth in 90 %")
+    both = "surrogate" in rows and "direct" in rows
+    print(f"{'':>4} {'truth':>10} {label + ' mean':>15} {'sd':>9}" +
+          (f" {'direct mean':>12} {'sd':>9} {'Δmean':>7} {'sd ratio':>8}" if both else "")
+          + "  truth in 90 %")
     for i, name in enumerate(names):
-        line = (f"{name:>4} {truth[i]:10.5g} {result.means()[i]:15.6g} "
-                f"{result.sds()[i]:9.4g}")
-        if not args.no_direct:
-            dm, ds = np.array(rows["direct"]["means"]), np.array(rows["direct"]["sds"])
-            line += (f" {dm[i]:12.6g} {ds[i]:9.4g} {result.means()[i] / dm[i] - 1:+7.2%} "
-                     f"{result.sds()[i] / ds[i]:8.3f}")
+        mean, sd = samples[:, i].mean(), samples[:, i].std(ddof=1)
+        line = f"{name:>4} {truth[i]:10.5g} {mean:15.6g} {sd:9.4g}"
+        if both:
+            dm, ds = rows["direct"]["means"][i], rows["direct"]["sds"][i]
+            line += f" {dm:12.6g} {ds:9.4g} {mean / dm - 1:+7.2%} {sd / ds:8.3f}"
         print(f"{line}  {'yes' if inside[i] else 'no'}")
-    print(f"truth inside the surrogate posterior's 90 % interval: {int(inside.sum())} of "
+    print(f"truth inside the {label} posterior's 90 % interval: {int(inside.sum())} of "
           f"{len(names)}")
-    if not args.no_direct:
-        print(f"model runs: surrogate {result.model_runs} against direct "
-              f"{rows['direct']['model_runs']:,}; wall {sur_wall:.0f} s against "
-              f"{rows['direct']['wall_s']:.0f} s")
+    if both:
+        print(f"model runs: surrogate {rows['surrogate']['model_runs']} against direct "
+              f"{rows['direct']['model_runs']:,}; wall {rows['surrogate']['wall_s']:.0f} s "
+              f"against {rows['direct']['wall_s']:.0f} s ({args.workers} workers)")
     if args.json:
         args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()},
                                          "rows": rows, "truth_inside": inside.tolist()},

@@ -42,20 +42,21 @@ from femupdate._optional import require
 from femupdate.errors import ConfigError, ModelError
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
-from femupdate.posterior.tmcmc import run_tmcmc
+from femupdate.posterior.tmcmc import TMCMC
 
 #: True model runs at most, all included (design, batches, error model, final check).
 MAX_RUNS = 300
 #: Largest accepted error of the surrogate's log-likelihood over the posterior, in nats (the
 #: 90th percentile of the centred error at a batch's posterior points).
-TOLERANCE = 0.5
+TOLERANCE = 1.0
 #: Posterior samples run on the true model in the final check.
 CHECK_RUNS = 8
 #: TMCMC's population on the surrogate (evaluations there are cheap).
-POPULATION = 2000
+POPULATION = 1000
 #: Design points within this log-likelihood deficit of the best (per channel, nats) are
 #: interpolated; those farther below are fitted with an error of LOOSENESS × their excess
-#: (they only need to say "unlikely here"), and weigh less in the quadratic trend.
+#: (they only need to say "unlikely here"), and weigh exponentially less in the quadratic
+#: trend.
 NEAR_NATS, LOOSENESS = 20.0, 0.2
 #: A batch: this share of it from the surrogate's posterior, the rest where it is unsure.
 EXPLOIT_SHARE = 0.75
@@ -125,7 +126,10 @@ class ChannelSurrogate:
             # far below the posterior are fitted loosely, those near it exactly
             excess = (np.zeros_like(y) if counts is None
                       else 0.5 * counts[c] * (y - y.min()))
-            weight = 1.0 / (1.0 + excess / NEAR_NATS)
+            # the trend is a response surface of the points near the best: their deficit
+            # scale widened until twice as many points as terms weigh in
+            reach = max(NEAR_NATS, float(np.sort(excess)[min(2 * self._terms, y.size) - 1]))
+            weight = np.exp(-0.5 * excess / reach)
             self.coef[:, c] = np.linalg.lstsq(features * weight[:, None], y * weight,
                                               rcond=None)[0]
             remainder = y - features @ self.coef[:, c]
@@ -136,7 +140,7 @@ class ChannelSurrogate:
                       * kernels.Matern(np.full(n, 0.3), (1e-3, 1e2), nu=2.5)
                       + kernels.WhiteKernel(1e-8, (1e-12, 1e-3)))
             gp = gp_module.GaussianProcessRegressor(
-                kernel, alpha=alpha, normalize_y=True, n_restarts_optimizer=2,
+                kernel, alpha=alpha, normalize_y=True, n_restarts_optimizer=1,
                 random_state=int(rng.integers(2**31 - 1)))
             with warnings.catch_warnings():  # a kernel bound reached is no error here
                 warnings.simplefilter("ignore", category=Warning)
@@ -166,26 +170,10 @@ def loglike_variance(model: ErrorModel, var: np.ndarray) -> np.ndarray:
 
 def pseudo_model(model: ErrorModel) -> ErrorModel:
     """An error model of C one-value blocks with ``model``'s counts: its log L of the rows
-    √E[S_c] is ``surrogate_loglike`` (so TMCMC runs on the surrogate unchanged)."""
+    √E[S_c] is ``surrogate_loglike`` (so TMCMC samples the surrogate unchanged)."""
     c = model.counts.size
     return ErrorModel("iid", np.arange(c), np.arange(1, c + 1), model.counts.copy(),
                       np.zeros(c))
-
-
-@dataclass
-class SurrogateResiduals:
-    """The pseudo residual rows √E[S_c] of the surrogate at search-space points: what TMCMC
-    tells its error model (:func:`pseudo_model`)."""
-
-    surrogate: ChannelSurrogate
-    prior: Prior
-
-    def residuals_batch(self, X: np.ndarray) -> np.ndarray:
-        mean, var = self.surrogate.predict(self.prior.to_unit(np.atleast_2d(X)))
-        return np.exp(0.5 * (mean + 0.5 * var))
-
-    def residuals(self, x: np.ndarray) -> np.ndarray:
-        return self.residuals_batch(np.asarray(x, dtype=float)[None, :])[0]
 
 
 def spread_points(candidates: np.ndarray, k: int, scale: np.ndarray,
@@ -308,10 +296,16 @@ def _check_settings(max_runs: int, tolerance: float, initial: int, batch: int, c
 
 def _sample(surrogate: ChannelSurrogate, prior: Prior, model: ErrorModel,
             rng: np.random.Generator, population: int) -> tuple[np.ndarray, float]:
-    """TMCMC on the surrogate: (samples in the unit cube, log-evidence)."""
-    fake = SurrogateResiduals(surrogate, prior)
-    post, _ = run_tmcmc(fake.residuals, prior, pseudo_model(model), seed=rng,
-                        population=population, max_evals=10**8)
+    """TMCMC on the surrogate, driven by its ask/tell (a population is one prediction):
+    (samples in the unit cube, log-evidence)."""
+    sampler = TMCMC(prior.dim, rng, error_model=pseudo_model(model), prior=prior,
+                    population=population)
+    while not sampler.stop():
+        unit = sampler.ask()
+        mean, var = surrogate.predict(unit)
+        rows = np.exp(0.5 * (mean + 0.5 * var))
+        sampler.tell(unit, np.einsum("ij,ij->i", rows, rows), rows)
+    post = sampler.posterior()
     if not post.reached:
         raise ModelError(f"surrogate: TMCMC on the surrogate stopped at β = {post.beta:.3g}")
     return post.samples, post.log_evidence
@@ -393,8 +387,11 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
             break
         iterations += 1
         scale = np.maximum(samples.std(axis=0), 1e-6)
-        exploit = samples[spread_points(samples, max(2, round(EXPLOIT_SHARE * batch)), scale,
-                                        chosen=np.array(design.unit))]
+        # exploit: spread over the bulk of the posterior (among a few random samples, so
+        # not only its extreme tails), away from the points already run
+        k = max(2, round(EXPLOIT_SHARE * batch))
+        bulk = samples[rng.choice(len(samples), size=min(len(samples), 8 * k), replace=False)]
+        exploit = bulk[spread_points(bulk, k, scale, chosen=np.array(design.unit))]
         # explore: where log L is least sure, among draws of the posterior widened 2×
         wide = samples.mean(axis=0) + 2.0 * (samples[rng.integers(len(samples), size=4000)]
                                               - samples.mean(axis=0))
