@@ -220,3 +220,54 @@ def test_the_surrogate_is_on_for_external_models_unless_asked_otherwise(tmp_path
 def test_the_surrogate_field_takes_only_a_boolean() -> None:
     with pytest.raises(ValidationError):
         PosteriorSection(surrogate="often")
+
+
+@pytest.mark.slow
+def test_femupdate_posterior_of_an_external_model_takes_the_surrogate(tmp_path: Path) -> None:
+    """The CLI on a case file: an external model gets the surrogate by default, its record
+    and samples written, the model runs counted."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    (tmp_path / "gain.py").write_text(FRAGILE)
+    t = np.arange(300) * 0.01
+    ag = np.sin(2 * np.pi * 3.0 * t) * np.exp(-t)
+    roof = 2.0 * ag + 0.1 * np.random.default_rng(0).standard_normal(t.size)
+    np.savetxt(tmp_path / "table.csv", np.column_stack([t, ag]), delimiter=",",
+               header="t,table", comments="")
+    np.savetxt(tmp_path / "roof.csv", np.column_stack([t, roof]), delimiter=",",
+               header="t,roof", comments="")
+    (tmp_path / "case.toml").write_text(f'''
+[case]
+name = "gain"
+[model.python]
+function = "gain.py:model"
+isolate = false
+[[parameters]]
+name = "a"
+lower = 0.0
+upper = 3.0
+[data]
+format = "csv"
+directory = "{tmp_path}"
+time_column = "t"
+input = {{file = "table.csv", column = "table"}}
+outputs = [{{file = "roof.csv", column = "roof"}}]
+[objective]
+quantity = "acceleration"
+[posterior]
+seed = 3
+''')
+    result = CliRunner().invoke(app, ["posterior", str(tmp_path / "case.toml"), "--out",
+                                      str(tmp_path / "out"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    record = json.loads((tmp_path / "out" / "surrogate.json").read_text())
+    assert record["reached"], record["message"]
+    assert record["model_runs"] <= 300 and record["failures"] == []
+    assert abs(record["params"]["a"]["mean"] - 2.0) < 0.05
+    assert "surrogate posterior in" in result.output
+    samples = np.load(tmp_path / "out" / "surrogate.npz")["samples"]
+    assert samples.shape[1] == 1
