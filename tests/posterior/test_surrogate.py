@@ -18,9 +18,11 @@ from femupdate.posterior.priors import Prior
 from femupdate.posterior.surrogate import (
     ChannelSurrogate,
     centred_error,
+    convex_trend,
     log_sums,
     problem_evaluator,
     pseudo_model,
+    quadratic_features,
     spread_points,
     surrogate_loglike,
     surrogate_posterior,
@@ -271,3 +273,16 @@ seed = 3
     assert "surrogate posterior in" in result.output
     samples = np.load(tmp_path / "out" / "surrogate.npz")["samples"]
     assert samples.shape[1] == 1
+
+
+def test_the_trend_never_falls_away_from_the_data() -> None:
+    rng = np.random.default_rng(0)
+    u = rng.random((40, 2))
+    saddle = (u[:, 0] - 0.5) ** 2 - (u[:, 1] - 0.5) ** 2
+    coef = convex_trend(quadratic_features(u), saddle, 2)
+    q = np.array([[coef[3], coef[4] / 2], [coef[4] / 2, coef[5]]])
+    assert np.linalg.eigvalsh(q).min() >= -1e-12
+    bowl = 1.0 + (u[:, 0] - 0.3) ** 2 + 2.0 * (u[:, 1] - 0.6) ** 2
+    np.testing.assert_allclose(quadratic_features(u) @ convex_trend(quadratic_features(u),
+                                                                     bowl, 2), bowl,
+                               atol=1e-12)

@@ -91,6 +91,27 @@ def quadratic_features(unit: np.ndarray) -> np.ndarray:
     return np.column_stack([np.ones(u.shape[0]), u, *cross])
 
 
+def convex_trend(features: np.ndarray, y: np.ndarray, n: int) -> np.ndarray:
+    """Least-squares coefficients of :func:`quadratic_features` (or of its constant and
+    linear columns alone) with the quadratic form made positive semi-definite (its negative
+    eigenvalues set to zero, the constant and linear terms fitted again): log S may not
+    fall away from the data, where a saddle of the trend would put spurious likelihood."""
+    coef = np.linalg.lstsq(features, y, rcond=None)[0]
+    if features.shape[1] == n + 1:
+        return coef
+    pairs = [(i, j) for i in range(n) for j in range(i, n)]
+    q = np.zeros((n, n))
+    for (i, j), value in zip(pairs, coef[n + 1:], strict=True):
+        q[i, j] = q[j, i] = value if i == j else 0.5 * value
+    values, vectors = np.linalg.eigh(q)
+    if values.min() >= 0.0:
+        return coef
+    q = (vectors * np.maximum(values, 0.0)) @ vectors.T
+    quad = np.array([q[i, j] if i == j else 2.0 * q[i, j] for i, j in pairs])
+    low = np.linalg.lstsq(features[:, :n + 1], y - features[:, n + 1:] @ quad, rcond=None)[0]
+    return np.concatenate([low, quad])
+
+
 class ChannelSurrogate:
     """The surrogate of y_c(u) = log S_c on the unit cube, one model per channel c: a
     quadratic trend by least squares and a Gaussian process on its remainder.
@@ -130,8 +151,7 @@ class ChannelSurrogate:
             # scale widened until twice as many points as terms weigh in
             reach = max(NEAR_NATS, float(np.sort(excess)[min(2 * self._terms, y.size) - 1]))
             weight = np.exp(-0.5 * excess / reach)
-            self.coef[:, c] = np.linalg.lstsq(features * weight[:, None], y * weight,
-                                              rcond=None)[0]
+            self.coef[:, c] = convex_trend(features * weight[:, None], y * weight, n)
             remainder = y - features @ self.coef[:, c]
             loose = (np.zeros_like(y) if counts is None else
                      LOOSENESS * np.maximum(excess - NEAR_NATS, 0.0) / (0.5 * counts[c]))
