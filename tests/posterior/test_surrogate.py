@@ -286,3 +286,12 @@ def test_the_trend_never_falls_away_from_the_data() -> None:
     np.testing.assert_allclose(quadratic_features(u) @ convex_trend(quadratic_features(u),
                                                                      bowl, 2), bowl,
                                atol=1e-12)
+
+
+def test_an_unset_surrogate_field_leaves_the_fingerprint_alone(tmp_path: Path) -> None:
+    spec = fragile_problem(tmp_path).case.to_dict()
+    spec["posterior"] = {"samples": 500}
+    unset = parse_case(spec)
+    assert "surrogate" not in unset.to_dict()["posterior"]
+    spec["posterior"]["surrogate"] = True
+    assert parse_case(spec).fingerprint() != unset.fingerprint()
