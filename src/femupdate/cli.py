@@ -721,6 +721,10 @@ def posterior(
     workers: Annotated[int | None, typer.Option(
         "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
         "workers).", callback=_search_limit("workers", "--workers"))] = None,
+    surrogate: Annotated[bool | None, typer.Option(
+        "--surrogate/--no-surrogate", help="TMCMC on a Gaussian-process surrogate trained at "
+        "300 model runs at most (default: [posterior] surrogate, else on for an external "
+        "model); results in OUT/surrogate.json and OUT/surrogate.npz.")] = None,
     json_path: JsonOption = None,
 ) -> None:
     """The posterior of the parameters by TMCMC, beside the best fit: intervals,
@@ -730,7 +734,9 @@ def posterior(
     its settings from [posterior]: independent runs (default 4), pooled, and their verdict
     (do they agree on each parameter?), checkpointed in OUT/posterior (--resume continues
     them to the same samples). The results go into OUT/summary.json (posterior) and
-    OUT/posterior.npz; `femupdate report OUT` draws them.
+    OUT/posterior.npz; `femupdate report OUT` draws them. With --surrogate (the default for an
+    external model) TMCMC samples a Gaussian-process surrogate of the model trained at 300
+    model runs at most instead, checked against true runs at its samples.
     """
     from femupdate.runs import Execution
     from femupdate.sampling.console import print_posterior
@@ -744,6 +750,17 @@ def posterior(
     if data is not None:
         case = with_data_directory(case, data)
     execution = Execution(scheduler=scheduler, quiet=quiet, log_json=log_json, label=case.label)
+    from femupdate.sampling.run import run_surrogate_posterior
+
+    aided = run_surrogate_posterior(case, out, surrogate=surrogate, seed=seed, workers=workers,
+                                    execution=execution)
+    if aided is not None:
+        say(aided.message)
+        for name, mean, sd in zip(aided.names, aided.means(), aided.sds(), strict=True):
+            say(f"{name}: mean {mean:.6g}, sd {sd:.3g}")
+        say(f"results in {out.resolve()} (surrogate.json, surrogate.npz)")
+        _write_json(json_path, json.loads((out / "surrogate.json").read_text()))
+        return
     try:
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
                                max_runs=max_runs, recentre=recentre, workers=workers,

@@ -75,7 +75,10 @@ class PosteriorSection(Section):
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
     first population; ``recentre``: how many times at most the posterior is sampled again
     from a better fit the sampler finds than the one it started from (0: never; it is then
-    said in words, :mod:`femupdate.sampling.start`)."""
+    said in words, :mod:`femupdate.sampling.start`); ``surrogate``: the surrogate-aided
+    posterior (:mod:`femupdate.posterior.surrogate`: TMCMC on a Gaussian-process surrogate
+    trained at 300 model runs at most); unset, on for an external model
+    (``[model.python]``, ``[model.opensees]``) and off for femupdate's own."""
 
     samples: integer_field(ge=20, le=1_000_000) = 1000
     runs: integer_field(ge=1, le=64) = 4
@@ -87,6 +90,7 @@ class PosteriorSection(Section):
     start: Literal["laplace", "prior"] = "laplace"
     recentre: integer_field(ge=0, le=8) = 2
     priors: dict[str, PriorSpec] = Field(default_factory=dict)
+    surrogate: bool | None = None
 
 
 #: The settings of a case without ``[posterior]``.

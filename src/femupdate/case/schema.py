@@ -547,6 +547,8 @@ class Case(Section):
         data = self.model_dump(mode="json")
         if data.get("posterior") is None:
             data.pop("posterior", None)
+        elif data["posterior"].get("surrogate") is None:  # nor [posterior] surrogate unset
+            data["posterior"].pop("surrogate", None)
         for key in ("cutoff_factor", "n_modes"):  # nor the reduced path's when not given
             if data["simulation"].get(key) is None:
                 data["simulation"].pop(key, None)
