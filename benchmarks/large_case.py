@@ -24,7 +24,9 @@ shared machine the CPU time is the steadier of the two.
 load; the load average is printed beside each. One untimed run per code first (numba's cache).
 
 Run from the repository root: ``python benchmarks/large_case.py`` (``--repeats 2`` for two
-timings of each budget, the smaller kept).
+timings of each budget, the smaller kept; ``--quick``, for CI: a 120-storey building, 5 s of
+records, budgets of 3 and 6 per run inside the first pool batch, this checkout only: it shows
+that the script runs, not a cost).
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "examples" / "large" / "shear-building-1000.toml"
 TRUTH = ROOT / "examples" / "large" / "truth.json"
 BUDGETS = (200, 300)  # per run; the case's 2 runs make 400 and 600 evaluations
+QUICK_BUDGETS = (3, 6)
+QUICK_STOREYS = 120
 DEFAULT_BEFORE = Path("/work/main/src")
 
 
@@ -71,19 +75,20 @@ def evaluations(out: Path) -> tuple[int, float]:
     return sum(int(run["nfev"]) for run in summary["runs"]), float(summary["wall_s"])
 
 
-def measure(src: Path, case: Path, work: Path, repeats: int) -> dict[str, float]:
+def measure(src: Path, case: Path, work: Path, repeats: int,
+            budgets: tuple[int, int] = BUDGETS) -> dict[str, float]:
     """Margin (ms per evaluation) and fixed cost (s), wall and CPU, of ``femupdate run`` with
     ``src``'s code."""
     femupdate(src, "run", str(case), "--out", str(work / "warm"), "--max-evals", "1",
               "--quiet", "--restart")
     times, nfev, search = {}, {}, {}
-    for budget in BUDGETS:
+    for budget in budgets:
         out = work / f"out-{budget}"
         got = [femupdate(src, "run", str(case), "--out", str(out), "--max-evals", str(budget),
                          "--quiet", "--restart") for _ in range(repeats)]
         times[budget] = (min(w for w, _ in got), min(c for _, c in got))
         nfev[budget], search[budget] = evaluations(out)
-    low, high = BUDGETS
+    low, high = budgets
     result: dict[str, float] = {"nfev_low": nfev[low], "nfev_high": nfev[high],
                                 "outside_searches_s": times[low][0] - search[low]}
     for i, kind in enumerate(("wall", "cpu")):
@@ -100,22 +105,35 @@ def main() -> None:
                         default=DEFAULT_BEFORE if DEFAULT_BEFORE.is_dir() else None,
                         help="another checkout's src directory, timed the same way first")
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--quick", action="store_true",
+                        help=f"a {QUICK_STOREYS}-storey building, this checkout only (CI)")
     args = parser.parse_args()
     codes = [("after (this checkout)", ROOT / "src")]
-    if args.before is not None:
+    if args.before is not None and not args.quick:
         codes.insert(0, (f"before ({args.before})", args.before))
+    budgets = QUICK_BUDGETS if args.quick else BUDGETS
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        case = work / "case.toml"
-        shutil.copy(CASE, case)  # its [data] directory "data" is then beside it, here
-        femupdate(ROOT / "src", "synth", str(case), "--truth", str(TRUTH), "--out",
-                  str(work / "data"), "--snr", "0", "--rate", "100", "--duration", "20",
-                  "--length-scale", "1")
-        print(f"femupdate run {CASE.relative_to(ROOT)} (1,000 DOFs, 100 Hz, every default), "
-              f"--max-evals {BUDGETS[0]} and {BUDGETS[1]} per run; min of {args.repeats}")
+        case, truth = work / "case.toml", TRUTH
+        if args.quick:
+            from femupdate.bench import large_building
+
+            case.write_text(large_building.case_text(QUICK_STOREYS, 3), encoding="utf-8")
+            truth = work / "truth.json"
+            truth.write_text(json.dumps(large_building.truth(QUICK_STOREYS, 3)),
+                             encoding="utf-8")
+        else:
+            shutil.copy(CASE, case)  # its [data] directory "data" is then beside it, here
+        femupdate(ROOT / "src", "synth", str(case), "--truth", str(truth), "--out",
+                  str(work / "data"), "--snr", "0", "--rate", "100", "--duration",
+                  "5" if args.quick else "20", "--length-scale", "1")
+        what = (f"a {QUICK_STOREYS}-storey building (--quick)" if args.quick else
+                f"{CASE.relative_to(ROOT)} (1,000 DOFs)")
+        print(f"femupdate run {what}, 100 Hz, every default; --max-evals {budgets[0]} and "
+              f"{budgets[1]} per run; min of {args.repeats}")
         for label, src in codes:
             before = load()
-            got = measure(src, case, work / label.split()[0], args.repeats)
+            got = measure(src, case, work / label.split()[0], args.repeats, budgets)
             print(f"{label} ({before} → {load()}), {got['nfev_low']} and {got['nfev_high']} "
                   "evaluations:")
             for kind in ("wall", "cpu"):
