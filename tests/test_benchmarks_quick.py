@@ -76,6 +76,7 @@ QUICK = {
                             lambda: _meloland_missing()),
     "jacobian_cost.py": ("fd err", lambda: None),
     "jenkins_reliability.py": ("verdict: ", _shared_data_missing),
+    "large_case.py": ("ms per evaluation at the margin", lambda: None),
     "model_classes.py": ("β = 1 reached", _shared_data_missing),
     "multistart_budget.py": ("by phase: pool", lambda: None),
     "optimizer_overhead.py": ("scipy-lsq", lambda: None),

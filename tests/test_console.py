@@ -99,6 +99,8 @@ def test_run_modes_validate_fit_80_columns(case_file: Path, tmp_path: Path) -> N
     # a finished results directory holds no journal or lock files
     assert not {p.name for p in out.iterdir()} & {"results.sqlite-wal", "results.sqlite-shm",
                                                   "results.sqlite.lock"}
+    # nor figures: `femupdate report` draws them (drawing took 5 s of a 1,000-DOF run)
+    assert not list(out.glob("*.png"))
     _lines_fit(_invoke("modes", str(case_file)))
     text = _invoke("validate", str(case_file), "--params", str(out / "summary.json"))
     _lines_fit(text)

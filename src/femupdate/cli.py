@@ -608,14 +608,14 @@ def run(
         "workers).", callback=_search_limit("workers", "--workers"))] = None,
     json_path: JsonOption = None,
 ) -> None:
-    """Update the model of a case from its measured data: repeated runs, summary, plots.
+    """Update the model of a case from its measured data: repeated runs and their summary
+    (`femupdate report OUT` draws the plots).
 
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
     so an interrupted or killed run continues with --resume; --restart starts over.
     """
     from femupdate.case.reduced_path import describe_simulation
     from femupdate.optimize.minimize import METHODS
-    from femupdate.report.figures import write_run_plots
     from femupdate.runs import Execution
     from femupdate.workflow import run_case, with_data_directory, with_method
 
@@ -652,7 +652,6 @@ def run(
                 words += [flag, str(value)]
         _resume_hint([*words, "--resume"])
         raise SystemExit(130) from None
-    write_run_plots(result, out)
     print_update_summary(result.summary)
     if result.summary.simulation is not None:  # which path ran (reduced: modes, truncation)
         say(describe_simulation(result.summary.simulation))

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 
 from femupdate.errors import ConfigError, ModelError
 from femupdate.model import Structure, natural_frequencies, shear_building
-from femupdate.model.sparse import lowest_modes
+from femupdate.model.sparse import _lanczos, lowest_modes, lumped_masses
 
 E, A, I, RHO = 2.1e11, 1e-3, 1e-6, 7850.0  # noqa: E741
 
@@ -83,6 +83,34 @@ def test_lowest_modes_agree_with_the_dense_modes_and_do_not_depend_on_the_start(
     np.testing.assert_allclose(np.abs(b.shapes), np.abs(full.shapes[:, :8]), atol=1e-8)
     c = lowest_modes(sparse.K, sparse.M, n_modes=8)
     np.testing.assert_array_equal(c.shapes, a.shapes)  # same input, same result
+
+
+def test_lumped_masses_take_the_standard_problem_with_the_generalised_ones_eigenpairs(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # Uneven masses and stiffnesses: the scaling by M^(-1/2) matters.
+    n = 200  # above the dense eigensolver's limit of 120 DOFs
+    s = shear_building(list(np.linspace(1.0, 3.0, n)), list(np.linspace(4e6, 1e6, n)))
+    system = s.assemble(sparse=True)
+    assert lumped_masses(system.M) is not None
+    lumped = lowest_modes(system.K, system.M, n_modes=20)
+    monkeypatch.setattr("femupdate.model.sparse.lumped_masses", lambda M: None)
+    general = lowest_modes(system.K, system.M, n_modes=20)  # ARPACK with M at every step
+    np.testing.assert_allclose(lumped.freqs_hz, general.freqs_hz, rtol=1e-12)
+    np.testing.assert_allclose(lumped.shapes, general.shapes, rtol=0,
+                               atol=1e-10 * np.abs(general.shapes).max())
+    full = natural_frequencies(s.assemble())
+    np.testing.assert_allclose(lumped.freqs_hz, full.freqs_hz[:20], rtol=1e-11)
+
+
+def test_a_mass_matrix_that_is_not_diagonal_is_not_lumped() -> None:
+    frame = portal_frame().assemble({"E": 2.0e11, "kd": 1e6}, sparse=True)
+    assert lumped_masses(frame.M) is None  # consistent beam mass
+    assert lumped_masses(sp.diags([1.0, 0.0, 2.0])) is None  # a DOF without mass
+    assert lumped_masses(np.diag([1.0, 2.0])) is not None
+    # the generalised path still finds the frame's modes (dense reference)
+    w2, _ = _lanczos(frame.K, frame.M, 4, None)
+    dense = natural_frequencies(portal_frame().assemble({"E": 2.0e11, "kd": 1e6}))
+    np.testing.assert_allclose(np.sqrt(w2) / (2 * np.pi), dense.freqs_hz[:4], rtol=1e-10)
 
 
 def test_mode_count_larger_than_the_model_is_refused():

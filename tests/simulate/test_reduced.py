@@ -122,3 +122,31 @@ def test_a_cut_off_below_the_band_and_too_many_modes_are_refused(case300):
         ReducedSimulator(sparse, DT, outputs, n_modes=301)
     with pytest.raises(ConfigError, match="band_hz"):
         ReducedSimulator(sparse, DT, outputs, band_hz=0.0)
+
+
+def test_the_stiffness_is_factored_once_for_the_modes_and_the_static_correction(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import importlib
+
+    import scipy.sparse.linalg as spla
+
+    n = 200  # above the dense eigensolver's limit: Lanczos on lumped masses
+    building = shear_building(list(np.linspace(1.0, 2.0, n)), [4e6] * n)
+    system = building.assemble(sparse=True)
+    reference = ReducedSimulator(system, 0.01, [n - 1])
+    calls = []
+    real = spla.splu
+
+    def counted(*args: object, **kwargs: object) -> object:
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(spla, "splu", counted)
+    # ARPACK's shift-invert mode factors with its own reference to splu
+    arpack = importlib.import_module("scipy.sparse.linalg._eigen.arpack.arpack")
+    monkeypatch.setattr(arpack, "splu", counted)
+    sim = ReducedSimulator(system, 0.01, [n - 1])
+    assert len(calls) == 1
+    np.testing.assert_array_equal(sim.modes.freqs_hz, reference.modes.freqs_hz)
+    ag = np.sin(np.linspace(0.0, 20.0, 500))
+    np.testing.assert_array_equal(sim.run(ag).acceleration, reference.run(ag).acceleration)

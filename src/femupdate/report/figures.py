@@ -1,4 +1,4 @@
-"""The paper's figures, one function each, for the demo, ``femupdate run`` and the HTML report:
+"""The paper's figures, one function each, for the demo, ``femupdate validate`` and the report:
 
 - :func:`plot_phi`: φ_m (best so far) against evaluations (Fig. 2);
 - :func:`plot_beta`: the Beta parameters a, b and the step size σ against step (Fig. 3);
@@ -12,20 +12,17 @@ Each returns a matplotlib ``Figure`` (see :mod:`femupdate.report.canvas` to save
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from femupdate.report.canvas import lines, new_figure, save_png
+from femupdate.report.canvas import lines, new_figure, save_png  # noqa: F401  (cli's validate)
 from femupdate.report.facts import bound_positions
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
     from matplotlib.gridspec import SubplotSpec
-
-    from femupdate.workflow import UpdateResult
 
 #: Above this many runs the φ plot shows no legend (it would hide the lines).
 MAX_LEGEND_RUNS = 12
@@ -340,40 +337,3 @@ def _autoscale_y(ax: Axes, t: np.ndarray, window: tuple[float, float], *ys: np.n
         lo, hi = float(values.min()), float(values.max())
         pad = 0.05 * (hi - lo) if hi > lo else max(abs(hi), 1e-300)
         ax.set_ylim(lo - pad, hi + pad)
-
-
-def write_run_plots(result: UpdateResult, out_dir: Path) -> list[Path]:
-    """The plots ``femupdate run`` writes: each channel's fit (``fit.png``), φ against
-    evaluations of every run (``phi.png``) and the best run's parameters (``parameters.png``).
-
-    ``result`` is a :class:`femupdate.workflow.UpdateResult` (its outcomes with histories
-    for the last two).
-    """
-    summary, fit = result.summary, result.fit
-    case = result.problem.case
-    trial = next((t for t in summary.trials if t.name == fit.trial), None)
-    per_channel = trial.nmse_per_channel if trial is not None else summary.best.nmse_per_channel
-    nmse = [100.0 * per_channel.get(c, np.nan) for c in fit.channels]
-    paths = [save_png(plot_fit(fit.t, fit.measured, fit.predicted, channels=fit.channels,
-                               unit=fit.unit, nmse_percent=nmse,
-                               title=f"{summary.name}: best run {summary.best.run}"),
-                      out_dir / "fit.png")]
-    runs = [o for o in result.outcomes if o.history is not None]
-    if runs:
-        labels = [f"run {o.index}" + (" (best)" if o.index == summary.best.run else "")
-                  for o in runs]
-        best_at = [o.index for o in runs].index(summary.best.run) if any(
-            o.index == summary.best.run for o in runs) else None
-        paths.append(save_png(plot_phi([o.history["fun"] for o in runs], labels=labels,
-                                       highlight=best_at,
-                                       title=f"{summary.name}: φ_m, every run"),
-                              out_dir / "phi.png"))
-    best = next(o for o in result.outcomes if o.index == summary.best.run)
-    if best.history is not None:
-        params = case.parameters
-        x = np.array([list(case.to_physical(x).values()) for x in best.history["x"]])
-        paths.append(save_png(plot_parameters(
-            x, best.history["fun"], case.parameter_names, units=[p.unit for p in params],
-            bounds=[(p.lower, p.upper) for p in params], log=[p.scale == "log" for p in params],
-            title=f"{summary.name}: best run {summary.best.run}"), out_dir / "parameters.png"))
-    return paths

@@ -158,12 +158,16 @@ class ReducedSimulator:
         massless = massless_dofs(system.M)
         condensation = (condense(system.K, system.M, massless) if massless.size and
                         self.n_dof - massless.size <= CONDENSE_MAX_DOF else None)
+        # one factorisation of a sparse K for the eigensolver and the static correction
+        lu = (_factor(system.K) if condensation is None and static_correction
+              and sp.issparse(system.K) else None)
         if modes is None:
             if n_modes is None:
                 band = 0.5 / self.dt if band_hz is None else band_hz
                 self.cutoff_hz = cutoff_from_band(band, cutoff_factor)
             modes = lowest_modes(system.K, system.M, n_modes=n_modes, cutoff_hz=self.cutoff_hz,
-                                 previous=previous, condensation=condensation)
+                                 previous=previous, condensation=condensation,
+                                 stiffness_lu=lu)
         self.modes = modes
         phi = modes.shapes
         w2 = (2.0 * np.pi * modes.freqs_hz) ** 2
@@ -199,7 +203,7 @@ class ReducedSimulator:
             if condensation is not None:
                 kinv = condensation.solve(unit)
             else:
-                kinv = _solve(system.K, _factor(system.K), unit)
+                kinv = _solve(system.K, lu, unit)
             kinv_out = np.atleast_2d(kinv.reshape(self.n_dof, n_out)).T
             # rows of the residual flexibility K⁻¹ - Φ Ω⁻² Φᵀ at the outputs
             self._flex_out = kinv_out - (self._phi_out / w2) @ phi.T
