@@ -199,10 +199,11 @@ def nonfinite_causes(channels: Sequence[str], per_channel: np.ndarray, measured:
                 cause = ("the simulation failed at these parameter values"
                          + (f" ({failure})" if failure else ""))
             elif not np.all(np.isfinite(yhat)):
-                cause = f"the prediction holds {_first_bad(yhat)} (the simulation diverged)"
+                cause = (f"the prediction holds {_first_bad(yhat)} (the model's output diverged, "
+                         "or overflowed in its processing)")
             elif np.max(np.abs(yhat)) > _SQUARE_OVERFLOW:
                 cause = (f"the prediction peaks at {np.max(np.abs(yhat)):.4g}, beyond what a sum "
-                         "of squares can hold (the simulation diverged)")
+                         "of squares can hold (the model's output diverged)")
             elif not np.any(y):
                 cause = "the measurement is 0 over the scored samples: it has no energy to scale by"
             else:

@@ -766,7 +766,7 @@ def test_an_nmse_that_is_not_finite_says_which_channel_and_why() -> None:
         "channel 'b': NMSE inf: the measurement holds 1 non-finite sample(s), the first at "
         "scored sample 4",
         "channel 'c': NMSE inf: the prediction holds 4 non-finite sample(s), the first at "
-        "scored sample 6 (the simulation diverged)"]
+        "scored sample 6 (the model's output diverged, or overflowed in its processing)"]
     (failed,) = nonfinite_causes(["a"], np.array([np.nan]), np.ones((5, 1)), None,
                                  "an unstable step")
     assert failed == ("channel 'a': NMSE nan: the simulation failed at these parameter values "

@@ -5,6 +5,10 @@ The ``[model]`` sections are in :mod:`femupdate.case.model_sections`.
 ``Case`` is the whole file; each section class documents its TOML table. What one field cannot
 check alone is checked by ``checks`` from the sections' validators; ``load`` turns pydantic's
 errors into messages naming file, field and allowed values.
+
+Why this file is long (about 600 lines): ``Case`` validates across its sections, so the sections
+it holds directly stay beside it, each a pydantic model with its fields' bounds; the
+``[model]`` and ``[posterior]`` sections and the cross-field checks already live apart.
 """
 
 from __future__ import annotations
