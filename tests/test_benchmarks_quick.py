@@ -103,6 +103,7 @@ def test_every_benchmark_has_a_quick_run() -> None:
                                    if p.name not in HELPERS)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("script", sorted(QUICK))
 def test_quick_mode_runs(script: str, tmp_path: Path) -> None:
     expected, missing = QUICK[script]

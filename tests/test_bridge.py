@@ -125,6 +125,7 @@ def _kp1_extrema(case_spec: dict, data: Path) -> int:
     return int(np.sum(np.diff(np.sign(np.diff(phi))) != 0))
 
 
+@pytest.mark.slow
 def test_a_low_pass_below_the_abutment_modes_takes_the_ripples_out_of_kp1s_valley(
         tmp_path: Path) -> None:
     # kp1 moves two abutment modes near 226 Hz whose damping ratio is 2–3e-4: their ringing's

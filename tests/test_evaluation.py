@@ -313,6 +313,7 @@ def test_out_of_range_values_raise_the_reference_error(viscous_spec: dict[str, A
         problem(x)
 
 
+@pytest.mark.slow
 def test_an_unstable_step_is_a_failed_evaluation(tmp_path: Path) -> None:
     # Records at 200 Hz, simulated without substeps: h ω_max > 2, the simulator refuses it.
     spec = bridge.bridge_case("friction", directory=str(tmp_path))

@@ -62,6 +62,7 @@ def results() -> dict:
                            search={"runs": 2, "max_evals": 500, "seed": 11})
 
 
+@pytest.mark.slow
 def test_the_six_trials_are_read_and_the_glitches_said(results: dict) -> None:
     assert set(results["peaks_hz"]) == set(study.TRIALS)
     for peak in results["peaks_hz"].values():  # the mode where the authors put it (20-22 Hz)

@@ -51,7 +51,7 @@ LIMIT_S = 600.0
 #: The keys a case file may have.
 KEYS = {"about", "kind", "args", "code", "expect", "outcome", "result", "limit_s",
         "case_prefix", "case_replace", "case_append", "case_text", "files", "file_replace",
-        "file_lines", "file_remove", "file_folder", "exit"}
+        "file_lines", "file_remove", "file_folder", "exit", "slow"}
 
 BASE = MODEL + "\n" + parameters() + "\n" + DATA + """
 [search]
@@ -178,7 +178,13 @@ def _namespace(places: dict[str, str]) -> dict[str, Any]:
             "data": Path(places["data"])}
 
 
-@pytest.mark.parametrize("path", CASES, ids=[p.stem for p in CASES])
+def _marked(path: Path) -> object:
+    """A case as a parameter: ``slow = true`` in its file leaves it to the whole suite."""
+    slow = tomllib.loads(path.read_text(encoding="utf-8")).get("slow", False)
+    return pytest.param(path, id=path.stem, marks=[pytest.mark.slow] if slow else [])
+
+
+@pytest.mark.parametrize("path", [_marked(p) for p in CASES])
 def test_bad_input(path: Path, records: Path, tmp_path: Path,
                    monkeypatch: pytest.MonkeyPatch,
                    capsys: pytest.CaptureFixture[str]) -> None:
@@ -224,6 +230,7 @@ def test_bad_input(path: Path, records: Path, tmp_path: Path,
             assert expect in value, value
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["run-out-is-file", "modes-json-read-only",
                                   "validate-params-not-json"])
 def test_the_console_script_prints_the_same_one_line(name: str, records: Path,

@@ -277,6 +277,7 @@ def one_worker(data_dir: Path):
     return _runs(data_dir, workers=1)
 
 
+@pytest.mark.slow
 def test_same_seed_same_bits(data_dir: Path, one_worker) -> None:
     _assert_same_bits(one_worker, _runs(data_dir, workers=1))
 

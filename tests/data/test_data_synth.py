@@ -143,6 +143,7 @@ def records() -> list:
             for seed in (0, 1, 2)]
 
 
+@pytest.mark.slow
 def test_generated_spectrum_matches_ec8(records: list) -> None:
     target = EC8Spectrum(ag=AG, ground="B", kind=1)
     # 300 periods, none of them a control period of the generator

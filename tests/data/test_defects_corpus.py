@@ -468,6 +468,7 @@ def found_kinds(record: Record, clean_synth: Path, tmp: Path) -> set[str]:
     return {f.kind for e in experiments for f in e.defects}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("record", CORPUS, ids=[r.name for r in CORPUS])
 def test_each_record_is_flagged_with_its_kind_and_clean_ones_raise_nothing(
         record: Record, clean_synth: Path, tmp_path: Path) -> None:
@@ -632,6 +633,7 @@ def _cli_run(record: Record, clean_synth: Path, tmp: Path) -> tuple[str, Path]:
     return " ".join([*lines, *result.output.split()]), out
 
 
+@pytest.mark.slow
 def test_the_cli_says_each_defect_in_one_line_and_the_report_shows_them(
         clean_synth: Path, tmp_path: Path) -> None:
     from femupdate.report.html import render_report

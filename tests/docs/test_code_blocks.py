@@ -136,6 +136,7 @@ def test_the_blocks_not_run_are_listed() -> None:
         "a no-run marker on a block that would not run anyway")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", _blocks("python"), ids=lambda b: b.label)
 def test_python_block_runs(block: Block, checkout_copy: Path,
                            monkeypatch: pytest.MonkeyPatch) -> None:
@@ -189,6 +190,7 @@ def _squeezed(text: str) -> str:
 BASH_DOCUMENTS = sorted({b.document for b in _blocks("bash")})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("document", BASH_DOCUMENTS, ids=lambda d: str(d.relative_to(ROOT)))
 def test_bash_blocks_run(document: Path, checkout_copy: Path) -> None:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(

@@ -87,6 +87,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("option", OPTIONS)
 @pytest.mark.parametrize("model", ["viscous", "friction"])
 def test_a_window_scored_compiled_equals_the_step_by_step_path(
@@ -114,6 +115,7 @@ def test_a_window_scored_compiled_equals_the_step_by_step_path(
         assert trial.evaluator.residuals(X[0]) is not None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("option", ["displacement", "acceleration", "filtered-prediction"])
 @pytest.mark.parametrize("model", ["viscous", "friction"])
 def test_windows_of_one_record_simulated_once_give_the_one_by_one_bits(

@@ -12,6 +12,7 @@ from femupdate.external import PythonModel, load_function, parse_ref
 from femupdate.external.loader import compile_script
 
 
+@pytest.mark.slow
 def test_a_missing_module_is_named_when_the_model_is_loaded() -> None:
     problem = problem_for({"python": {"function": "no_such_package.models:predict"}})
     with pytest.raises(ConfigError) as info:
@@ -23,6 +24,7 @@ def test_a_missing_module_is_named_when_the_model_is_loaded() -> None:
         "here) or 'path/to/file.py:function')")
 
 
+@pytest.mark.slow
 def test_a_missing_function_lists_the_functions_there(user_module: Path) -> None:
     problem = problem_for({"python": {"function": f"{user_module}:modle"}})
     with pytest.raises(ConfigError, match=r"model\.python\.function: got '.*user_model\.py:modle'"
@@ -34,6 +36,7 @@ def test_a_missing_function_lists_the_functions_there(user_module: Path) -> None
     problem.close()
 
 
+@pytest.mark.slow
 def test_a_model_that_kills_its_process_while_loading_stops_the_run(tmp_path: Path) -> None:
     (tmp_path / "crash.py").write_text("import os\nos._exit(3)\n")
     problem = problem_for({"python": {"function": "crash.py:f"}},

@@ -27,6 +27,7 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return data
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "floor"), [("python", 1e-20), ("opensees", 1e-5)])
 def test_the_external_bridge_fits_the_builtin_records(records: Path, name: str,
                                                       floor: float) -> None:

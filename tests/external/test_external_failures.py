@@ -45,6 +45,7 @@ def _key(problem: UpdateProblem) -> str:
     return problem.trials[0]._runner.key
 
 
+@pytest.mark.slow
 def test_every_failure_is_inf_with_its_message_and_the_batch_finishes(
         problem: UpdateProblem) -> None:
     modes = [0, 1, 2, 3, 4, 5, 6, 0]
@@ -62,6 +63,7 @@ def test_every_failure_is_inf_with_its_message_and_the_batch_finishes(
     assert "model output: step 41: no convergence" in results[6].error
 
 
+@pytest.mark.slow
 def test_a_hung_model_is_killed_and_replaced(problem: UpdateProblem) -> None:
     from femupdate.external.isolation import _all
 
@@ -75,6 +77,7 @@ def test_a_hung_model_is_killed_and_replaced(problem: UpdateProblem) -> None:
     assert problem(_x(0)) == 0.0 and worker.pid != old_pid
 
 
+@pytest.mark.slow
 def test_batches_over_two_local_processes_keep_order(problem: UpdateProblem) -> None:
     from femupdate.external.isolation import _all
 
@@ -122,6 +125,7 @@ def test_residuals_square_to_phi(user_module: Path) -> None:
     assert prob(_x(0, 3.0)) < 1e-20  # the integration constants fitted away
 
 
+@pytest.mark.slow
 def test_failures_on_a_dask_cluster_are_the_same(problem: UpdateProblem) -> None:
     distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
     rows = [_x(0, 1.0), _x(1), _x(5), _x(0, 3.0)]

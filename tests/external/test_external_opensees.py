@@ -80,6 +80,7 @@ def _problem(build: str, ag: np.ndarray, **options):
     return problem_for({"opensees": section}, exp, space=SPACE)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algorithm", ["linear", "newton"])
 def test_accelerations_equal_builtin_newmark(algorithm: str) -> None:
     ag = _motion()

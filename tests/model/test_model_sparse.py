@@ -71,6 +71,7 @@ def test_lowest_modes_of_a_shear_building_match_the_closed_form(n):
                                atol=1e-8 * w2.max())
 
 
+@pytest.mark.slow
 def test_lowest_modes_agree_with_the_dense_modes_and_do_not_depend_on_the_start():
     n = 400
     s = shear_building(list(np.linspace(1.0, 2.0, n)), list(np.linspace(3e4, 1e4, n)))

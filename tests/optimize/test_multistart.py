@@ -75,6 +75,7 @@ def _problem(folder: Path, model: str, edit, snr: float = 0.02) -> UpdateProblem
     return UpdateProblem(case, load_experiment(case))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", sorted(VARIANTS))
 def test_residuals_reproduce_phi(variant: str, tmp_path: Path) -> None:
     model, edit = VARIANTS[variant]
@@ -308,6 +309,7 @@ def _t_osz(z: np.ndarray) -> np.ndarray:
     return out
 
 
+@pytest.mark.slow
 def test_polish_steps_below_the_last_step_finish_an_oscillating_ellipsoid(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # bbob's f10 (condition 1e6, T_osz) on top of φ = 50: central differences at the

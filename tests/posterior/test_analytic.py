@@ -35,6 +35,7 @@ def test_laplace_meets_the_analytic_check() -> None:
     _check(result.mean, result.cov)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("start", ["prior", "laplace"])
 def test_tmcmc_meets_the_analytic_check(start: str) -> None:
     options = {}

@@ -37,6 +37,7 @@ def _samples(out: Path) -> np.ndarray:
         return data["samples"]
 
 
+@pytest.mark.slow
 def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
                                                       case_path: Path) -> None:
     record = result.record
@@ -68,6 +69,7 @@ def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
     assert 0.0 < result.bands[0].coverage.min() <= 1.0
 
 
+@pytest.mark.slow
 def test_the_report_renders_the_posterior(result: PosteriorResult, case_path: Path) -> None:
     from femupdate.report.html import render_report
 
@@ -78,6 +80,7 @@ def test_the_report_renders_the_posterior(result: PosteriorResult, case_path: Pa
         assert ident in html, ident
 
 
+@pytest.mark.slow
 def test_the_report_and_console_say_when_the_runs_disagree(result: PosteriorResult,
                                                            case_path: Path,
                                                            tmp_path: Path) -> None:
@@ -109,6 +112,7 @@ def test_one_run_says_it_cannot_check_itself(case_path: Path, tmp_path: Path) ->
                                            "checked")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 def test_sigkill_then_resume_gives_the_identical_samples(result: PosteriorResult,
                                                          case_path: Path,
@@ -123,6 +127,7 @@ def test_sigkill_then_resume_gives_the_identical_samples(result: PosteriorResult
     assert resumed.record.log_evidence == result.record.log_evidence
 
 
+@pytest.mark.slow
 def test_dask_gives_the_same_samples(result: PosteriorResult, case_path: Path,
                                      tmp_path: Path) -> None:
     distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
@@ -136,6 +141,7 @@ def test_dask_gives_the_same_samples(result: PosteriorResult, case_path: Path,
     assert remote.samples.tobytes() == result.samples.tobytes()
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_same_samples(result: PosteriorResult, case_path: Path,
                                            tmp_path: Path) -> None:
     # One run and two workers: each stage's population is spread over them.
@@ -143,6 +149,7 @@ def test_two_workers_give_the_same_samples(result: PosteriorResult, case_path: P
     assert got.samples.tobytes() == result.samples.tobytes()
 
 
+@pytest.mark.slow
 def test_a_failed_evaluation_in_a_stage_is_recorded_not_fatal(
         case_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     fast = SampledProblem.residuals_batch

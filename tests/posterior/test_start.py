@@ -74,6 +74,7 @@ def recentred(starved_case: Path) -> PosteriorResult:
     return run_posterior(load_case(starved_case), starved_case.parent / "out")
 
 
+@pytest.mark.slow
 def test_a_starved_search_is_followed_to_the_better_fit(recentred: PosteriorResult) -> None:
     record, search_phi = recentred.record, recentred.summary.best.phi
     assert record.recentred >= 1 and record.start_phi is not None
@@ -89,6 +90,7 @@ def test_a_starved_search_is_followed_to_the_better_fit(recentred: PosteriorResu
     assert record.nfev > 4 * 200
 
 
+@pytest.mark.slow
 def test_without_recentring_the_better_fit_is_said(starved_case: Path,
                                                     tmp_path: Path) -> None:
     got = run_posterior(load_case(starved_case), tmp_path / "said", recentre=0)
@@ -98,6 +100,7 @@ def test_without_recentring_the_better_fit_is_said(starved_case: Path,
                                                    "one it started from")
 
 
+@pytest.mark.slow
 def test_the_console_and_report_show_the_start_warnings(recentred: PosteriorResult,
                                                          starved_case: Path) -> None:
     from rich.console import Console
@@ -112,6 +115,7 @@ def test_the_console_and_report_show_the_start_warnings(recentred: PosteriorResu
     assert 'id="posterior-start-0"' in html and "The sampler found a better fit" in html
 
 
+@pytest.mark.slow
 def test_recentred_same_seed_same_samples(recentred: PosteriorResult, starved_case: Path,
                                           tmp_path: Path) -> None:
     again = run_posterior(load_case(starved_case), tmp_path / "again")
@@ -119,6 +123,7 @@ def test_recentred_same_seed_same_samples(recentred: PosteriorResult, starved_ca
     assert again.record.start_phi == recentred.record.start_phi
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 def test_sigkill_while_recentred_then_resume_gives_the_identical_samples(
         recentred: PosteriorResult, starved_case: Path, tmp_path: Path) -> None:
@@ -143,6 +148,7 @@ def test_restart_discards_the_recentred_stores(starved_case: Path, tmp_path: Pat
     assert not any((out / POSTERIOR_DIR).glob(f"{RECENTRED_DIR}-*/*.sqlite*"))
 
 
+@pytest.mark.slow
 def test_runs_are_added_while_a_parameter_is_unsettled(tmp_path: Path) -> None:
     # 40 samples per run: four runs hold far fewer than 400 effective samples together
     case = load_case(write_case(tmp_path / "few", samples=40))
@@ -161,6 +167,7 @@ def test_runs_are_added_while_a_parameter_is_unsettled(tmp_path: Path) -> None:
     assert got.samples[:160].tobytes() == four.samples.tobytes()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 def test_without_a_seed_a_recentred_pass_killed_still_resumes(tmp_path: Path) -> None:
     # No [posterior] seed: the runs' entropy is fresh but stored, and the polish and the

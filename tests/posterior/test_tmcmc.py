@@ -140,6 +140,7 @@ def test_ess_by_ancestry_of_known_families() -> None:
     assert np.allclose(ess_by_ancestry(copies, ancestors), 1000.0, rtol=0.1)
 
 
+@pytest.mark.slow
 def test_reported_ess_matches_the_variance_of_the_mean_across_seeds() -> None:
     """σ²/ESS ≈ the variance of the posterior mean across independent runs, on the analytic
     case from the prior (several stages). Measured with the mixture moves: reported ESS (mean

@@ -55,6 +55,7 @@ def _rows(runs: list[dict]) -> list[dict]:
              "x": [float(v).hex() for v in r["x"]]} for r in runs]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("evaluator", ["reference", "compiled"])
 @pytest.mark.parametrize("model", ["viscous", "friction"])
 def test_bridge_runs_are_bit_identical(model: str, evaluator: str, tmp_path: Path,

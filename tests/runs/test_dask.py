@@ -26,6 +26,7 @@ def cluster() -> Iterator[object]:
         yield local
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("method", "runs", "max_evals", "options"), [
     ("ab", 3, 1500, {}),  # runs in chunks on the workers
     ("cmaes", 1, 240, {"popsize": 6}),  # one run: its populations split across the workers

@@ -56,6 +56,7 @@ def _kill_midway(out: Path, method: str) -> tuple[int, int]:
     return store_progress(out / FILENAME)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", sorted(RUNS))
 def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path,
                                                                 method: str) -> None:
