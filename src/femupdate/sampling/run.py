@@ -44,18 +44,12 @@ from femupdate.case.posterior_section import (
 )
 from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
-from femupdate.posterior.best_fit import case_priors, centred, mode_jacobians
-from femupdate.posterior.input_noise import magnitude_adjusted
-from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
+from femupdate.posterior.best_fit import case_priors, centred
+from femupdate.posterior.error_models import DEFAULT_KIND, problem_error_model
+from femupdate.posterior.jacobian import residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
-from femupdate.posterior.likelihood import (
-    DEFAULT_KIND,
-    SAMPLED_KIND,
-    ErrorModel,
-    problem_error_model,
-)
-from femupdate.posterior.method import METHOD, SampledProblem, sampler_options
-from femupdate.posterior.mode import WHITENING_KINDS
+from femupdate.posterior.likelihood import ErrorModel
+from femupdate.posterior.method import METHOD, SampledProblem, register, sampler_options
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.records import (
     PosteriorRecord,
@@ -105,11 +99,11 @@ class PosteriorResult:
 
 
 def posterior_settings(case: Case) -> PosteriorSection:
-    """``[posterior]``, or its defaults, with the sampled posterior's error model when the
-    case names none."""
+    """``[posterior]``, or its defaults, with the default error model when the case names
+    none."""
     settings = case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
     if settings.error_model is None:
-        settings = settings.model_copy(update={"error_model": SAMPLED_KIND})
+        settings = settings.model_copy(update={"error_model": DEFAULT_KIND})
     return settings
 
 
@@ -132,29 +126,12 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                       counts_from: ErrorModel | None = None
                       ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
     """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
-    and the Laplace Gaussian there (None, with why, when it cannot be had: TMCMC then starts
-    from the prior). ``"adjusted"`` takes its count from the Jacobian there; where the model
-    fails beside the best fit, there is none, and the error model is ``"neff"`` instead
-    (said in why: the Laplace Gaussian needs that Jacobian too)."""
+    and the Laplace Gaussian there, from the Jacobian over 1 % steps (None, with why, when
+    it cannot be had: TMCMC then starts from the prior)."""
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-    # (r, J) over 1 % steps: "adjusted"'s count and, but for a whitening kind, the Gaussian
-    unit_jacobian: tuple[np.ndarray, np.ndarray] | None = None
-    instead = ""
-    if kind == "adjusted":
-        try:
-            unit_jacobian = residual_jacobian(problem.residuals_batch, problem.bounds, x)
-        except FemupdateError:
-            kind = DEFAULT_KIND
-            instead = f"; error model {kind!r} in place of 'adjusted', which needs it"
-    if kind == "eiv" and counts_from is not None:
-        raise ConfigError(f"{problem.case.label}: error_model 'eiv' whitens each model class's "
-                          "residual by that class's own response to the table's noise, so the "
-                          "evidences of different classes are not of one likelihood (allowed: "
-                          "another error_model for model-class selection)")
-    model = problem_error_model(problem, r, kind,
-                                None if unit_jacobian is None else unit_jacobian[1], point=x)
+    model = problem_error_model(problem, r, kind, point=x)
     if counts_from is not None:
         if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
                 or model.stops.tolist() != counts_from.stops.tolist()):
@@ -162,26 +139,14 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                               f", {counts_from.starts.size} blocks) is not of this case's data "
                               f"({model.kind}, {model.starts.size} blocks) (allowed: model "
                               "classes of the same trials, channels and error model)")
-        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho,
-                                    ar=counts_from.ar)
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
     best_unit = prior.to_unit(x)
     try:
-        if model.kind in WHITENING_KINDS:  # TMCMC starts from the Gaussian at its mode
-            r_fit = r
-            best_unit, ((r, jac),), _ = mode_jacobians(
-                problem, prior, model, best_unit,
-                *residual_jacobian(problem.residuals_batch, problem.bounds, x,
-                                   step=LOCAL_STEP), steps=(UNIT_STEP,))
-            if model.kind == "eiv":  # sampled with the magnitude of its score's variance
-                model = magnitude_adjusted(problem, model, x, r_fit, jac, r)
-            return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
-                                         prior), None
-        r, jac = unit_jacobian if unit_jacobian is not None else residual_jacobian(
-            problem.residuals_batch, problem.bounds, x)
+        r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
         return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                      prior), None
     except FemupdateError as exc:
-        return model, prior, None, f"{exc}{instead}"
+        return model, prior, None, str(exc)
 
 
 @dataclass
@@ -335,7 +300,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
             raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: "
                               f"{allowed.describe()})")
         settings = settings.model_copy(update={name: value})
-    seed = settings.seed if seed is None else seed
+    if seed is None:  # the posterior is as reproducible as the case's search
+        seed = settings.seed if settings.seed is not None else case.search.seed
     population = settings.samples if samples is None else samples
     need = SAMPLES_PER_PARAMETER * len(case.parameters)
     if population < need:
@@ -344,6 +310,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                           f"{SAMPLES_PER_PARAMETER} per parameter)")
     experiments = list(experiments or load_experiments(case))
     check_records(experiments, case)
+    register()  # method "tmcmc" in run_all's registry
     execution = execution or Execution(label=case.label)
     out_dir.mkdir(parents=True, exist_ok=True)
     sampler_dir = out_dir / POSTERIOR_DIR
@@ -384,7 +351,6 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         start_words.insert(0, recentred_sentence(float(best.phi), phi, passes))
     if (words := search_sentence(search.summary.verdict, passes > 0)) is not None:
         start_words.append(words)
-    # the kind measured ("neff" where "adjusted" had no Jacobian), not only the one asked for
     record, physical = posterior_record(problem, done.prior, done.outcomes, done.model.kind,
                                         seed, population)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
