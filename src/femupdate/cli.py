@@ -635,6 +635,9 @@ def posterior(
     recentre: Annotated[int | None, typer.Option(
         "--recentre", min=0, max=8, help="Override [posterior] recentre (how many times at "
         "most to sample again from a better fit the sampler finds; 0: only say so).")] = None,
+    error_model: Annotated[str | None, typer.Option(
+        "--error-model", help="Override [posterior] error_model (the sampled posterior's "
+        "likelihood; allowed: the kinds a case may name, default neff).")] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
     resume: Annotated[bool, typer.Option(
@@ -678,12 +681,13 @@ def posterior(
     try:
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
                                max_runs=max_runs, recentre=recentre, workers=workers,
-                               resume=resume, restart=restart, execution=execution)
+                               resume=resume, restart=restart, execution=execution,
+                               error_model=error_model)
     except KeyboardInterrupt:
         words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
         for flag, value in (("--seed", seed), ("--samples", samples), ("--runs", runs),
                             ("--max-runs", max_runs), ("--recentre", recentre),
-                            ("--data", data)):
+                            ("--error-model", error_model), ("--data", data)):
             if value is not None:
                 words += [flag, str(value)]
         _resume_hint([*words, "--resume"])

@@ -322,3 +322,18 @@ def test_without_a_posterior_seed_the_search_seed_makes_it_reproducible(tmp_path
     one = run_posterior(case, tmp_path / "one", runs=1, recentre=0)
     two = run_posterior(case, tmp_path / "two", runs=1, recentre=0)
     assert one.record.seed == 7 and one.samples.tobytes() == two.samples.tobytes()
+
+
+def test_the_error_model_is_chosen_on_the_command_line_among_the_case_kinds(
+        case_path: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    with pytest.raises(ConfigError, match=r"error_model: got 'tau' \(allowed: neff\)"):
+        run_posterior(load_case(case_path), tmp_path / "tau", error_model="tau")
+    assert not (tmp_path / "tau").exists()  # refused before anything is written
+    got = CliRunner().invoke(app, ["posterior", str(case_path), "--out", str(tmp_path / "cli"),
+                                   "--error-model", "eiv"])
+    assert isinstance(got.exception, ConfigError) and "allowed: neff" in str(got.exception)
+    assert "--error-model" in CliRunner().invoke(app, ["posterior", "--help"]).output

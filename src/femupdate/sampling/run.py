@@ -45,7 +45,7 @@ from femupdate.case.posterior_section import (
 from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.posterior.best_fit import case_priors, centred
-from femupdate.posterior.error_models import DEFAULT_KIND, problem_error_model
+from femupdate.posterior.error_models import DEFAULT_KIND, case_kinds, problem_error_model
 from femupdate.posterior.jacobian import residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
 from femupdate.posterior.likelihood import ErrorModel
@@ -266,7 +266,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   resume: bool = False, restart: bool = False,
                   execution: Execution | None = None,
                   experiments: Sequence[Experiment] | None = None,
-                  counts_from: ErrorModel | None = None) -> PosteriorResult:
+                  counts_from: ErrorModel | None = None,
+                  error_model: str | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -290,6 +291,9 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         Take the effective counts N_c (and ρ_c) of this error model instead of measuring them
         at this case's best fit: model classes compared by their evidence must share one
         likelihood of the data (:mod:`femupdate.sampling.classes`).
+    error_model : str or None
+        Override ``[posterior] error_model`` (one of
+        :func:`~femupdate.posterior.error_models.case_kinds`).
     """
     settings = posterior_settings(case)
     for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre)):
@@ -300,6 +304,11 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
             raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: "
                               f"{allowed.describe()})")
         settings = settings.model_copy(update={name: value})
+    if error_model is not None:
+        if error_model not in (allowed_kinds := case_kinds()):
+            raise ConfigError(f"{case.label}: error_model: got {error_model!r} (allowed: "
+                              f"{', '.join(allowed_kinds)})")
+        settings = settings.model_copy(update={"error_model": error_model})
     if seed is None:  # the posterior is as reproducible as the case's search
         seed = settings.seed if settings.seed is not None else case.search.seed
     population = settings.samples if samples is None else samples
