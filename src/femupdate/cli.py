@@ -638,6 +638,10 @@ def posterior(
     error_model: Annotated[str | None, typer.Option(
         "--error-model", help="Override [posterior] error_model (the sampled posterior's "
         "likelihood; allowed: the kinds a case may name, default neff).")] = None,
+    search_from: Annotated[Path | None, typer.Option(
+        "--from", help="Take the search of this results directory (`femupdate run --out`, "
+        "same case) instead of searching in --out; a finished search is not run again.")
+    ] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.")] = None,
     resume: Annotated[bool, typer.Option(
@@ -682,12 +686,13 @@ def posterior(
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
                                max_runs=max_runs, recentre=recentre, workers=workers,
                                resume=resume, restart=restart, execution=execution,
-                               error_model=error_model)
+                               error_model=error_model, search_from=search_from)
     except KeyboardInterrupt:
         words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
         for flag, value in (("--seed", seed), ("--samples", samples), ("--runs", runs),
                             ("--max-runs", max_runs), ("--recentre", recentre),
-                            ("--error-model", error_model), ("--data", data)):
+                            ("--error-model", error_model), ("--from", search_from),
+                            ("--data", data)):
             if value is not None:
                 words += [flag, str(value)]
         _resume_hint([*words, "--resume"])

@@ -337,3 +337,18 @@ def test_the_error_model_is_chosen_on_the_command_line_among_the_case_kinds(
                                    "--error-model", "eiv"])
     assert isinstance(got.exception, ConfigError) and "allowed: neff" in str(got.exception)
     assert "--error-model" in CliRunner().invoke(app, ["posterior", "--help"]).output
+
+
+def test_from_a_results_directory_the_search_is_not_run_again(result: PosteriorResult,
+                                                               case_path: Path,
+                                                               tmp_path: Path) -> None:
+    searched = case_path.parent / "out"
+    got = run_posterior(load_case(case_path), tmp_path / "sampled", search_from=searched,
+                        runs=1, recentre=0)
+    assert not (tmp_path / "sampled" / FILENAME).exists()  # no search in --out
+    assert [r.nfev for r in got.search.summary.runs] == [  # none added to the store
+        r.nfev for r in result.search.summary.runs]
+    assert got.search.summary.best.phi == result.search.summary.best.phi
+    assert read_summary(tmp_path / "sampled" / "summary.json").posterior.reached
+    with pytest.raises(ConfigError, match=r"--from .*: no search results there"):
+        run_posterior(load_case(case_path), tmp_path / "x", search_from=tmp_path / "none")

@@ -267,7 +267,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   execution: Execution | None = None,
                   experiments: Sequence[Experiment] | None = None,
                   counts_from: ErrorModel | None = None,
-                  error_model: str | None = None) -> PosteriorResult:
+                  error_model: str | None = None,
+                  search_from: Path | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -294,6 +295,10 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     error_model : str or None
         Override ``[posterior] error_model`` (one of
         :func:`~femupdate.posterior.error_models.case_kinds`).
+    search_from : Path or None
+        Take the search of this results directory (``femupdate run --out``, the same case):
+        its store is resumed there (a finished search is not run again) and only the
+        sampler's results go into ``out_dir``. ``restart`` then discards only the sampler's.
     """
     settings = posterior_settings(case)
     for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre)):
@@ -317,6 +322,10 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         raise ConfigError(f"{case.label}: samples: got {population} for "
                           f"{len(case.parameters)} parameters (allowed: at least {need}, "
                           f"{SAMPLES_PER_PARAMETER} per parameter)")
+    if search_from is not None and not (search_from / FILENAME).is_file():
+        raise ConfigError(f"{case.label}: --from {search_from}: no search results there "
+                          f"(allowed: the --out directory of `femupdate run` on this case, "
+                          f"holding {FILENAME})")
     experiments = list(experiments or load_experiments(case))
     check_records(experiments, case)
     register()  # method "tmcmc" in run_all's registry
@@ -330,9 +339,13 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         for store in sorted(sampler_dir.rglob(FILENAME), key=lambda f: -len(f.parts)):
             start_over(store.parent)
         start_over(sampler_dir)
-    reuse = not restart and (out_dir / FILENAME).is_file()
-    search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
-                      execution=execution, keep_history=False, experiments=experiments)
+    if search_from is not None:  # the user's fit, not searched again
+        search = run_case(case, search_from, workers=workers, resume=True, execution=execution,
+                          keep_history=False, experiments=experiments)
+    else:
+        reuse = not restart and (out_dir / FILENAME).is_file()
+        search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
+                          execution=execution, keep_history=False, experiments=experiments)
     problem = SampledProblem.of(search.problem)
     best = search.summary.runs[search.summary.best.run]
     workers = case.search.workers if workers is None else workers
