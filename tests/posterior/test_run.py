@@ -352,3 +352,15 @@ def test_from_a_results_directory_the_search_is_not_run_again(result: PosteriorR
     assert read_summary(tmp_path / "sampled" / "summary.json").posterior.reached
     with pytest.raises(ConfigError, match=r"--from .*: no search results there"):
         run_posterior(load_case(case_path), tmp_path / "x", search_from=tmp_path / "none")
+
+
+@pytest.mark.slow
+def test_runs_are_added_until_every_parameter_has_the_ess_asked_for(tmp_path: Path) -> None:
+    case = load_case(write_case(tmp_path / "case", samples=40))
+    few = run_posterior(case, tmp_path / "few", runs=2, max_runs=4, recentre=0, ess=10)
+    assert few.record.runs == 2 and few.record.unsettled == []
+    many = run_posterior(case, tmp_path / "many", runs=2, max_runs=4, recentre=0,
+                         ess=10_000_000)
+    assert many.record.runs == 4 and many.record.unsettled == list(many.record.names)
+    with pytest.raises(ConfigError, match=r"ess: got 5 \(allowed"):
+        run_posterior(case, tmp_path / "bad", ess=5)

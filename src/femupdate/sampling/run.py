@@ -62,7 +62,7 @@ from femupdate.results import POSTERIOR_FILE, Summary, write_summary
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
 from femupdate.runs.store import FILENAME
-from femupdate.sampling.agreement import Agreement, runs_agreement
+from femupdate.sampling.agreement import MIN_ESS, Agreement, runs_agreement
 from femupdate.sampling.bands import Bands, predictive_bands, save_bands
 from femupdate.sampling.modes import sample_modes
 from femupdate.sampling.start import (
@@ -200,7 +200,8 @@ class FitSampler:
         batch = 0
         while (settings.runs > 1 and len(outcomes) + settings.runs <= settings.max_runs
                and (recentre_below is None or better_fit(outcomes, recentre_below) is None)
-               and (agreement := outcomes_agreement(prior, outcomes, problem.names)) is not None
+               and (agreement := outcomes_agreement(prior, outcomes, problem.names,
+                                                    settings.ess)) is not None
                and agreement.unsettled):
             batch += 1
             outcomes += self._runs(options, store_dir / f"{MORE_RUNS_DIR}-{batch}",
@@ -252,11 +253,12 @@ def run_samples(prior: Prior, outcomes: Sequence[RunOutcome], count: int
     return searches, own
 
 
-def outcomes_agreement(prior: Prior, outcomes: Sequence[RunOutcome], names: Sequence[str]
-                       ) -> Agreement | None:
-    """The agreement of sampler runs (None unless every run reached the posterior)."""
+def outcomes_agreement(prior: Prior, outcomes: Sequence[RunOutcome], names: Sequence[str],
+                       min_ess: float = MIN_ESS) -> Agreement | None:
+    """The agreement of sampler runs, a parameter with fewer than ``min_ess`` effective
+    samples unsettled (None unless every run reached the posterior)."""
     got = run_samples(prior, outcomes, len(names))
-    return None if got is None else runs_agreement(*got, list(names))
+    return None if got is None else runs_agreement(*got, list(names), min_ess)
 
 
 def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
@@ -268,7 +270,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   experiments: Sequence[Experiment] | None = None,
                   counts_from: ErrorModel | None = None,
                   error_model: str | None = None,
-                  search_from: Path | None = None) -> PosteriorResult:
+                  search_from: Path | None = None, ess: int | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -276,8 +278,9 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     case : Case
     out_dir : Path
         Results directory (the search's results, ``posterior/`` and ``posterior.npz``).
-    seed, samples, runs, max_runs, recentre : int or None
-        Override ``[posterior] seed``, ``samples``, ``runs``, ``max_runs`` and ``recentre``.
+    seed, samples, runs, max_runs, recentre, ess : int or None
+        Override ``[posterior] seed``, ``samples``, ``runs``, ``max_runs``, ``recentre`` and
+        ``ess``.
     workers : int or None
         Override ``[search] workers`` (for the search and the sampler).
     resume : bool
@@ -301,7 +304,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         sampler's results go into ``out_dir``. ``restart`` then discards only the sampler's.
     """
     settings = posterior_settings(case)
-    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre)):
+    for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre),
+                        ("ess", ess)):
         if value is None:
             continue
         allowed = typing.cast(Range, field_range(PosteriorSection.model_fields[name]))
@@ -374,7 +378,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     if (words := search_sentence(search.summary.verdict, passes > 0)) is not None:
         start_words.append(words)
     record, physical = posterior_record(problem, done.prior, done.outcomes, done.model.kind,
-                                        seed, population)
+                                        seed, population, settings.ess)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
     if record.runs > settings.runs:
         record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
@@ -439,8 +443,8 @@ def thinned(samples: np.ndarray, count: int) -> np.ndarray:
 
 
 def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[RunOutcome],
-                     error_model: str, seed: int | None, population: int
-                     ) -> tuple[PosteriorRecord, np.ndarray]:
+                     error_model: str, seed: int | None, population: int,
+                     min_ess: float = MIN_ESS) -> tuple[PosteriorRecord, np.ndarray]:
     """The summary's record of independent TMCMC runs and their pooled samples in physical
     units (none unless every run reached β = 1: it never reports a posterior it did not
     reach), with the runs' agreement (:mod:`femupdate.sampling.agreement`)."""
@@ -470,7 +474,7 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
                                message=message, log_evidence=None,
                                ess=None), np.empty((0, len(names)))
     searches, own = got
-    agreement = runs_agreement(searches, own, names)
+    agreement = runs_agreement(searches, own, names, min_ess)
     search = np.vstack(searches)
     physical = prior.search_to_physical(search)
     q = np.quantile(search, [0.05, 0.5, 0.95], axis=0)
