@@ -241,6 +241,7 @@ def test_unset_the_sampler_and_the_laplace_record_take_the_default(case_path: Pa
 
 def test_a_case_without_posterior_keeps_its_fingerprint(case_path: Path) -> None:
     data = load_case(case_path).to_dict()
+    assert "ess" not in data["posterior"]  # an ESS target not given is not saved either
     data.pop("posterior")
     case = parse_case(data)
     assert "posterior" not in case.to_dict()

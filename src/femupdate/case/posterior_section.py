@@ -58,7 +58,7 @@ class PosteriorSection(Section):
 
     ``samples``: TMCMC's population, the equally weighted samples each run ends with;
     ``ess``: the effective samples every parameter needs to be settled (runs are added until
-    it has them, up to ``max_runs``);
+    it has them, up to ``max_runs``; unset, 400, saved only when given);
     ``runs``: independent runs (seeds: the children of ``seed``, which unset is
     ``[search] seed``), pooled, whose agreement
     checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
@@ -76,7 +76,7 @@ class PosteriorSection(Section):
 
     samples: integer_field(ge=20, le=1_000_000) = 1000
     runs: integer_field(ge=1, le=64) = 4
-    ess: integer_field(ge=10, le=10_000_000) = 400
+    ess: integer_field(ge=10, le=10_000_000) | None = None
     max_runs: integer_field(ge=1, le=256) = 12
     error_model: Literal["neff"] | None = None
     seed: integer_field(ge=0, le=2**63 - 1) | None = None

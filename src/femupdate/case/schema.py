@@ -484,6 +484,8 @@ class Case(Section):
         data = self.model_dump(mode="json")
         if data.get("posterior") is None:
             data.pop("posterior", None)
+        elif data["posterior"].get("ess") is None:  # nor an ESS target not given
+            data["posterior"].pop("ess", None)
         for key in ("cutoff_factor", "n_modes"):  # nor the reduced path's when not given
             if data["simulation"].get(key) is None:
                 data["simulation"].pop(key, None)

@@ -201,7 +201,7 @@ class FitSampler:
         while (settings.runs > 1 and len(outcomes) + settings.runs <= settings.max_runs
                and (recentre_below is None or better_fit(outcomes, recentre_below) is None)
                and (agreement := outcomes_agreement(prior, outcomes, problem.names,
-                                                    settings.ess)) is not None
+                                                    settings.ess or MIN_ESS)) is not None
                and agreement.unsettled):
             batch += 1
             outcomes += self._runs(options, store_dir / f"{MORE_RUNS_DIR}-{batch}",
@@ -378,7 +378,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     if (words := search_sentence(search.summary.verdict, passes > 0)) is not None:
         start_words.append(words)
     record, physical = posterior_record(problem, done.prior, done.outcomes, done.model.kind,
-                                        seed, population, settings.ess)
+                                        seed, population, settings.ess or MIN_ESS)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
     if record.runs > settings.runs:
         record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
