@@ -701,6 +701,17 @@ def posterior(
     recentre: Annotated[int | None, typer.Option(
         "--recentre", min=0, max=8, help="Override [posterior] recentre (how many times at "
         "most to sample again from a better fit the sampler finds; 0: only say so).")] = None,
+    error_model: Annotated[str | None, typer.Option(
+        "--error-model", help="Override [posterior] error_model (the sampled posterior's "
+        "likelihood; allowed: the kinds a case may name, default neff).")] = None,
+    ess: Annotated[int | None, typer.Option(
+        "--ess", min=10, max=10_000_000, help="Override [posterior] ess (the effective samples "
+        "every parameter needs; runs are added until it has them, up to --max-runs).")
+    ] = None,
+    search_from: Annotated[Path | None, typer.Option(
+        "--from", help="Take the search of this results directory (`femupdate run --out`, "
+        "same case) instead of searching in --out; a finished search is not run again.")
+    ] = None,
     data: Annotated[Path | None, typer.Option(help="Read the records from this directory "
                                                    "instead of [data] directory.",
                                               callback=_input_dir("--data"))] = None,
@@ -763,11 +774,14 @@ def posterior(
     try:
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
                                max_runs=max_runs, recentre=recentre, workers=workers,
-                               resume=resume, restart=restart, execution=execution)
+                               resume=resume, restart=restart, execution=execution,
+                               error_model=error_model, search_from=search_from, ess=ess)
     except KeyboardInterrupt:
         words = ["femupdate", "posterior", str(case_file), "--out", str(out)]
         for flag, value in (("--seed", seed), ("--samples", samples), ("--runs", runs),
                             ("--max-runs", max_runs), ("--recentre", recentre),
+                            ("--error-model", error_model), ("--ess", ess),
+                            ("--from", search_from),
                             ("--data", data)):
             if value is not None:
                 words += [flag, str(value)]

@@ -272,7 +272,7 @@ class TrialProblem:
         """The prediction (every sample, as :meth:`prediction`) of femupdate's own model at
         ``values`` driven by the base record ``ag`` instead of the trial's, ``ag`` as the
         model takes it (unfiltered when ``self.filter``): how a change of the table's record
-        reaches the prediction (:mod:`femupdate.posterior.input_noise`)."""
+        reaches the prediction (the errors-in-variables error model of the benchmarks)."""
         if self._runner is not None:
             raise ConfigError(f"trial {self.name!r}: an external model runs the trial's own "
                               "record only (allowed: femupdate's own models)")

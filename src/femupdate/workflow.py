@@ -26,8 +26,7 @@ from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError, SimulationError
 from femupdate.experiment import Experiment, data_files, load_experiments
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
-from femupdate.posterior.best_fit import basin_sentences, laplace_record
-from femupdate.posterior.records import LaplaceRecord
+from femupdate.posterior.best_fit import laplace_record
 from femupdate.results import (
     Best,
     DefectRecord,
@@ -168,14 +167,8 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
         verdict=VerdictRecord(**{**dataclasses.asdict(verdict),
                                  "phi_range": list(verdict.phi_range)}),
         defects=[DefectRecord(**f.to_dict()) for f in found],
-        laplace=with_basin_sentences(laplace_record(problem, best.x), verdict.minima),
+        laplace=laplace_record(problem, best.x),
     )
-
-
-def with_basin_sentences(record: LaplaceRecord, minima: int) -> LaplaceRecord:
-    """The record with :func:`~femupdate.posterior.best_fit.basin_sentences` as caveats."""
-    record.caveats.extend(basin_sentences(record, minima))
-    return record
 
 
 def trial_records(problem: UpdateProblem, x: np.ndarray | dict[str, float]

@@ -1,8 +1,11 @@
-"""The error model: blocks of a case's residuals, the integrated-variance likelihood, N_eff."""
+"""The error model: blocks of a case's residuals, the integrated-variance likelihood, the
+product's kinds ("neff", "known") and their registry."""
 
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,19 +15,31 @@ from scipy import integrate
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError, DataError
 from femupdate.experiment import load_experiments
-from femupdate.posterior.likelihood import (
-    ar_fit,
-    ar_order,
-    effective_count,
+from femupdate.posterior.error_models import (
+    ERROR_MODELS,
+    case_kinds,
     error_model,
-    lag1_autocorrelation,
     problem_error_model,
+)
+from femupdate.posterior.known import Known
+from femupdate.posterior.likelihood import (
+    ErrorModel,
+    Registry,
+    lag1_autocorrelation,
     residual_blocks,
 )
 from femupdate.posterior.method import error_model_data, error_model_from
+from femupdate.posterior.neff import NEff, effective_count
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 from two_storey_case import TRUTH, two_storey_spec
+
+
+def unknown_variance(blocks: list[slice], counts: list[float]) -> ErrorModel:
+    """The core likelihood with given counts N_c (no kind measures them)."""
+    starts = np.array([b.start for b in blocks])
+    stops = np.array([b.stop for b in blocks])
+    return ErrorModel("given", starts, stops, np.asarray(counts, float), np.zeros(len(blocks)))
 
 
 def _spec(root: Path) -> dict:
@@ -62,7 +77,7 @@ def test_blocks_follow_the_residual_layout_trial_by_channel(problem: UpdateProbl
 def test_integrated_variance_matches_numerical_integration() -> None:
     rng = np.random.default_rng(3)
     r = 0.3 * rng.standard_normal(12)
-    model = error_model([slice(0, 12)], "iid")
+    model = unknown_variance([slice(0, 12)], [12])
 
     def integrand(s: float) -> float:  # Gaussian likelihood × Jeffreys prior 1/v, v = e^s
         v = math.exp(s)
@@ -76,9 +91,9 @@ def test_integrated_variance_matches_numerical_integration() -> None:
 def test_blocks_are_independent_and_scale_free() -> None:
     rng = np.random.default_rng(4)
     r = rng.standard_normal(30)
-    two = error_model([slice(0, 10), slice(10, 30)], "iid")
-    a = error_model([slice(0, 10)], "iid").loglike(r[:10])
-    b = error_model([slice(0, 20)], "iid").loglike(r[10:])
+    two = unknown_variance([slice(0, 10), slice(10, 30)], [10, 20])
+    a = unknown_variance([slice(0, 10)], [10]).loglike(r[:10])
+    b = unknown_variance([slice(0, 20)], [20]).loglike(r[10:])
     assert two.loglike(r) == pytest.approx(a + b)
     scaled = r.copy()
     scaled[:10] *= 7.0  # a block's scale only shifts log L by a constant
@@ -113,70 +128,13 @@ def test_effective_count_of_an_ar1_series() -> None:
     assert effective_count(100, -0.5) == 100.0  # never more than N
 
 
-def test_ar1_whitens_an_ar1_series() -> None:
-    rng = np.random.default_rng(7)
-    rho, n = 0.8, 20_000
-    u = rng.standard_normal(n)
-    e = np.empty(n)
-    e[0] = u[0]
-    for t in range(1, n):
-        e[t] = rho * e[t - 1] + u[t]
-    model = error_model([slice(0, n)], "ar1", best_residuals=e)
-    white = model.whiten(e)[0]
-    assert white.size == n - 1
-    assert abs(lag1_autocorrelation(white)) < 0.03
-    assert model.counts[0] == n - 1
-
-
-def _ar_series(coefficients: list[float], n: int, rng: np.random.Generator) -> np.ndarray:
-    """An AR process x_t = Σ_k a_k x_{t−k} + u_t, u white of unit variance."""
-    from scipy.signal import lfilter
-
-    return lfilter([1.0], np.concatenate([[1.0], -np.asarray(coefficients)]),
-                   rng.standard_normal(n))
-
-
-def test_arp_recovers_the_order_and_coefficients_of_an_ar3_series() -> None:
-    rng = np.random.default_rng(11)
-    truth = [1.6, -0.9, 0.2]
-    n = 20_000
-    x = _ar_series(truth, n, rng)
-    assert ar_order(x, 12) == 3
-    a, _ = ar_fit(x, 3)
-    assert a == pytest.approx(truth, abs=0.05)  # 4 asymptotic sd of a_2 (0.012)
-    model = error_model([slice(0, n)], "arp", best_residuals=x, dof_removed=[2])
-    assert model.lag == 3 and model.counts[0] == n - 3 - 2
-    white = model.whiten(x)[0]
-    assert white.size == n - 3
-    assert abs(lag1_autocorrelation(white)) < 0.03
-    # the innovations by hand: the likelihood is the i.i.d. one of them
-    by_hand = x[3:] - sum(c * x[3 - k - 1:n - k - 1] for k, c in enumerate(model.ar[0]))
-    assert white == pytest.approx(by_hand, rel=1e-12, abs=1e-12)
-    iid = error_model([slice(0, n - 3)], "iid", dof_removed=[2])
-    assert model.loglike(x) == pytest.approx(iid.loglike(by_hand), rel=1e-12)
-
-
-def test_arp_blocks_share_one_order_and_round_trip_as_data() -> None:
-    rng = np.random.default_rng(12)
-    x = np.concatenate([_ar_series([0.5], 3000, rng), _ar_series([1.6, -0.9, 0.2], 3000, rng)])
-    model = error_model([slice(0, 3000), slice(3000, 6000)], "arp", best_residuals=x)
-    assert model.ar.shape == (2, 3)  # the larger order of the two blocks, for both
-    assert model.ar[0] == pytest.approx([0.5, 0.0, 0.0], abs=0.05)
-    again = error_model_from(error_model_data(model))
-    rows = np.vstack([x, 1.1 * x, np.full_like(x, np.nan)])
-    assert np.array_equal(again.loglike_rows(rows), model.loglike_rows(rows))
-    assert model.loglike_rows(rows)[2] == -np.inf
-    with pytest.raises(ConfigError, match="order 5 for a block of 12 samples"):
-        ar_fit(x[:12], 5)
-
-
 def test_weights_are_the_hessian_of_the_log_likelihood() -> None:
     """−∂²log L/∂θ² of r(θ) = a·θ − y at θ where aᵀr = 0 equals aᵀ W a."""
     rng = np.random.default_rng(8)
     a = rng.standard_normal(50)
     y = rng.standard_normal(50)
     theta = (a @ y) / (a @ a)
-    model = error_model([slice(0, 20), slice(20, 50)], "iid")
+    model = unknown_variance([slice(0, 20), slice(20, 50)], [20, 30])
     h = 1e-4
     f = [model.loglike(a * (theta + s) - y) for s in (-h, 0.0, h)]
     hess = -(f[0] - 2 * f[1] + f[2]) / h ** 2
@@ -192,9 +150,9 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
     model = problem_error_model(problem, r)
     assert model.kind == "neff" and model.size == r.size
     assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
-    tau = problem_error_model(problem, r, "tau")
-    assert np.all(tau.counts < (tau.stops - tau.starts))
-    with pytest.raises(ConfigError, match="allowed: neff, tau, iid, ar1, arp, adjusted, known"):
+    with pytest.raises(ConfigError, match=r"got 'tau' \(allowed: neff, known\)"):
+        problem_error_model(problem, r, "tau")
+    with pytest.raises(ConfigError, match="allowed: neff, known"):
         error_model([slice(0, 5)], "gaussian")
     with pytest.raises(ConfigError, match="needs the residuals"):
         error_model([slice(0, 5)], "neff")
@@ -202,18 +160,66 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
         error_model([slice(0, 5)], "neff", best_residuals=np.zeros(5))
     with pytest.raises(ConfigError, match="sigma must be > 0"):
         error_model([slice(0, 5)], "known", sigma=0.0)
+    with pytest.raises(ConfigError, match="needs sigma"):
+        error_model([slice(0, 5)], "known")
+    with pytest.raises(ConfigError, match="sigma is only for kind 'known'"):
+        error_model([slice(0, 5)], "neff", best_residuals=np.ones(5), sigma=1.0)
+    with pytest.raises(ConfigError, match="2 values for 1 blocks"):
+        error_model([slice(0, 5)], "known", sigma=[1.0, 2.0])
+    with pytest.raises(ConfigError, match="contiguous from 0"):
+        error_model([slice(1, 5)], "known", sigma=1.0)
 
 
-def test_adjusted_error_model_of_a_case_and_its_laplace_record(problem: UpdateProblem) -> None:
-    from femupdate.posterior.best_fit import laplace_record
-    from femupdate.posterior.jacobian import residual_jacobian
+def test_known_is_the_gaussian_of_that_variance() -> None:
+    rng = np.random.default_rng(9)
+    r = rng.standard_normal(40)
+    model = error_model([slice(0, 15), slice(15, 40)], "known", sigma=[0.5, 2.0])
+    expected = sum(-0.5 * float(r[s] @ r[s]) / sd ** 2 - 0.5 * (s.stop - s.start)
+                   * math.log(2 * math.pi * sd ** 2)
+                   for s, sd in ((slice(0, 15), 0.5), (slice(15, 40), 2.0)))
+    assert model.loglike(r) == pytest.approx(expected, rel=1e-12)
 
-    x = problem.case.to_search(TRUTH)
-    r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
-    model = problem_error_model(problem, r, "adjusted", jac)
-    iid = problem_error_model(problem, r, "iid")
-    # one power for every block, below 1: the residuals of a time history are correlated
-    ratio = model.counts / iid.counts
-    assert np.all(ratio < 1.0) and np.ptp(ratio) < 1e-12
-    record = laplace_record(problem, x, kind="adjusted")
-    assert record.note is None and record.error_model == "adjusted"
+
+def test_the_models_round_trip_as_plain_data() -> None:
+    rng = np.random.default_rng(10)
+    r = rng.standard_normal(60)
+    rows = np.vstack([r, 1.3 * r, np.full_like(r, np.nan)])
+    for model in (error_model([slice(0, 20), slice(20, 60)], "neff", best_residuals=r),
+                  error_model([slice(0, 60)], "known", sigma=0.3)):
+        again = error_model_from(error_model_data(model))
+        assert type(again) is type(model) and again.kind == model.kind
+        assert np.array_equal(again.loglike_rows(rows), model.loglike_rows(rows))
+
+
+def test_the_registry_holds_the_kinds_a_user_chooses_and_takes_others_explicitly() -> None:
+    assert ERROR_MODELS.names == ("neff", "known") and case_kinds() == ("neff",)
+
+    class Halved(NEff):  # a plug-in: half of neff's counts
+        name = "halved"
+
+        def build(self, fit):  # type: ignore[no-untyped-def]
+            model = super().build(fit)
+            return ErrorModel(self.name, model.starts, model.stops, model.counts / 2, model.rho)
+
+    mine = ERROR_MODELS.copy()
+    mine.register(Halved())
+    r = np.random.default_rng(11).standard_normal(30)
+    neff = error_model([slice(0, 30)], "neff", best_residuals=r)
+    halved = error_model([slice(0, 30)], "halved", best_residuals=r, registry=mine)
+    assert halved.counts[0] == pytest.approx(neff.counts[0] / 2)
+    assert "halved" not in ERROR_MODELS  # the product's registry is untouched
+    with pytest.raises(ConfigError, match="'neff' is empty or taken"):
+        mine.register(NEff())
+    with pytest.raises(ConfigError, match="is empty or taken"):
+        Registry(Known(), Known())
+
+
+def test_importing_the_posterior_registers_no_method() -> None:
+    """method "tmcmc" is registered by femupdate.posterior.method.register(), called by
+    femupdate posterior, not by importing a module."""
+    code = ("import femupdate.posterior.method, femupdate.sampling.run\n"
+            "from femupdate.optimize.minimize import METHODS\n"
+            "assert 'tmcmc' not in METHODS, 'registered on import'\n"
+            "femupdate.posterior.method.register()\n"
+            "assert 'tmcmc' in METHODS\n")
+    subprocess.run([sys.executable, "-c", code], check=True)

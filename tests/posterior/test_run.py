@@ -43,7 +43,7 @@ def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
     record = result.record
     assert record.reached and record.log_evidence is not None and math.isfinite(
         record.log_evidence)
-    assert record.error_model == "adjusted"  # the sampler's default
+    assert record.error_model == "neff"  # the default
     # four runs, and four more while a parameter was unsettled (200 samples each: a pooled
     # ESS near the verdict's 400); in the end the runs of a well-posed posterior agree
     runs = record.runs
@@ -165,7 +165,6 @@ def test_a_failed_evaluation_in_a_stage_is_recorded_not_fatal(
     assert "started from the prior" in got.record.message  # no Jacobian beside the bound
     # nor the count of the default error model, which needs that Jacobian: 'neff', said
     assert got.record.error_model == "neff"
-    assert "error model 'neff' in place of 'adjusted'" in got.record.message
     assert got.record.params["k1"].q95 <= 4010.0  # never accepted where it failed
 
 
@@ -219,39 +218,37 @@ def test_too_few_samples_given_on_the_command_line_are_refused(case_path: Path,
     assert not (tmp_path / "few").exists()  # refused before anything is written
 
 
-def test_the_case_file_offers_the_error_models_of_the_likelihood() -> None:
+def test_the_case_file_offers_the_error_models_of_the_registry() -> None:
     import typing
 
     from femupdate.case.posterior_section import PosteriorSection
-    from femupdate.posterior.likelihood import KINDS
+    from femupdate.posterior.error_models import case_kinds
 
     offered, unset = typing.get_args(PosteriorSection.model_fields["error_model"].annotation)
-    assert set(typing.get_args(offered)) == set(KINDS) - {"known"} and unset is type(None)
+    assert typing.get_args(offered) == case_kinds() and unset is type(None)
 
 
-def test_unset_the_sampler_and_the_laplace_record_take_their_own_defaults(
-        case_path: Path) -> None:
-    # each the error model calibrated where it is used (docs/posterior.md, section 6)
+def test_unset_the_sampler_and_the_laplace_record_take_the_default(case_path: Path) -> None:
     from femupdate.posterior.best_fit import case_error_kind
-    from femupdate.posterior.likelihood import DEFAULT_KIND, SAMPLED_KIND
+    from femupdate.posterior.error_models import DEFAULT_KIND
     from femupdate.sampling.run import posterior_settings
 
     data = load_case(case_path).to_dict()
     data["posterior"].pop("error_model", None)
     unset = parse_case(data)
     assert (posterior_settings(unset).error_model, case_error_kind(unset)) == (
-        SAMPLED_KIND, DEFAULT_KIND) == ("adjusted", "neff")
+        DEFAULT_KIND, DEFAULT_KIND) == ("neff", "neff")
     data.pop("posterior")
     bare = parse_case(data)
-    assert (posterior_settings(bare).error_model, case_error_kind(bare)) == (
-        "adjusted", "neff")
+    assert (posterior_settings(bare).error_model, case_error_kind(bare)) == ("neff", "neff")
     data["posterior"] = {"error_model": "tau"}
-    named = parse_case(data)
-    assert (posterior_settings(named).error_model, case_error_kind(named)) == ("tau", "tau")
+    with pytest.raises(ConfigError, match="error_model"):
+        parse_case(data)
 
 
 def test_a_case_without_posterior_keeps_its_fingerprint(case_path: Path) -> None:
     data = load_case(case_path).to_dict()
+    assert "ess" not in data["posterior"]  # an ESS target not given is not saved either
     data.pop("posterior")
     case = parse_case(data)
     assert "posterior" not in case.to_dict()
@@ -346,3 +343,57 @@ def test_a_report_without_the_corner_extra_leaves_the_corner_plot_out(
     assert "corner plot not drawn: &#x27;corner&#x27; is needed" in html or (
         "corner plot not drawn: 'corner' is needed" in html)
     assert "pip install" in html and "predictive band</figcaption>" in html
+
+
+@pytest.mark.slow
+def test_without_a_posterior_seed_the_search_seed_makes_it_reproducible(tmp_path: Path
+                                                                        ) -> None:
+    path = write_case(tmp_path / "case", samples=40)
+    path.write_text(path.read_text().replace("seed = 5\n", ""))
+    case = load_case(path)
+    assert case.posterior.seed is None and case.search.seed == 7
+    one = run_posterior(case, tmp_path / "one", runs=1, recentre=0)
+    two = run_posterior(case, tmp_path / "two", runs=1, recentre=0)
+    assert one.record.seed == 7 and one.samples.tobytes() == two.samples.tobytes()
+
+
+def test_the_error_model_is_chosen_on_the_command_line_among_the_case_kinds(
+        case_path: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from femupdate.cli import app
+
+    with pytest.raises(ConfigError, match=r"error_model: got 'tau' \(allowed: neff\)"):
+        run_posterior(load_case(case_path), tmp_path / "tau", error_model="tau")
+    assert not (tmp_path / "tau").exists()  # refused before anything is written
+    got = CliRunner().invoke(app, ["posterior", str(case_path), "--out", str(tmp_path / "cli"),
+                                   "--error-model", "eiv"])
+    assert isinstance(got.exception, ConfigError) and "allowed: neff" in str(got.exception)
+    assert "--error-model" in CliRunner().invoke(app, ["posterior", "--help"]).output
+
+
+def test_from_a_results_directory_the_search_is_not_run_again(result: PosteriorResult,
+                                                               case_path: Path,
+                                                               tmp_path: Path) -> None:
+    searched = case_path.parent / "out"
+    got = run_posterior(load_case(case_path), tmp_path / "sampled", search_from=searched,
+                        runs=1, recentre=0)
+    assert not (tmp_path / "sampled" / FILENAME).exists()  # no search in --out
+    assert [r.nfev for r in got.search.summary.runs] == [  # none added to the store
+        r.nfev for r in result.search.summary.runs]
+    assert got.search.summary.best.phi == result.search.summary.best.phi
+    assert read_summary(tmp_path / "sampled" / "summary.json").posterior.reached
+    with pytest.raises(ConfigError, match=r"--from .*: no search results there"):
+        run_posterior(load_case(case_path), tmp_path / "x", search_from=tmp_path / "none")
+
+
+@pytest.mark.slow
+def test_runs_are_added_until_every_parameter_has_the_ess_asked_for(tmp_path: Path) -> None:
+    case = load_case(write_case(tmp_path / "case", samples=40))
+    few = run_posterior(case, tmp_path / "few", runs=2, max_runs=4, recentre=0, ess=10)
+    assert few.record.runs == 2 and few.record.unsettled == []
+    many = run_posterior(case, tmp_path / "many", runs=2, max_runs=4, recentre=0,
+                         ess=10_000_000)
+    assert many.record.runs == 4 and many.record.unsettled == list(many.record.names)
+    with pytest.raises(ConfigError, match=r"ess: got 5 \(allowed"):
+        run_posterior(case, tmp_path / "bad", ess=5)

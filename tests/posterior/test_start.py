@@ -170,11 +170,12 @@ def test_runs_are_added_while_a_parameter_is_unsettled(tmp_path: Path) -> None:
 @pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 def test_without_a_seed_a_recentred_pass_killed_still_resumes(tmp_path: Path) -> None:
-    # No [posterior] seed: the runs' entropy is fresh but stored, and the polish and the
-    # start's choices follow from the stored points, so the resume is not refused.
+    # No seed ([posterior] nor [search]): the runs' entropy is fresh but stored, and the
+    # polish and the start's choices follow from the stored points, so the resume is not
+    # refused.
     path = write_case(tmp_path / "unseeded")
     path.write_text(path.read_text().replace("max_evals = 1500", "max_evals = 25")
-                    .replace("seed = 5\n", ""))
+                    .replace("seed = 5\n", "").replace("seed = 7\n", ""))
     out = tmp_path / "out"
     code = kill_posterior_when(path, out, out / POSTERIOR_DIR / f"{RECENTRED_DIR}-1" / FILENAME,
                                1, 1e-3)

@@ -62,14 +62,16 @@ class PosteriorSection(Section):
     """``[posterior]``: samples, error model, seed and budget of the sampled posterior.
 
     ``samples``: TMCMC's population, the equally weighted samples each run ends with;
-    ``runs``: independent runs (seeds: the children of ``seed``), pooled, whose agreement
+    ``ess``: the effective samples every parameter needs to be settled (runs are added until
+    it has them, up to ``max_runs``; unset, 400, saved only when given);
+    ``runs``: independent runs (seeds: the children of ``seed``, which unset is
+    ``[search] seed``), pooled, whose agreement
     checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
     while a parameter is unsettled, ``runs`` more are added, up to this many in all (none to
     one run);
-    ``error_model``: "neff", "tau", "iid", "ar1", "arp", "adjusted" or "eiv" (the kinds of
-    :mod:`femupdate.posterior.likelihood` but "known", which needs the error's σ); unset, the
-    sampled posterior takes "adjusted" and the Laplace record at the best fit "neff"
-    (``SAMPLED_KIND``, ``DEFAULT_KIND``: each the calibrated one where it is used);
+    ``error_model``: "neff" (the kinds of :mod:`femupdate.posterior.error_models` but
+    "known", which needs the error's σ); unset, the default, "neff", for both the sampled
+    posterior and the Laplace record at the best fit;
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
     ``modes_samples``: how many of the samples the modes and predictive bands are computed
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
@@ -82,8 +84,9 @@ class PosteriorSection(Section):
 
     samples: integer_field(ge=20, le=1_000_000) = 1000
     runs: integer_field(ge=1, le=64) = 4
+    ess: integer_field(ge=10, le=10_000_000) | None = None
     max_runs: integer_field(ge=1, le=256) = 12
-    error_model: Literal["neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv"] | None = None
+    error_model: Literal["neff"] | None = None
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000
     modes_samples: integer_field(ge=0, le=100_000) = 200

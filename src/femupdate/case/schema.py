@@ -551,8 +551,10 @@ class Case(Section):
         data = self.model_dump(mode="json")
         if data.get("posterior") is None:
             data.pop("posterior", None)
-        elif data["posterior"].get("surrogate") is None:  # nor [posterior] surrogate unset
-            data["posterior"].pop("surrogate", None)
+        else:
+            for key in ("surrogate", "ess"):  # nor [posterior] fields left unset
+                if data["posterior"].get(key) is None:
+                    data["posterior"].pop(key, None)
         for key in ("cutoff_factor", "n_modes"):  # nor the reduced path's when not given
             if data["simulation"].get(key) is None:
                 data["simulation"].pop(key, None)

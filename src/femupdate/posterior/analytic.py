@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from femupdate.posterior.likelihood import ErrorModel, error_model
+from femupdate.posterior.error_models import error_model
+from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
 
 SIGMA = 0.2

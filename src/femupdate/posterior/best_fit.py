@@ -17,11 +17,9 @@ from typing import Any
 import numpy as np
 
 from femupdate.errors import FemupdateError
-from femupdate.posterior.input_noise import eiv_sandwich_laplaces
+from femupdate.posterior.error_models import DEFAULT_KIND, problem_error_model
 from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, laplace, summarize_gaussian
-from femupdate.posterior.likelihood import DEFAULT_KIND, ErrorModel, problem_error_model
-from femupdate.posterior.mode import WHITENING_KINDS, whitened_mode
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.records import LaplaceRecord, Marginal, correlation_rows
 from femupdate.update import UpdateProblem
@@ -40,7 +38,7 @@ def case_priors(case: Any) -> Prior:
 
 
 def case_error_kind(case: Any) -> str:
-    """``[posterior] error_model``, or the Laplace record's default error model."""
+    """``[posterior] error_model``, or the default error model."""
     section = getattr(case, "posterior", None)
     return DEFAULT_KIND if section is None or section.error_model is None \
         else section.error_model
@@ -49,11 +47,7 @@ def case_error_kind(case: Any) -> str:
 def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
                    kind: str | None = None) -> LaplaceRecord:
     """The Laplace approximation at search point ``x`` (a best fit) of ``problem``, at two
-    scales (:func:`two_scale_record`; 4n + 1 evaluations). A whitening error model (``"ar1"``,
-    ``"arp"``, ``"eiv"``) has its maximum elsewhere than φ's minimum: its Gaussian is taken at
-    its own mode, climbed to from ``x`` (:func:`mode_jacobians`; the evaluations counted in
-    ``nfev``); ``"eiv"``'s covariance is its sandwich
-    (:func:`~femupdate.posterior.input_noise.eiv_sandwich_laplaces`).
+    scales (:func:`two_scale_record`; 4n + 1 evaluations).
 
     A failure (the model fails beside ``x``, a residual block is zero) is recorded as the
     record's ``note``, not raised: the update's results stand without it.
@@ -69,65 +63,13 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
         best_unit = prior.to_unit(x)
         jacobians = [residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
                      for step in (LOCAL_STEP, UNIT_STEP)]
-        # "adjusted" takes its count from the Jacobian over 1 % of each range (the valley's)
-        model = problem_error_model(problem, r, kind,
-                                    jacobians[1][1] if kind == "adjusted" else None, point=x)
-        if kind in WHITENING_KINDS:  # its Gaussian sits at its own mode, not at φ's minimum
-            best_unit, jacobians, extra = mode_jacobians(problem, prior, model, best_unit,
-                                                         *jacobians[0])
-            nfev += extra
-        if kind == "eiv":  # the covariance of its score, not its Whittle curvature
-            results = eiv_sandwich_laplaces(problem, model, x, r, jacobians, best_unit, prior)
-        else:
-            results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
-                       for r_x, jac in jacobians]
+        model = problem_error_model(problem, r, kind, jacobians[1][1], point=x)
+        results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
+                   for r_x, jac in jacobians]
     except FemupdateError as exc:
         return LaplaceRecord(error_model=kind, names=list(problem.names), nfev=nfev,
                              note=f"no Laplace approximation: {exc}")
-    record = two_scale_record(results[0], results[1], prior, kind, nfev)
-    record.noise = model.to_dict().get("noise", [])
-    return record
-
-
-#: The error models wide enough to span the minima a search can end in (measured on the
-#: bridge with fits by multistart-lm: docs/posterior.md, section 6, "in a user's update").
-SPANNING_KINDS: tuple[str, ...] = ("neff", "tau")
-
-
-def basin_sentences(record: LaplaceRecord, minima: int) -> list[str]:
-    """What to say when the record's error model is one of the sharp ones: its Gaussian
-    holds within the best minimum's basin only, whether the runs ended in several minima or
-    found one again (on the bridge's calibration replicates, searches that found their best
-    again still sat off the truth's basin often: docs/posterior.md, section 6)."""
-    if record.error_model in SPANNING_KINDS or record.note is not None:
-        return []
-    if minima > 1:
-        return [f"The runs ended in {minima} different minima, and error model "
-                f"{record.error_model!r} is sharp: its intervals hold within the best one's "
-                "basin and can miss the truth with confidence if it lies in another (error "
-                "model 'neff' spans them; femupdate posterior samples again from a better "
-                "fit its samples find)"]
-    return [f"Error model {record.error_model!r} is sharp: its intervals hold within this "
-            "fit's basin, and searches can find the same wrong basin again (along a rippled "
-            "valley: on the bridge's calibration replicates E's interval missed the truth in "
-            "half of the updates whose search was found again); error model 'neff' spans "
-            "such basins, and femupdate posterior samples again from a better fit its "
-            "samples find"]
-
-
-def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,
-                   start_unit: np.ndarray, r: np.ndarray, jac: np.ndarray,
-                   steps: tuple[float, ...] = (LOCAL_STEP, UNIT_STEP)
-                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]], int]:
-    """The mode of a whitening error model (:func:`~femupdate.posterior.mode.whitened_mode`
-    from the best fit, with r and the local Jacobian there), the residuals and Jacobians at
-    the mode over each of ``steps``, and the evaluations all that took."""
-    mode = whitened_mode(problem.residuals_batch, prior, model, start_unit, residuals=r,
-                         jacobian=jac)
-    x = prior.to_search(mode.unit)
-    jacobians = [residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
-                 for step in steps]
-    return mode.unit, jacobians, mode.evaluations + len(steps) * (2 * x.size + 1)
+    return two_scale_record(results[0], results[1], prior, kind, nfev)
 
 
 def two_scale_record(local: LaplaceResult, coarse: LaplaceResult, prior: Prior, kind: str,

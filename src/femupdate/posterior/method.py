@@ -7,10 +7,10 @@ reference Gaussian as plain data (:func:`sampler_options`) and builds the core's
 :class:`~femupdate.posterior.tmcmc.TMCMC` from them; its :meth:`CaseTMCMC.extras` hands the
 final samples back through the run's stored result.
 
-The registry of methods lives in a lower layer (:mod:`femupdate.optimize.minimize`), so the
-method is registered when this module is imported; the problem a posterior run evaluates,
-:class:`SampledProblem`, is defined here so that unpickling it in a worker process (local or
-Dask) imports this module, and registers the method there too.
+The registry of methods lives in a lower layer (:mod:`femupdate.optimize.minimize`);
+:func:`register` adds the method to it, explicitly: ``femupdate posterior`` calls it before
+its runs, and the problem a posterior run evaluates, :class:`SampledProblem`, calls it when a
+worker process (local or Dask) unpickles it. Importing this module registers nothing.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ import numpy as np
 
 from femupdate.errors import ConfigError
 from femupdate.optimize.registry import METHODS, register_method
-from femupdate.posterior.input_noise import TrialWhitening
-from femupdate.posterior.likelihood import ErrorModel
+from femupdate.posterior.error_models import ERROR_MODELS
+from femupdate.posterior.likelihood import ErrorModel, Registry
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.tmcmc import TMCMC
 from femupdate.update import UpdateProblem
@@ -51,23 +51,13 @@ class CaseTMCMC(TMCMC):
 
 def error_model_data(model: ErrorModel) -> dict[str, Any]:
     """An error model as plain data (:func:`error_model_from` rebuilds it bit for bit)."""
-    return {"kind": model.kind, "starts": model.starts.tolist(), "stops": model.stops.tolist(),
-            "counts": model.counts.tolist(), "rho": model.rho.tolist(),
-            "sigma": None if model.sigma is None else model.sigma.tolist(),
-            "ar": None if model.ar is None else model.ar.tolist(),
-            "spectral": None if model.spectral is None else [t.to_dict()
-                                                             for t in model.spectral]}
+    return model.data()
 
 
-def error_model_from(data: Mapping[str, Any]) -> ErrorModel:
-    sigma, ar, spectral = data.get("sigma"), data.get("ar"), data.get("spectral")
-    return ErrorModel(str(data["kind"]), np.asarray(data["starts"], dtype=int),
-                      np.asarray(data["stops"], dtype=int), np.asarray(data["counts"], float),
-                      np.asarray(data["rho"], float),
-                      None if sigma is None else np.asarray(sigma, float),
-                      None if ar is None else np.asarray(ar, float),
-                      None if spectral is None else tuple(TrialWhitening.from_dict(t)
-                                                          for t in spectral))
+def error_model_from(data: Mapping[str, Any], registry: Registry = ERROR_MODELS
+                     ) -> ErrorModel:
+    """The error model of :func:`error_model_data`'s data, by its kind in ``registry``."""
+    return registry.from_data(data)
 
 
 def prior_data(prior: Prior, specs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
@@ -109,8 +99,11 @@ def make_case_tmcmc(n: int, rng: np.random.Generator, **options: Any) -> CaseTMC
     return CaseTMCMC(n, rng, error_model=model, prior=prior, reference=reference, **options)
 
 
-if METHOD not in METHODS:
-    register_method(METHOD, make_case_tmcmc, population=True)
+def register() -> None:
+    """Add method ``"tmcmc"`` to :data:`femupdate.optimize.registry.METHODS` (idempotent):
+    a population method, its stages spread over the workers when runs are fewer."""
+    if METHOD not in METHODS:
+        register_method(METHOD, make_case_tmcmc, population=True)
 
 
 class SampledProblem(UpdateProblem):
@@ -123,3 +116,8 @@ class SampledProblem(UpdateProblem):
         new = cls.__new__(cls)
         new.__dict__.update(problem.__dict__)
         return new
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # a worker process (local or Dask) that unpickles it advances "tmcmc" runs
+        self.__dict__.update(state)
+        register()

@@ -39,10 +39,9 @@ class LaplaceRecord(_Record):
     interval covers most of their bounds (``sentences`` says so in words); ``not_quadratic``:
     the determined ones whose φ is far from quadratic over their interval, for which the
     Gaussian is not to be trusted (said in words too); ``note``: why it is missing, if it is;
-    ``noise``: for error model ``"eiv"``, per fitted trial the noise levels it fitted (each
-    output sensor's and the table's, in the records' units) and the share of the residual the
-    table's noise explains; ``caveats``: what else to know before trusting the intervals (the
-    runs ended in several minima and the error model is a sharp one).
+    ``noise``: per fitted trial the noise levels an error model fitted, for a plug-in that
+    fits them (none of the product's kinds does: empty); ``caveats``: what else to know
+    before trusting the intervals.
     """
 
     error_model: str = ""

@@ -497,8 +497,7 @@ def problem_evaluator(problem: Any, executor: Any = None) -> Evaluate:
 #: The file of the surrogate-aided posterior in a results directory: its record (JSON) and
 #: samples (NPZ).
 RECORD_FILE, SAMPLES_FILE = "surrogate.json", "surrogate.npz"
-#: The error model when ``[posterior] error_model`` names none: the Laplace record's default,
-#: which needs no Jacobian ("adjusted" takes one, 2n model runs, at each better best run).
+#: The error model when ``[posterior] error_model`` names none: the posterior's default.
 SURROGATE_KIND = "neff"
 
 
@@ -515,16 +514,12 @@ def wants_surrogate(case: Any, flag: bool | None = None) -> bool:
 
 
 def case_error_model_at(problem: Any, kind: str) -> ErrorModelAt:
-    """:data:`ErrorModelAt` of an UpdateProblem: ``kind`` fixed at a run's residuals (with a
-    Jacobian there for ``"adjusted"``: 2n more model runs, counted)."""
-    from femupdate.posterior.jacobian import residual_jacobian
-    from femupdate.posterior.likelihood import problem_error_model
+    """:data:`ErrorModelAt` of an UpdateProblem: ``kind`` fixed at a run's residuals (the
+    product's kinds need no Jacobian: no model runs beyond the run's own)."""
+    from femupdate.posterior.error_models import problem_error_model
 
     def at(x: np.ndarray, r: np.ndarray) -> tuple[ErrorModel, int]:
-        if kind != "adjusted":
-            return problem_error_model(problem, r, kind, point=x), 0
-        _, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
-        return problem_error_model(problem, r, kind, jac, point=x), 2 * len(x)
+        return problem_error_model(problem, r, kind, point=x), 0
 
     return at
 

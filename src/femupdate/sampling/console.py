@@ -1,16 +1,58 @@
-"""The uncertainty in the console summaries: Laplace at the best fit, the sampled posterior."""
+"""The uncertainty in the console summaries: Laplace at the best fit, the sampled posterior.
+
+The tables fit 80 columns with every number whole (no column is cut to an ellipsis: a cell
+too wide folds), and an interval's ends carry the significant digits that tell them apart
+(:func:`interval_digits`): a narrow interval of a large number is not printed as
+``[1.2e+06, 1.2e+06]``.
+"""
 
 from __future__ import annotations
 
+import math
+
+from rich import box
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
 from femupdate.posterior.records import LaplaceRecord, Marginal, PosteriorRecord
 
+#: Significant digits at least, and at most, of the numbers of an interval.
+MIN_DIGITS, MAX_DIGITS = 4, 12
+
+
+def interval_digits(low: float, high: float, least: int = MIN_DIGITS) -> int:
+    """The fewest significant digits (≥ ``least``, ≤ :data:`MAX_DIGITS`) at which ``low``
+    and ``high`` print differently (trailing zeros kept), plus one to show how far apart
+    they are."""
+    if not (math.isfinite(low) and math.isfinite(high)) or low == high:
+        return least
+    for digits in range(least - 1, MAX_DIGITS):
+        if f"{low:#.{digits}g}" != f"{high:#.{digits}g}":
+            return max(least, digits + 1)
+    return MAX_DIGITS
+
+
+def number(value: float, digits: int) -> str:
+    """``value`` to ``digits`` significant digits, trailing zeros kept ('–' for a missing
+    one)."""
+    if value is None or math.isnan(value):
+        return "–"
+    return f"{value:#.{digits}g}".replace(".e", "e").rstrip(".")
+
 
 def _interval(m: Marginal) -> str:
-    return f"[{m.q05:.4g}, {m.q95:.4g}]"
+    digits = interval_digits(m.q05, m.q95)
+    return f"[{number(m.q05, digits)}, {number(m.q95, digits)}]"
+
+
+def _table(title: str, caption: str, columns: tuple[str, ...]) -> Table:
+    """A compact table whose cells fold rather than end in an ellipsis."""
+    table = Table(title=Text(title), caption=Text(caption), box=box.SIMPLE_HEAD,
+                  padding=(0, 1), collapse_padding=True)
+    for col in columns:
+        table.add_column(col, justify="right", overflow="fold")
+    return table
 
 
 def print_laplace(record: LaplaceRecord | None, best: dict[str, float], out: Console) -> None:
@@ -21,17 +63,16 @@ def print_laplace(record: LaplaceRecord | None, best: dict[str, float], out: Con
     if record.note:
         out.print(Text(record.note))
         return
-    table = Table(title=Text(f"uncertainty at the best fit (Laplace, error model "
-                             f"{record.error_model!r})"),
-                  caption=Text("90 % interval: 5–95 % of the Gaussian approximation at the "
-                               "best fit (lognormal on a log scale), clipped to the bounds"))
-    for col in ("parameter", "best", "sd", "90 % interval", "determined"):
-        table.add_column(col, justify="right")
+    table = _table(f"uncertainty at the best fit (Laplace, error model {record.error_model!r})",
+                   "90 % interval: 5–95 % of the Gaussian approximation at the best fit "
+                   "(lognormal on a log scale), clipped to the bounds",
+                   ("parameter", "best", "sd", "90 % interval", "determined"))
     for name, m in record.params.items():
         determined = ("no" if name in record.undetermined
                       else "not Gaussian" if name in record.not_quadratic else "yes")
-        table.add_row(name, f"{best.get(name, float('nan')):.4g}", f"{m.sd:.2g}",
-                      _interval(m), determined)
+        table.add_row(name, number(best.get(name, math.nan),
+                                   interval_digits(m.q05, m.q95)),
+                      f"{m.sd:.2g}", _interval(m), determined)
     out.print(table)
     for sentence in [*record.caveats, *record.flagged_sentences()]:
         out.print(Text(sentence + "."))
@@ -58,18 +99,19 @@ def print_posterior(record: PosteriorRecord, out: Console) -> None:
                        f"{record.failure}"))
     if not record.reached:  # no samples, so no marginals: nothing more to show
         return
-    table = Table(title=Text("posterior: mean, sd and 5/50/95 % quantiles"),
-                  caption=Text("ESS: effective samples, the smaller of the runs' own estimates "
-                               "and what the scatter of their means shows; R̂: Gelman–Rubin"))
-    for col in ("quantity", "mean", "sd", "5 %", "50 %", "95 %", "ESS", "R̂"):
-        table.add_column(col, justify="right")
+    table = _table("posterior: median, sd and 90 % interval (5–95 % quantiles)",
+                   "mean and every quantile in summary.json; ESS: effective samples, the "
+                   "smaller of the runs' own estimates and what the scatter of their means "
+                   "shows; R̂: Gelman–Rubin", ("quantity", "50 %", "sd", "5 %", "95 %",
+                                               "ESS", "R̂"))
     rows = [*record.params.items(),
             *((f"{k} [Hz]", m) for k, m in record.frequencies_hz.items()),
             *((k, m) for k, m in record.damping_ratios.items())]
     for name, m in rows:
         ess, rhat = record.ess_params.get(name), record.rhat.get(name)
-        table.add_row(name, f"{m.mean:.4g}", f"{m.sd:.2g}", f"{m.q05:.4g}", f"{m.q50:.4g}",
-                      f"{m.q95:.4g}", "–" if ess is None else f"{min(ess, 1e9):,.0f}",
+        digits = interval_digits(m.q05, m.q95)
+        table.add_row(name, number(m.q50, digits), f"{m.sd:.2g}", number(m.q05, digits),
+                      number(m.q95, digits), "–" if ess is None else f"{min(ess, 1e9):,.0f}",
                       "–" if rhat is None else f"{rhat:.3f}",
                       style="yellow" if name in record.unsettled else None)
     out.print(table)

@@ -44,18 +44,12 @@ from femupdate.case.posterior_section import (
 )
 from femupdate.errors import ConfigError, DataError, FemupdateError
 from femupdate.experiment import Experiment, data_files, load_experiments
-from femupdate.posterior.best_fit import case_priors, centred, mode_jacobians
-from femupdate.posterior.input_noise import magnitude_adjusted
-from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
+from femupdate.posterior.best_fit import case_priors, centred
+from femupdate.posterior.error_models import DEFAULT_KIND, case_kinds, problem_error_model
+from femupdate.posterior.jacobian import residual_jacobian
 from femupdate.posterior.laplace import LaplaceResult, interval_spread, laplace, sentences
-from femupdate.posterior.likelihood import (
-    DEFAULT_KIND,
-    SAMPLED_KIND,
-    ErrorModel,
-    problem_error_model,
-)
-from femupdate.posterior.method import METHOD, SampledProblem, sampler_options
-from femupdate.posterior.mode import WHITENING_KINDS
+from femupdate.posterior.likelihood import ErrorModel
+from femupdate.posterior.method import METHOD, SampledProblem, register, sampler_options
 from femupdate.posterior.priors import Prior
 from femupdate.posterior.records import (
     PosteriorRecord,
@@ -68,7 +62,7 @@ from femupdate.results import POSTERIOR_FILE, Summary, write_summary
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
 from femupdate.runs.store import FILENAME
-from femupdate.sampling.agreement import Agreement, runs_agreement
+from femupdate.sampling.agreement import MIN_ESS, Agreement, runs_agreement
 from femupdate.sampling.bands import Bands, predictive_bands, save_bands
 from femupdate.sampling.modes import sample_modes
 from femupdate.sampling.start import (
@@ -105,11 +99,11 @@ class PosteriorResult:
 
 
 def posterior_settings(case: Case) -> PosteriorSection:
-    """``[posterior]``, or its defaults, with the sampled posterior's error model when the
-    case names none."""
+    """``[posterior]``, or its defaults, with the default error model when the case names
+    none."""
     settings = case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
     if settings.error_model is None:
-        settings = settings.model_copy(update={"error_model": SAMPLED_KIND})
+        settings = settings.model_copy(update={"error_model": DEFAULT_KIND})
     return settings
 
 
@@ -132,29 +126,12 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                       counts_from: ErrorModel | None = None
                       ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
     """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
-    and the Laplace Gaussian there (None, with why, when it cannot be had: TMCMC then starts
-    from the prior). ``"adjusted"`` takes its count from the Jacobian there; where the model
-    fails beside the best fit, there is none, and the error model is ``"neff"`` instead
-    (said in why: the Laplace Gaussian needs that Jacobian too)."""
+    and the Laplace Gaussian there, from the Jacobian over 1 % steps (None, with why, when
+    it cannot be had: TMCMC then starts from the prior)."""
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-    # (r, J) over 1 % steps: "adjusted"'s count and, but for a whitening kind, the Gaussian
-    unit_jacobian: tuple[np.ndarray, np.ndarray] | None = None
-    instead = ""
-    if kind == "adjusted":
-        try:
-            unit_jacobian = residual_jacobian(problem.residuals_batch, problem.bounds, x)
-        except FemupdateError:
-            kind = DEFAULT_KIND
-            instead = f"; error model {kind!r} in place of 'adjusted', which needs it"
-    if kind == "eiv" and counts_from is not None:
-        raise ConfigError(f"{problem.case.label}: error_model 'eiv' whitens each model class's "
-                          "residual by that class's own response to the table's noise, so the "
-                          "evidences of different classes are not of one likelihood (allowed: "
-                          "another error_model for model-class selection)")
-    model = problem_error_model(problem, r, kind,
-                                None if unit_jacobian is None else unit_jacobian[1], point=x)
+    model = problem_error_model(problem, r, kind, point=x)
     if counts_from is not None:
         if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
                 or model.stops.tolist() != counts_from.stops.tolist()):
@@ -162,26 +139,14 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
                               f", {counts_from.starts.size} blocks) is not of this case's data "
                               f"({model.kind}, {model.starts.size} blocks) (allowed: model "
                               "classes of the same trials, channels and error model)")
-        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho,
-                                    ar=counts_from.ar)
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
     best_unit = prior.to_unit(x)
     try:
-        if model.kind in WHITENING_KINDS:  # TMCMC starts from the Gaussian at its mode
-            r_fit = r
-            best_unit, ((r, jac),), _ = mode_jacobians(
-                problem, prior, model, best_unit,
-                *residual_jacobian(problem.residuals_batch, problem.bounds, x,
-                                   step=LOCAL_STEP), steps=(UNIT_STEP,))
-            if model.kind == "eiv":  # sampled with the magnitude of its score's variance
-                model = magnitude_adjusted(problem, model, x, r_fit, jac, r)
-            return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
-                                         prior), None
-        r, jac = unit_jacobian if unit_jacobian is not None else residual_jacobian(
-            problem.residuals_batch, problem.bounds, x)
+        r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
         return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
                                      prior), None
     except FemupdateError as exc:
-        return model, prior, None, f"{exc}{instead}"
+        return model, prior, None, str(exc)
 
 
 @dataclass
@@ -235,7 +200,8 @@ class FitSampler:
         batch = 0
         while (settings.runs > 1 and len(outcomes) + settings.runs <= settings.max_runs
                and (recentre_below is None or better_fit(outcomes, recentre_below) is None)
-               and (agreement := outcomes_agreement(prior, outcomes, problem.names)) is not None
+               and (agreement := outcomes_agreement(prior, outcomes, problem.names,
+                                                    settings.ess or MIN_ESS)) is not None
                and agreement.unsettled):
             batch += 1
             outcomes += self._runs(options, store_dir / f"{MORE_RUNS_DIR}-{batch}",
@@ -287,11 +253,12 @@ def run_samples(prior: Prior, outcomes: Sequence[RunOutcome], count: int
     return searches, own
 
 
-def outcomes_agreement(prior: Prior, outcomes: Sequence[RunOutcome], names: Sequence[str]
-                       ) -> Agreement | None:
-    """The agreement of sampler runs (None unless every run reached the posterior)."""
+def outcomes_agreement(prior: Prior, outcomes: Sequence[RunOutcome], names: Sequence[str],
+                       min_ess: float = MIN_ESS) -> Agreement | None:
+    """The agreement of sampler runs, a parameter with fewer than ``min_ess`` effective
+    samples unsettled (None unless every run reached the posterior)."""
     got = run_samples(prior, outcomes, len(names))
-    return None if got is None else runs_agreement(*got, list(names))
+    return None if got is None else runs_agreement(*got, list(names), min_ess)
 
 
 def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
@@ -301,7 +268,9 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   resume: bool = False, restart: bool = False,
                   execution: Execution | None = None,
                   experiments: Sequence[Experiment] | None = None,
-                  counts_from: ErrorModel | None = None) -> PosteriorResult:
+                  counts_from: ErrorModel | None = None,
+                  error_model: str | None = None,
+                  search_from: Path | None = None, ess: int | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -309,8 +278,9 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     case : Case
     out_dir : Path
         Results directory (the search's results, ``posterior/`` and ``posterior.npz``).
-    seed, samples, runs, max_runs, recentre : int or None
-        Override ``[posterior] seed``, ``samples``, ``runs``, ``max_runs`` and ``recentre``.
+    seed, samples, runs, max_runs, recentre, ess : int or None
+        Override ``[posterior] seed``, ``samples``, ``runs``, ``max_runs``, ``recentre`` and
+        ``ess``.
     workers : int or None
         Override ``[search] workers`` (for the search and the sampler).
     resume : bool
@@ -325,18 +295,25 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         Take the effective counts N_c (and ρ_c) of this error model instead of measuring them
         at this case's best fit: model classes compared by their evidence must share one
         likelihood of the data (:mod:`femupdate.sampling.classes`).
+    error_model : str or None
+        Override ``[posterior] error_model`` (one of
+        :func:`~femupdate.posterior.error_models.case_kinds`).
+    search_from : Path or None
+        Take the search of this results directory (``femupdate run --out``, the same case):
+        its store is resumed there (a finished search is not run again) and only the
+        sampler's results go into ``out_dir``. ``restart`` then discards only the sampler's.
     """
     settings = posterior_settings(case)
     # every override checked before any work (a bad --seed raised after the whole search)
     for name, value in (("runs", runs), ("max_runs", max_runs), ("recentre", recentre),
-                        ("seed", seed), ("samples", samples)):
+                        ("ess", ess), ("seed", seed), ("samples", samples)):
         if value is None:
             continue
         allowed = typing.cast(Range, field_range(PosteriorSection.model_fields[name]))
         if isinstance(value, bool) or not isinstance(value, int) or not allowed.contains(value):
             raise ConfigError(f"{case.label}: {name}: got {value!r} (allowed: "
                               f"{allowed.describe()})")
-        if name in ("runs", "max_runs", "recentre"):
+        if name in ("runs", "max_runs", "recentre", "ess"):
             settings = settings.model_copy(update={name: value})
     if settings.runs > settings.max_runs:
         raise ConfigError(f"{case.label}: runs = {settings.runs} with max_runs = "
@@ -347,15 +324,26 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         raise ConfigError(f"{case.label}: --resume: nothing is stored in {out_dir} to continue "
                           "(allowed: --resume into the --out of an interrupted `femupdate "
                           "posterior`; without --resume a posterior starts)")
-    seed = settings.seed if seed is None else seed
+    if error_model is not None:
+        if error_model not in (allowed_kinds := case_kinds()):
+            raise ConfigError(f"{case.label}: error_model: got {error_model!r} (allowed: "
+                              f"{', '.join(allowed_kinds)})")
+        settings = settings.model_copy(update={"error_model": error_model})
+    if seed is None:  # the posterior is as reproducible as the case's search
+        seed = settings.seed if settings.seed is not None else case.search.seed
     population = settings.samples if samples is None else samples
     need = SAMPLES_PER_PARAMETER * len(case.parameters)
     if population < need:
         raise ConfigError(f"{case.label}: samples: got {population} for "
                           f"{len(case.parameters)} parameters (allowed: at least {need}, "
                           f"{SAMPLES_PER_PARAMETER} per parameter)")
+    if search_from is not None and not (search_from / FILENAME).is_file():
+        raise ConfigError(f"{case.label}: --from {search_from}: no search results there "
+                          f"(allowed: the --out directory of `femupdate run` on this case, "
+                          f"holding {FILENAME})")
     experiments = list(experiments or load_experiments(case))
     check_records(experiments, case)
+    register()  # method "tmcmc" in run_all's registry
     execution = execution or Execution(label=case.label)
     out_dir.mkdir(parents=True, exist_ok=True)
     sampler_dir = out_dir / POSTERIOR_DIR
@@ -366,9 +354,13 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         for store in sorted(sampler_dir.rglob(FILENAME), key=lambda f: -len(f.parts)):
             start_over(store.parent)
         start_over(sampler_dir)
-    reuse = not restart and (out_dir / FILENAME).is_file()
-    search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
-                      execution=execution, keep_history=False, experiments=experiments)
+    if search_from is not None:  # the user's fit, not searched again
+        search = run_case(case, search_from, workers=workers, resume=True, execution=execution,
+                          keep_history=False, experiments=experiments)
+    else:
+        reuse = not restart and (out_dir / FILENAME).is_file()
+        search = run_case(case, out_dir, workers=workers, resume=reuse, restart=restart,
+                          execution=execution, keep_history=False, experiments=experiments)
     problem = SampledProblem.of(search.problem)
     best = search.summary.runs[search.summary.best.run]
     workers = case.search.workers if workers is None else workers
@@ -396,9 +388,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         start_words.insert(0, recentred_sentence(float(best.phi), phi, passes))
     if (words := search_sentence(search.summary.verdict, passes > 0)) is not None:
         start_words.append(words)
-    # the kind measured ("neff" where "adjusted" had no Jacobian), not only the one asked for
     record, physical = posterior_record(problem, done.prior, done.outcomes, done.model.kind,
-                                        seed, population)
+                                        seed, population, settings.ess or MIN_ESS)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
     if record.runs > settings.runs:
         record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
@@ -463,8 +454,8 @@ def thinned(samples: np.ndarray, count: int) -> np.ndarray:
 
 
 def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[RunOutcome],
-                     error_model: str, seed: int | None, population: int
-                     ) -> tuple[PosteriorRecord, np.ndarray]:
+                     error_model: str, seed: int | None, population: int,
+                     min_ess: float = MIN_ESS) -> tuple[PosteriorRecord, np.ndarray]:
     """The summary's record of independent TMCMC runs and their pooled samples in physical
     units (none unless every run reached β = 1: it never reports a posterior it did not
     reach), with the runs' agreement (:mod:`femupdate.sampling.agreement`)."""
@@ -494,7 +485,7 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
                                message=message, log_evidence=None,
                                ess=None), np.empty((0, len(names)))
     searches, own = got
-    agreement = runs_agreement(searches, own, names)
+    agreement = runs_agreement(searches, own, names, min_ess)
     search = np.vstack(searches)
     physical = prior.search_to_physical(search)
     q = np.quantile(search, [0.05, 0.5, 0.95], axis=0)

@@ -6,18 +6,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.optimize import least_squares
+from error_models.kinds import WhitenedModel
+from error_models.mode import whitened_mode
 
 from femupdate.case import parse_case
 from femupdate.errors import DataError
 from femupdate.experiment import load_experiments
-from femupdate.posterior.best_fit import case_priors, laplace_record, mode_jacobians
-from femupdate.posterior.jacobian import LOCAL_STEP, residual_jacobian
 from femupdate.posterior.laplace import jacobian_unit, laplace
-from femupdate.posterior.likelihood import ErrorModel, problem_error_model
-from femupdate.posterior.mode import newton_system, whitened_mode
+from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
-from femupdate.sampling.run import best_fit_gaussian
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 from two_storey_case import TRUTH, two_storey_spec
@@ -57,8 +54,8 @@ def _model(kind: str) -> ErrorModel:
     """One block of M samples, the AR(1) coefficient known: as ``"ar1"`` or as ``"arp"``."""
     one = np.array([0]), np.array([M])
     if kind == "ar1":
-        return ErrorModel("ar1", *one, np.array([M - 1.0]), np.array([RHO]))
-    return ErrorModel("arp", *one, np.array([M - 1.0]), np.zeros(1), ar=np.array([[RHO]]))
+        return WhitenedModel("ar1", *one, np.array([M - 1.0]), np.array([RHO]))
+    return WhitenedModel("arp", *one, np.array([M - 1.0]), np.zeros(1), ar=np.array([[RHO]]))
 
 
 def _gls(problem: Linear) -> tuple[np.ndarray, np.ndarray]:
@@ -150,31 +147,6 @@ def _two_storey(root: Path) -> UpdateProblem:
     virtual_experiment(case, TRUTH, root, seed=1, rate=200.0, duration=2.0, snr=0.03,
                        clean_input=True)
     return UpdateProblem(case, load_experiments(case))
-
-
-def test_the_laplace_record_and_tmcmc_start_of_arp_sit_at_its_mode(tmp_path: Path) -> None:
-    problem = _two_storey(tmp_path)
-    prior = case_priors(problem.case)
-    n = len(problem.names)
-    truth_unit = prior.from_physical(np.array([TRUTH[k] for k in problem.names]))
-    fit = least_squares(lambda u: problem.residuals(prior.to_search(u)), truth_unit,
-                        bounds=(0.0, 1.0), x_scale="jac", xtol=1e-12, ftol=1e-12)
-    x = prior.to_search(fit.x)
-    r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x, step=LOCAL_STEP)
-    model = problem_error_model(problem, r, "arp")
-    centre, _, evals = mode_jacobians(problem, prior, model, fit.x, r, jac)
-    sd = np.sqrt(np.diag(np.linalg.inv(newton_system(jac, r, fit.x, model, prior)[0])))
-    assert np.max(np.abs(centre - fit.x) / sd) > 0.3  # the mode is not the fit
-    record = laplace_record(problem, x, kind="arp")
-    assert record.note is None and record.nfev == 4 * n + 1 + evals
-    medians = np.array([record.params[k].q50 for k in problem.names])
-    assert np.allclose(medians, prior.to_physical(centre), rtol=1e-9)
-    _, _, gaussian, why = best_fit_gaussian(problem, x, "arp")
-    assert why is None and np.allclose(gaussian.mean_unit, centre, rtol=0, atol=1e-9)
-    # the other kinds stay at the best fit
-    neff = laplace_record(problem, x, kind="neff")
-    assert np.allclose([neff.params[k].q50 for k in problem.names],
-                       prior.search_to_physical(x), rtol=1e-9)
 
 
 def test_a_clean_input_leaves_the_table_record_without_sensor_errors(tmp_path: Path) -> None:

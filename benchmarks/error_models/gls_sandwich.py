@@ -1,7 +1,7 @@
 """The sandwich covariance of a whitening error model's mode: GLS whose whitening is imperfect.
 
 At the mode ξ̂ of a whitening error model (``"ar1"``, ``"arp"``: residuals whitened by a fixed
-AR filter, :func:`femupdate.posterior.mode.whitened_mode`) the estimate solves J̃ᵀWr̃ = 0, J̃
+AR filter, :func:`error_models.mode.whitened_mode`) the estimate solves J̃ᵀWr̃ = 0, J̃
 and r̃ the whitened Jacobian and residuals, W the blocks' weights. If the whitened errors are
 white, its covariance is the likelihood's H⁻¹ (H = J̃ᵀWJ̃). If they are not (the noise of a
 shake table's record reaches every channel through the structure, narrow-band at its

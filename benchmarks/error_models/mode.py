@@ -27,10 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from femupdate.errors import DataError, FemupdateError
-from femupdate.posterior.jacobian import LOCAL_STEP, residual_jacobian
+from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.posterior.laplace import gaussian_precision
 from femupdate.posterior.likelihood import ErrorModel
 from femupdate.posterior.priors import Prior
+from femupdate.update import UpdateProblem
 
 #: The error models whose likelihood maximum is not the least-squares best fit: they whiten
 #: the residual before weighing it.
@@ -198,3 +199,18 @@ def whitened_mode(residuals_batch: Callable[[np.ndarray], np.ndarray], prior: Pr
         if iterations < max_iterations:
             r, jac = jacobian_at(unit)
     return ModeResult(unit, r, value, start_value, iterations, evaluations, converged)
+
+
+def mode_jacobians(problem: UpdateProblem, prior: Prior, model: ErrorModel,
+                   start_unit: np.ndarray, r: np.ndarray, jac: np.ndarray,
+                   steps: tuple[float, ...] = (LOCAL_STEP, UNIT_STEP)
+                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]], int]:
+    """The mode of a whitening error model (:func:`whitened_mode`
+    from the best fit, with r and the local Jacobian there), the residuals and Jacobians at
+    the mode over each of ``steps``, and the evaluations all that took."""
+    mode = whitened_mode(problem.residuals_batch, prior, model, start_unit, residuals=r,
+                         jacobian=jac)
+    x = prior.to_search(mode.unit)
+    jacobians = [residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
+                 for step in steps]
+    return mode.unit, jacobians, mode.evaluations + len(steps) * (2 * x.size + 1)

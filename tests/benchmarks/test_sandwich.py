@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.linalg import toeplitz
-from scipy.signal import lfilter
-
-from femupdate.errors import ConfigError, DataError
-from femupdate.posterior.likelihood import error_model
-from femupdate.posterior.sandwich import (
+from error_models.kinds import error_model
+from error_models.sandwich import (
     andrews_bandwidth,
     curvature_adjustment,
     magnitude_adjustment,
     sandwich_covariance,
     tapered_autocovariance,
 )
+from scipy.linalg import toeplitz
+from scipy.signal import lfilter
+
+from femupdate.errors import ConfigError, DataError
 
 
 def test_tapered_autocovariance_is_the_biased_sample_autocovariance() -> None:

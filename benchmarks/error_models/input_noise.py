@@ -36,7 +36,7 @@ w_k = W_k E_k, W_k = (I − β u uᴴ) D_k^{−1/2} (D_k the diagonal part, g = 
 u = g/‖g‖, β = 1 − (1 + nσ_u²‖g‖²)^{−1/2}, so that W_kᴴ W_k = S_k⁻¹), real and imaginary parts
 each scaled by √2 to unit variance: a fixed linear map of r, like the AR filters, so the mode,
 the Laplace Gaussian and TMCMC treat it as they treat ``"arp"``
-(:mod:`femupdate.posterior.mode`). Frequencies 0 and n/2 are left out (real coefficients), and
+(:mod:`error_models.mode`). Frequencies 0 and n/2 are left out (real coefficients), and
 so are those where the processing's gain to a channel's own noise is below :data:`GAIN_RANGE`
 of its largest (they carry only rounding, which their whitening would amplify: on the bridge,
 the few next to the Nyquist frequency, where the trapezoidal integration's gain is 0), and
@@ -394,7 +394,7 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
     that flatten the processing of each channel's own noise (least squares on the impulse
     response of that path), so that they do not notch the resonances, where the table's noise
     and the information are."""
-    from femupdate.posterior.likelihood import ar_fit
+    from error_models.kinds import ar_fit
 
     structure = trial.model.structure
     if structure is None:
@@ -463,7 +463,7 @@ def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray
     """The spectral whitening of every fitted trial of an UpdateProblem at search point
     ``point`` (the best fit) and its residual vector there ``residuals`` (blocks ``starts``
     to ``stops``), and the blocks' AR prewhitening filters (c, ``order``)."""
-    from femupdate.posterior.gls_sandwich import trial_groups
+    from error_models.gls_sandwich import trial_groups
 
     values = problem.values(np.asarray(point, dtype=float))
     r = np.asarray(residuals, dtype=float)
@@ -532,7 +532,7 @@ def score_covariance(problem: Any, model: Any, point: np.ndarray, residuals: np.
     is Dᵀr with D = Mᵀ W M J (M its whitening, W its weights), so this gives the covariance of
     the score, the meat of the sandwich (:func:`eiv_sandwich_laplaces`).
     """
-    from femupdate.posterior.gls_sandwich import trial_groups
+    from error_models.gls_sandwich import trial_groups
 
     values = problem.values(np.asarray(point, dtype=float))
     r = np.asarray(residuals, dtype=float)

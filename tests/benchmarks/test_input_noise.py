@@ -9,19 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from error_models import input_noise
+from error_models.kinds import error_model, problem_error_model, registry
 from scipy.signal import fftconvolve
-from two_storey import write_case
 
-from femupdate.case import load_case, parse_case
+from femupdate.case import parse_case
 from femupdate.errors import ConfigError
 from femupdate.experiment import load_experiments
-from femupdate.posterior import input_noise
-from femupdate.posterior.best_fit import laplace_record
-from femupdate.posterior.likelihood import error_model, problem_error_model
-from femupdate.posterior.method import error_model_data, error_model_from
 from femupdate.problems import bridge
-from femupdate.results import read_summary
-from femupdate.sampling.run import run_posterior
 from femupdate.update import UpdateProblem
 from femupdate.virtual import virtual_experiment
 from two_storey_case import TRUTH, two_storey_spec
@@ -163,35 +158,8 @@ def test_the_score_covariance_is_that_of_simulated_noise(problem: UpdateProblem,
     assert np.allclose(np.diag(exact), np.diag(simulated), rtol=0.25)
 
 
-def test_the_laplace_record_of_eiv_sits_at_its_mode(problem: UpdateProblem,
-                                                    truth_point: np.ndarray) -> None:
-    record = laplace_record(problem, truth_point, kind="eiv")
-    assert record.note is None and record.error_model == "eiv"
-    for name in problem.names:
-        marginal = record.params[name]
-        assert marginal.q05 < marginal.q50 < marginal.q95
-    (noise,) = record.noise
-    assert noise["sigma_input"] > 0 and len(noise["sigma_outputs"]) == 2
-
-
-def test_the_sampled_posterior_under_eiv_holds_the_truth(tmp_path: Path) -> None:
-    """``femupdate posterior`` with ``error_model = "eiv"`` on the two-storey case of the
-    posterior's wiring tests (accelerations, 2 % noise on every record, no high-pass)."""
-    path = write_case(tmp_path)
-    path.write_text(path.read_text().replace("[posterior]\n",
-                                             '[posterior]\nerror_model = "eiv"\n'))
-    result = run_posterior(load_case(path), tmp_path / "out")
-    record = result.record
-    assert record.reached and record.error_model == "eiv"
-    for name, value in TRUTH.items():
-        m = record.params[name]
-        assert abs(m.mean - value) < 4.0 * m.sd, (name, m, value)
-    summary = read_summary(tmp_path / "out" / "summary.json")
-    assert summary.laplace.error_model == "eiv" and summary.laplace.noise
-
-
 def test_the_model_round_trips_as_plain_data(model) -> None:
-    again = error_model_from(error_model_data(model))
+    again = registry().from_data(model.data())
     rows = np.random.default_rng(6).standard_normal((3, model.size))
     assert np.array_equal(again.whiten(rows), model.whiten(rows))
     assert np.array_equal(again.loglike_rows(rows), model.loglike_rows(rows))
@@ -239,14 +207,3 @@ def test_the_magnitude_adjustment_matches_the_score_variance_on_average(
                                                                       rel=1e-6)
 
 
-def test_a_sharp_error_model_says_its_intervals_hold_within_one_basin() -> None:
-    from femupdate.posterior.best_fit import basin_sentences
-    from femupdate.posterior.records import LaplaceRecord
-
-    sharp, wide = LaplaceRecord(error_model="eiv"), LaplaceRecord(error_model="neff")
-    (said,) = basin_sentences(sharp, 2)
-    assert "2 different minima" in said and "'eiv'" in said
-    # one minimum found again is no proof either (docs/posterior.md, section 6)
-    (said,) = basin_sentences(sharp, 1)
-    assert "within this fit's basin" in said and "'eiv'" in said
-    assert basin_sentences(wide, 1) == [] and basin_sentences(wide, 3) == []

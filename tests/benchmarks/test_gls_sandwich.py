@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from error_models.gls_sandwich import gls_sandwich_covariance
+from error_models.kinds import error_model
 from scipy.linalg import toeplitz
 
 from femupdate.errors import DataError
-from femupdate.posterior.gls_sandwich import gls_sandwich_covariance
-from femupdate.posterior.likelihood import error_model
 
 N = 512
 T = np.arange(N)

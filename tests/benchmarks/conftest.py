@@ -1,0 +1,11 @@
+"""The benchmarks' plug-ins (benchmarks/error_models) are imported as the scripts import them:
+from the benchmarks folder."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+if str(BENCHMARKS) not in sys.path:
+    sys.path.insert(0, str(BENCHMARKS))
