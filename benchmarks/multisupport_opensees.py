@@ -18,9 +18,10 @@ from femupdate.bench.multisupport_check import run_check
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=400, help="samples of each record")
+    parser.add_argument("--quick", action="store_true", help="100 samples (CI)")
     args = parser.parse_args()
     start = time.perf_counter()
-    figures = run_check(args.samples)
+    figures = run_check(100 if args.quick else args.samples)
     for name, value in figures.items():
         print(f"{name:48s} {value:.2e}")
     worst = max(figures.values())

@@ -137,7 +137,9 @@ def test_sigkill_while_recentred_then_resume_gives_the_identical_samples(
     assert resumed.record.start_phi == recentred.record.start_phi
 
 
-def test_restart_discards_the_recentred_stores(starved_case: Path, tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_restart_discards_the_recentred_stores(recentred: PosteriorResult, starved_case: Path,
+                                               tmp_path: Path) -> None:
     import shutil
 
     out = tmp_path / "restarted"
