@@ -12,8 +12,6 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import pytest
-
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 #: Pages the checks leave out: the history itself.
 NOT_GUIDANCE = {"history.md"}
@@ -29,12 +27,6 @@ HISTORY = re.compile(
     r"|the same day|tried|dropped|measured again)\b",
     re.IGNORECASE,
 )
-#: Pages being rewritten on other branches (issue 32): the checks expect them to fail until
-#: those rewrites are merged.
-OTHER_BRANCHES = ("posterior.md", "posterior-usage.md", "large-models.md", "frames-3d.md",
-                  "getting-started.md", "case-files.md", "hysteresis.md",
-                  "external-models.md", "data-checks.md", "errors.md")
-
 
 def is_history(line: str) -> bool:
     """Whether a line of a page carries a history marker (outside code, where it is a word)."""
@@ -69,11 +61,6 @@ def counts_table(rows: dict[str, tuple[int, int, int]]) -> str:
     return "\n".join(lines)
 
 
-def _others_pending(reason: str):
-    """xfail while the other branches' pages are unmerged; the lead lifts it after merging."""
-    return pytest.mark.xfail(strict=False, reason=reason)
-
-
 def test_the_markers_are_found() -> None:
     assert is_history("at an earlier stop it took 3 s")
     assert is_history("Before Broyden updates, 426 evaluations")
@@ -89,8 +76,6 @@ def test_page_counts_skip_code_and_blank_lines(tmp_path: Path) -> None:
     assert page_counts(page) == (7, 3, 1)
 
 
-@_others_pending("posterior.md, posterior-usage.md and large-models.md (rewritten on other "
-                 "branches) still hold most of the history lines")
 def test_history_lines_below_five_percent() -> None:
     rows = {p.name: page_counts(p) for p in pages()}
     nonblank = sum(r[1] for r in rows.values())
@@ -101,22 +86,11 @@ def test_history_lines_below_five_percent() -> None:
         f"above {MAX_HISTORY_SHARE:.0%}: move them to docs/history.md\n{counts_table(rows)}")
 
 
-@_others_pending("posterior.md, posterior-usage.md and frames-3d.md (rewritten on other "
-                 "branches) are over 400 lines")
 def test_no_page_over_400_lines() -> None:
     rows = {p.name: page_counts(p) for p in pages()}
     long = {name: r for name, r in rows.items() if r[0] > MAX_LINES and name not in LONG_PAGES}
     assert not long, (f"pages over {MAX_LINES} lines: {', '.join(sorted(long))}\n"
                       f"{counts_table(rows)}")
-
-
-def test_my_pages_in_the_present_tense() -> None:
-    """The pages not being rewritten elsewhere already meet both thresholds, page by page."""
-    rows = {p.name: page_counts(p) for p in pages() if p.name not in OTHER_BRANCHES}
-    bad = {name: r for name, r in rows.items()
-           if r[2] > MAX_HISTORY_SHARE * r[1] or (r[0] > MAX_LINES and name not in LONG_PAGES)}
-    assert not bad, f"pages with history or too long: {', '.join(sorted(bad))}\n" \
-                    f"{counts_table(rows)}"
 
 
 # The counts of a docs folder, page by page: python tests/docs/test_present_tense.py [DIR]
