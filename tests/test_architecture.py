@@ -89,3 +89,58 @@ def test_long_files_say_why() -> None:
             unexplained.append(f"{module.relative_to(PACKAGE)}: {text.count(chr(10))} lines")
     assert not unexplained, (f"files over {MAX_LINES} lines without '{REASON}' in their "
                              "docstring:\n" + "\n".join(unexplained))
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _runtime_imports(path: Path, modules: set[str]) -> set[str]:
+    """The femupdate modules ``path`` imports when it runs, lazy imports included (those
+    under ``if TYPE_CHECKING:`` are for the type checker only)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+                   and "TYPE_CHECKING" in ast.unparse(block.test)
+                   for stmt in block.body for n in ast.walk(stmt)}
+    found = set()
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [f"{node.module}.{a.name}" for a in node.names] + [node.module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            continue
+        for name in names:
+            while name and name not in modules:
+                name = name.rpartition(".")[0]
+            if name and name != "femupdate":
+                found.add(name)
+                break
+    return found
+
+
+def test_no_import_cycles() -> None:
+    # A module may import its own subpackages' modules (a package's __init__ re-exports);
+    # otherwise no chain of imports, lazy ones included, leads back to where it started.
+    paths = {_module_name(p): p for p in PACKAGE.rglob("*.py")}
+    graph = {m: {d for d in _runtime_imports(p, set(paths)) if d != m
+                 and not m.startswith(f"{d}.") and not d.startswith(f"{m}.")}
+             for m, p in paths.items()}
+    cycles = []
+
+    def visit(module: str, trail: list[str], done: set[str]) -> None:
+        for dep in sorted(graph[module]):
+            if dep in trail:
+                cycles.append(" → ".join([*trail[trail.index(dep):], dep]))
+            elif dep not in done:
+                visit(dep, [*trail, dep], done)
+        done.add(module)
+
+    done: set[str] = set()
+    for module in sorted(graph):
+        if module not in done:
+            visit(module, [module], done)
+    assert not cycles, "import cycles:\n" + "\n".join(sorted(set(cycles))[:20])

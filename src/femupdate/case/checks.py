@@ -331,12 +331,10 @@ def bouc_wen_bound_issues(case: Case) -> list[Issue]:
 
 def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
     """The checks of one trial's records against the model and the processing."""
-    from femupdate.case.schema import Data
-
     issues: list[Issue] = []
     if path != "data":  # [data] checked its own channels; a trial's merged ones are new
-        try:
-            Data.model_validate(data.model_dump())
+        try:  # validated again as their section ([data]'s class: no import of the schema)
+            type(data).model_validate(data.model_dump())
         except ValidationError as exc:
             for err in exc.errors(include_url=False):
                 ctx = err.get("ctx") or {}
