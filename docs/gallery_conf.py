@@ -8,10 +8,24 @@ after the code block that made it.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
 from mkdocs_gallery.scrapers import HLIST_HEADER, figure_md_or_html
+
+
+def _pathless_warning(message: Warning | str, category: type[Warning], filename: str,
+                      lineno: int, line: str | None = None) -> str:
+    """A warning in an executed example's output as a reader sees it: its kind and message,
+    with the files named from the repository's root, not by the paths of the machine that
+    built the docs."""
+    text = str(message).replace(f"{_REPO.parent}/shared/", "../shared/")
+    return f"{category.__name__}: {text.replace(f'{_REPO}/', '')}\n"
+
+
+_REPO = Path(__file__).resolve().parents[1]
+warnings.formatwarning = _pathless_warning
 
 #: Marks a figure already shown, so that a figure kept in a variable is drawn once.
 _SHOWN = "_femupdate_docs_shown"
