@@ -530,7 +530,7 @@ def test_ctrl_c_of_any_command_is_one_line(monkeypatch: pytest.MonkeyPatch,
     def interrupt(*args: object, **kwargs: object) -> None:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "app", interrupt)  # the command line's app, where main reads it
+    monkeypatch.setattr(cli, "app", interrupt)  # where main reads it
     code, text = _main(monkeypatch, capsys, "demo")
     assert code == 130 and text.strip() == "interrupted"
 
