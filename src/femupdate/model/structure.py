@@ -975,6 +975,15 @@ class Structure:
         return _Prop(what, kind, names, const, pidx, spec, params, np.flatnonzero(pidx >= 0))
 
     def _build(self) -> _Topology:
+        """The numbering and scatter plan of the elements, made once per topology.
+
+        In order: the free DOFs (fixed ones numbered -1) and their labels; the beams' global
+        DOFs, lengths, rotations and the coupling of their free rows to fixed columns (for
+        multi-support); the links' (springs, dampers, friction, Bouc–Wen) DOF pairs, an
+        element with a fixed first end swapped (the laws are odd); the lumped masses. The
+        assembly then only evaluates the element formulas at the parameter values and
+        scatters them by this plan.
+        """
         dpn = self.dofs_per_node
         n_nodes = len(self._xy)
         if n_nodes == 0:
