@@ -32,9 +32,9 @@ from pathlib import Path
 
 from femupdate.case import parse_case
 from femupdate.case.posterior_section import DEFAULT_POSTERIOR
-from femupdate.problems.bridge import bridge_case, ensure_records, truth
+from femupdate.paper.problems.bridge import bridge_case, ensure_records, truth
+from femupdate.pipeline.posterior.run import run_posterior
 from femupdate.runs import Execution
-from femupdate.sampling.run import run_posterior
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{rec.evidence_spread()}; search + sampler + modes + bands {wall:.1f} s; "
           f"load average {os.getloadavg()[0]:.2f}")
     print(f"verdict: {rec.agreement}")
-    for warning in rec.start_warnings:  # femupdate.sampling.start
+    for warning in rec.start_warnings:  # femupdate.pipeline.posterior.start
         print(f"start: {warning}")
     print("effective samples (R̂): " + ", ".join(
         f"{n} {rec.ess_params[n]:,.0f} ({rec.rhat[n]:.3f})" if rec.rhat.get(n) is not None

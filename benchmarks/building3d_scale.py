@@ -66,7 +66,7 @@ from scale import BAND_HZ, DT, ground_motion, load
 
 from femupdate.model import Structure
 from femupdate.model.sparse import lowest_modes
-from femupdate.objective import nmse
+from femupdate.problem.objective import nmse
 from femupdate.simulate.reduced import ReducedSimulator
 
 #: The sizes: model DOFs → (bays, storeys); a building has S (3 (bays + 1)² + 3) DOFs.

@@ -1,7 +1,7 @@
 """Nonlinear models on the reduced path (Craig–Bampton): accuracy against the cut-off, and φ
 against the full nonlinear model, in one run (issue 22).
 
-The case of ``femupdate.bench.friction_beam``: a 30 m steel beam on springs (122 DOFs), a
+The case of ``femupdate.paper.bench.friction_beam``: a 30 m steel beam on springs (122 DOFs), a
 friction damper at mid-span, two acceleration sensors, a virtual experiment of the full model
 (EC8 accelerogram, 4 s at 200 Hz, noise-free), 200 substeps. Prints:
 
@@ -28,11 +28,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from femupdate.bench.friction_beam import TRUTH, friction_beam_case
 from femupdate.case.reduced_path import trial_truncation
-from femupdate.experiment import load_experiment
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.bench.friction_beam import TRUTH, friction_beam_case
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 
 def load() -> str:

@@ -8,11 +8,11 @@ results agree bit for bit with the in-process ones. Each way writes its own resu
 temporary directory, as ``femupdate run`` does.
 
 φ is given as an import path ``module:attribute``; a class is instantiated without arguments,
-and ``module:factory()`` calls a factory, e.g. ``femupdate.problems.bridge:viscous_problem()``
+and ``module:factory()`` calls a factory, e.g. ``femupdate.paper.problems.bridge:viscous_problem()``
 (the viscous bridge on its noise-free virtual experiment).
 The bounds come from its ``bounds`` attribute (or ``--bounds``, a JSON list of pairs).
 
-    python benchmarks/dask_runs.py [--fun femupdate.problems.dynamic:DynamicProblem]
+    python benchmarks/dask_runs.py [--fun femupdate.paper.problems.dynamic:DynamicProblem]
         [--method ab] [--runs 25] [--workers 2] [--max-evals 50000] [--f-target 1e-10]
         [--seed 0] [--skip-inline]
     python benchmarks/dask_runs.py --quick     # 2 runs of 300 evaluations: a smoke run (CI)
@@ -62,7 +62,7 @@ def same(a: list[RunOutcome], b: list[RunOutcome]) -> bool:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fun", default="femupdate.problems.dynamic:DynamicProblem")
+    parser.add_argument("--fun", default="femupdate.paper.problems.dynamic:DynamicProblem")
     parser.add_argument("--bounds", default=None, help="JSON list of [low, high] pairs")
     parser.add_argument("--method", default="ab")
     parser.add_argument("--options", default="{}", help="JSON object of method options")

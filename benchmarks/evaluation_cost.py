@@ -53,10 +53,10 @@ from numba import njit
 from threadpoolctl import threadpool_limits
 
 from femupdate.case import Case, load_case, parse_case
-from femupdate.experiment import load_experiment
-from femupdate.problems import bridge
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import UpdateProblem
 from femupdate.simulate import prepare
-from femupdate.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
 
 try:
     import femupdate.evaluation as compiled_path
@@ -104,7 +104,7 @@ def friction_bridge(work: Path) -> UpdateProblem:
 
 
 def shear_building(work: Path) -> UpdateProblem:
-    from femupdate.virtual import virtual_experiment
+    from femupdate.trials.virtual import virtual_experiment
 
     data = work / "shear"
     spec = json.loads(json.dumps(SHEAR_BUILDING))
@@ -123,7 +123,7 @@ def minishake(data_dir: Path | None) -> UpdateProblem | str:
     sys.path.insert(0, str(REPO / "examples" / "minishake-1story"))
     from study import find_data  # the real case's data finder, beside its example
 
-    from femupdate.workflow import with_data_directory
+    from femupdate.pipeline.run import with_data_directory
 
     try:
         folder = find_data(data_dir)
@@ -307,7 +307,7 @@ def opensees_ratio(problem: UpdateProblem, X: np.ndarray, repeat: int
     median of the pairs' ratios (this shared machine's speed drifts by tens of per cent over
     a minute; a pair sees the same state)."""
     try:
-        from femupdate.bench.opensees import OpenSeesPeer, import_opensees
+        from femupdate.paper.bench.opensees import OpenSeesPeer, import_opensees
 
         ops = import_opensees()
     except Exception:  # not installed: no comparison
@@ -335,7 +335,7 @@ def opensees_ratio(problem: UpdateProblem, X: np.ndarray, repeat: int
 def end_to_end(work: Path, evaluator: str) -> dict[str, Any]:
     """``femupdate run`` (``workflow.run_case``) on the viscous bridge: AB, 1 worker, 6,000
     evaluations, noise-free records, f_target 1e-6 (as ``femupdate bench bridge --snr 0``)."""
-    from femupdate.workflow import run_case
+    from femupdate.pipeline.run import run_case
 
     data = work / "e2e-data"
     spec = bridge.bridge_case("viscous", "narrow", directory=str(data))

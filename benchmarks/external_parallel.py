@@ -32,11 +32,11 @@ import numpy as np
 
 from femupdate.case import parse_case
 from femupdate.optimize.minimize import objective_for
-from femupdate.problems import bridge
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import UpdateProblem
 from femupdate.runs import Execution, run_all
 from femupdate.runs.batch import evaluate_batch
 from femupdate.runs.executors import RunExecutor, open_executor
-from femupdate.update import UpdateProblem
 
 SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "bridge-external" / "bridge_opensees.py"
 

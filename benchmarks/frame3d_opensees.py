@@ -11,7 +11,7 @@ import os
 import sys
 import time
 
-from femupdate.bench.frame3d_check import run_checks
+from femupdate.paper.bench.frame3d_check import run_checks
 
 
 def main() -> int:

@@ -53,7 +53,7 @@ from scale import BAND_HZ, DT, FilteredNmse, ground_motion, load, median_time, v
 from femupdate.model import Structure
 from femupdate.model.modes import NaturalModes
 from femupdate.model.sparse import lowest_modes
-from femupdate.objective import nmse
+from femupdate.problem.objective import nmse
 from femupdate.simulate import prepare
 from femupdate.simulate.exact import ExactSimulator
 from femupdate.simulate.reduced import ReducedSimulator

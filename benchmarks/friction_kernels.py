@@ -33,9 +33,9 @@ from threadpoolctl import threadpool_limits
 
 from femupdate.case import parse_case
 from femupdate.evaluation import evaluator as evaluator_module
-from femupdate.experiment import load_experiment
-from femupdate.problems import bridge
-from femupdate.update import UpdateProblem
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
 
 
 def friction_bridge(work: Path) -> UpdateProblem:

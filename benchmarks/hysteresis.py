@@ -52,9 +52,9 @@ from threadpoolctl import threadpool_limits
 from femupdate.case import build_structure, load_case, parse_case
 from femupdate.errors import MissingDependencyError
 from femupdate.model.hysteresis import bouc_wen_loop
+from femupdate.pipeline.run import run_case
 from femupdate.simulate import prepare
-from femupdate.virtual import ec8_motion, virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.trials.virtual import ec8_motion, virtual_experiment
 
 LAW = (1e4, 0.1, 1.0, 150.0, 50.0, 1.5)  # k, alpha, A, beta, gamma, n
 DURATION = 4.0
@@ -96,7 +96,7 @@ def loop_checks(steps: list[int]) -> dict[str, Any]:
     """Sections 1 and 2."""
     k, alpha, A, beta, gamma, n = LAW
     try:
-        from femupdate.bench.opensees import import_opensees
+        from femupdate.paper.bench.opensees import import_opensees
 
         ops = import_opensees()
     except MissingDependencyError as exc:
@@ -146,7 +146,7 @@ def structure_check(substeps: list[int]) -> dict[str, Any] | None:
     from femupdate.simulate import simulate
 
     try:
-        from femupdate.bench.opensees import import_opensees
+        from femupdate.paper.bench.opensees import import_opensees
 
         ops = import_opensees()
     except MissingDependencyError:
@@ -360,8 +360,8 @@ def identification(seeds: int, max_evals: int) -> dict[str, Any]:
 def phi_cost(case: Any, calls: int = 30) -> dict[str, float]:
     """Median time of φ at random points by the compiled evaluator and by the reference."""
     from femupdate.evaluation import evaluator_for
-    from femupdate.experiment import load_experiments
-    from femupdate.update import UpdateProblem
+    from femupdate.problem.update import UpdateProblem
+    from femupdate.trials.experiment import load_experiments
 
     trial = UpdateProblem(case, load_experiments(case)).trials[0]
     evaluator = evaluator_for(trial)

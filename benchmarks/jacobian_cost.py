@@ -29,7 +29,7 @@ import numpy as np
 
 from femupdate.data import signal
 from femupdate.optimize.trust import forward_columns, forward_steps, noise_level, step_signs
-from femupdate.problems.bridge import truth, viscous_problem
+from femupdate.paper.problems.bridge import truth, viscous_problem
 from femupdate.simulate import prepare
 
 

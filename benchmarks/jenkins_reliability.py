@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples" / "minishake-1story"))
 import study  # noqa: E402
 
-from femupdate.workflow import run_case  # noqa: E402
+from femupdate.pipeline.run import run_case  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -116,7 +116,7 @@ def main() -> None:
         work = Path(tmp)
         case, truth = work / "case.toml", TRUTH
         if args.quick:
-            from femupdate.bench import large_building
+            from femupdate.paper.bench import large_building
 
             case.write_text(large_building.case_text(QUICK_STOREYS, 3), encoding="utf-8")
             truth = work / "truth.json"

@@ -12,7 +12,7 @@ Jenkins slider (k, c, k_r, f_u) and the table-damped storey (k, c0, cv). Each: t
 search (multistart-lm, 4 runs), then TMCMC (``femupdate posterior``: ``--samples`` per run,
 its default 4 independent runs, and their verdict) with the default error model (or
 ``--error-model``), its effective counts measured at the first class's best fit and shared
-(see :mod:`femupdate.sampling.classes`). Prints the table of log-evidences and posterior
+(see :mod:`femupdate.pipeline.posterior.classes`). Prints the table of log-evidences and posterior
 probabilities (equal prior probabilities), then the coverage of the best class's 5–95 %
 predictive bands on every trial, with the evaluation counts, wall times and load average.
 Data: Chern & Perez (mdof project, BSD-2-Clause), from the shared data directory.
@@ -35,8 +35,8 @@ from study import MODELS, find_data, study_case  # noqa: E402
 
 from femupdate.case import parse_case  # noqa: E402
 from femupdate.case.posterior_section import DEFAULT_POSTERIOR  # noqa: E402
+from femupdate.pipeline.posterior.classes import compare_classes, format_classes  # noqa: E402
 from femupdate.runs import Execution  # noqa: E402
-from femupdate.sampling.classes import compare_classes, format_classes  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

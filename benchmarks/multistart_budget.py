@@ -26,10 +26,10 @@ import numpy as np
 
 from femupdate._parallel import single_blas_thread
 from femupdate.case import parse_case
-from femupdate.experiment import load_experiment
 from femupdate.optimize.minimize import start
-from femupdate.problems.bridge import bridge_case, ensure_records, truth
-from femupdate.update import UpdateProblem
+from femupdate.paper.problems.bridge import bridge_case, ensure_records, truth
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
 
 #: The bench's target for the noise-free viscous bridge.
 F_TARGET = 1e-6

@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from femupdate.bench.multisupport_check import run_check
+from femupdate.paper.bench.multisupport_check import run_check
 
 
 def main() -> int:

@@ -50,7 +50,7 @@ Sections (``--only`` takes a comma-separated list):
   measured across them (posterior variance over the variance of the seeds' means: no
   autocorrelation model needed), with its 90 % χ² interval, the wall time per run
   (``--threads``) and how often the truth lies inside each 90 % interval; then
-  ``femupdate posterior``'s verdict (:mod:`femupdate.sampling.agreement`) on consecutive
+  ``femupdate posterior``'s verdict (:mod:`femupdate.pipeline.posterior.agreement`) on consecutive
   sets of its default number of runs (4) among these seeds: which parameters each set calls
   unsettled.
   ``--proposal``, ``--components``, ``--final-steps`` change TMCMC's moves (MOVES) in the
@@ -86,20 +86,20 @@ from femupdate import minimize
 from femupdate.case import parse_case
 from femupdate.case.posterior_section import DEFAULT_POSTERIOR
 from femupdate.errors import FemupdateError
-from femupdate.experiment import load_experiment, load_experiments
-from femupdate.posterior import Prior, jacobian_unit, laplace
-from femupdate.posterior.analytic import Residuals, exact_log_evidence, linear_gaussian
-from femupdate.posterior.best_fit import NOT_QUADRATIC_RATIO, centred
-from femupdate.posterior.error_models import DEFAULT_KIND
-from femupdate.posterior.error_models import problem_error_model as product_error_model
-from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP
-from femupdate.posterior.likelihood import ErrorModel, residual_blocks
-from femupdate.posterior.tmcmc import run_tmcmc
-from femupdate.problems import bridge
+from femupdate.inference import Prior, jacobian_unit, laplace
+from femupdate.inference.analytic import Residuals, exact_log_evidence, linear_gaussian
+from femupdate.inference.best_fit import NOT_QUADRATIC_RATIO, centred
+from femupdate.inference.error_models import DEFAULT_KIND
+from femupdate.inference.error_models import problem_error_model as product_error_model
+from femupdate.inference.jacobian import LOCAL_STEP, UNIT_STEP
+from femupdate.inference.likelihood import ErrorModel, residual_blocks
+from femupdate.inference.tmcmc import run_tmcmc
+from femupdate.paper.problems import bridge
+from femupdate.pipeline.posterior.agreement import runs_agreement
+from femupdate.pipeline.posterior.run import start_reference
+from femupdate.problem.update import UpdateProblem
 from femupdate.runs.verdict import verdict_of
-from femupdate.sampling.agreement import runs_agreement
-from femupdate.sampling.run import start_reference
-from femupdate.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment, load_experiments
 
 SEED = 2026
 FIT_EVALS = 2000
@@ -108,15 +108,15 @@ FIT_EVALS = 2000
 REGISTRY = registry()
 KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
-#: least-squares estimate (femupdate.posterior.sandwich), measured beside them
+#: least-squares estimate (femupdate.inference.sandwich), measured beside them
 SANDWICH = "sandwich"
 #: Not an error model either: the Gaussian at arp's mode with the covariance of that estimate
-#: when the whitening leaves the errors coloured (femupdate.posterior.gls_sandwich)
+#: when the whitening leaves the errors coloured (femupdate.inference.gls_sandwich)
 GLS_SANDWICH = "gls-sandwich"
 #: eiv's Gaussian at its mode with the covariance of its score under its own noise model
-#: (femupdate.posterior.input_noise.eiv_sandwich_laplaces)
+#: (femupdate.inference.input_noise.eiv_sandwich_laplaces)
 EIV_SANDWICH = "eiv-sandwich"
-#: The i.i.d. likelihood with the curvature adjustment (femupdate.posterior.sandwich): sampled by
+#: The i.i.d. likelihood with the curvature adjustment (femupdate.inference.sandwich): sampled by
 #: TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction). Measured too
 #: narrow (docs/posterior.md, "The curvature adjustment, tried")
 CURVATURE = "curvature"
@@ -298,7 +298,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
     a whitening kind (``ar1``, ``arp``) is taken at that kind's own mode, climbed to from the
-    least-squares fit (femupdate.posterior.mode), as the product does; ``KIND@fit`` is the
+    least-squares fit (femupdate.inference.mode), as the product does; ``KIND@fit`` is the
     same Gaussian centred at the least-squares fit instead."""
     # the kinds of the library when these seeds were spawned (their order fixes them)
     ALL_KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
@@ -319,7 +319,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     else:
         unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
         converged = None
-    # the Laplace record's two scales (femupdate.posterior.best_fit.two_scale_record): the
+    # the Laplace record's two scales (femupdate.inference.best_fit.two_scale_record): the
     # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
     # over 1 % of each range (the kp1 valley's slope, not a ripple's) for those that one
     # says the data do not determine; with ``coarse_only`` the 1 % one for every parameter
@@ -333,7 +333,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
         coarse_jac, local_jac = jacobians or (jac, jac_local)
         coarse, local = estimate(coarse_jac), estimate(local_jac)
         q = local.quantiles.copy()
-        # the product's rule (femupdate.posterior.best_fit.two_scale_record): the coarse
+        # the product's rule (femupdate.inference.best_fit.two_scale_record): the coarse
         # marginal where it says undetermined, or where it is NOT_QUADRATIC_RATIO times wider
         with np.errstate(divide="ignore", invalid="ignore"):
             widening = coarse.spread / local.spread
@@ -455,8 +455,8 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     resuming both stores, with ``recentre`` (``tmcmc`` KIND-recentred: the same samples
     unless the sampler found a better fit than the search's). With ``truth`` (physical values
     by name) every replicate has that truth and only its noise is fresh."""
+    from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
-    from femupdate.sampling.run import run_posterior
 
     rng = np.random.default_rng(child)
     work = root / f"replicate-{i}"
@@ -525,9 +525,9 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
     """One replicate of the Rayleigh building at its truth: fresh noise (``snr`` on every
     record, the table's too: ``femupdate synth --rate 200 --snr 0.02 --length-scale 1
     --duration 20``), then ``femupdate posterior`` with every default."""
+    from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
-    from femupdate.sampling.run import run_posterior
-    from femupdate.virtual import virtual_experiment
+    from femupdate.trials.virtual import virtual_experiment
 
     rng = np.random.default_rng(child)
     work = root / f"rayleigh-{i}"
@@ -673,7 +673,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                                             "settled_hits": hits[~flagged[:, j], j].tolist()}
                                         for j, n in enumerate(names)}
     for kind in sorted({k for row in rows for k in row.get("start_warnings", {})}):
-        # the start's verdict (femupdate.sampling.start): what the user reads beside the runs'
+        # the start's verdict (femupdate.pipeline.posterior.start): what the user reads beside
+        # the runs'
         warned = np.array([bool(row["start_warnings"][kind]) for row in rows])
         recentred = sum(row["recentred"][kind] > 0 for row in rows)
         trusted = np.array([[not w and n not in row["tmcmc_unsettled"][kind] for n in names]
@@ -764,7 +765,7 @@ def whitening(replicates: int, seeds: int, root: Path) -> dict[str, Any]:
     clean (noise on the outputs only); then, at the bridge's nominal truth over ``seeds``
     noise draws, the scatter of the least-squares fit and of arp's mode in units of arp's
     standard deviations (1 if arp's curvature is right)."""
-    from femupdate.posterior.sandwich import sandwich_covariance
+    from femupdate.inference.sandwich import sandwich_covariance
 
     children = np.random.SeedSequence(SEED).spawn(max(replicates, 1))
     print(f"\n## Whitening: arp at its own mode ({load()})")
@@ -847,7 +848,7 @@ def real_trials(kinds: list[str]) -> dict[str, Any]:
     import copy
     import tomllib
 
-    from femupdate.posterior.best_fit import laplace_record
+    from femupdate.inference.best_fit import laplace_record
 
     source = Path(__file__).resolve().parents[1] / "examples" / "minishake-1story" / "trials.toml"
     spec = tomllib.loads(source.read_text())

@@ -32,12 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.bench import large_building as MAKE
 from femupdate.case import parse_case
 from femupdate.case.reduced_path import REDUCED_MIN_DOF, simulation_record
-from femupdate.experiment import load_experiments
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.bench import large_building as MAKE
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 
 GROUPS = 10
 RATE_HZ = 100.0

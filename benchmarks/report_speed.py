@@ -20,8 +20,8 @@ import time
 from pathlib import Path
 
 from femupdate.case import Case, parse_case
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.pipeline.run import run_case
+from femupdate.trials.virtual import virtual_experiment
 
 
 def shear_building(storeys: int, data_dir: Path) -> Case:
@@ -61,10 +61,10 @@ def time_sections(out: Path) -> dict[str, float]:
     """Seconds per part of the report (figures drawn and encoded as the page does)."""
     from threadpoolctl import threadpool_limits
 
+    from femupdate.pipeline.results import load_results
     from femupdate.report import sections_model, sections_runs
     from femupdate.report.facts import context
     from femupdate.report.markup import Page
-    from femupdate.results import load_results
 
     times = {}
     with threadpool_limits(limits=1):

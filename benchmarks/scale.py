@@ -39,7 +39,7 @@ import scipy.signal as ss
 
 from femupdate import minimize
 from femupdate.model import shear_building
-from femupdate.objective import nmse
+from femupdate.problem.objective import nmse
 from femupdate.simulate.exact import ExactSimulator
 from femupdate.simulate.reduced import (
     FULL_PATH_MAX_DOF,

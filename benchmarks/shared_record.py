@@ -98,9 +98,9 @@ def median_times(fn: Callable[[Any], object], args: list[Any], repeat: int
 def phi_rows(case_file: Path, records: Path, repeat: int) -> dict[str, Any]:
     """Part 1: φ and Jacobian residual batches per evaluation on the four paths."""
     from femupdate.case import load_case
-    from femupdate.experiment import load_experiment, load_experiments
-    from femupdate.update import UpdateProblem
-    from femupdate.workflow import with_data_directory
+    from femupdate.pipeline.run import with_data_directory
+    from femupdate.problem.update import UpdateProblem
+    from femupdate.trials.experiment import load_experiment, load_experiments
 
     case = load_case(case_file)
     experiments = load_experiments(case)
@@ -192,9 +192,9 @@ def memory_child(n_params: int, extra: int) -> dict[str, Any]:
 
     from femupdate import minimize
     from femupdate.case import parse_case
-    from femupdate.experiment import load_experiment
-    from femupdate.update import UpdateProblem
-    from femupdate.virtual import virtual_experiment
+    from femupdate.problem.update import UpdateProblem
+    from femupdate.trials.experiment import load_experiment
+    from femupdate.trials.virtual import virtual_experiment
 
     with tempfile.TemporaryDirectory() as tmp:
         spec = building_spec(n_params, Path(tmp))

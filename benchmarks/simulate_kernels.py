@@ -3,7 +3,7 @@
     python benchmarks/simulate_kernels.py [--repeat N] [--no-opensees] [--json PATH]
     python benchmarks/simulate_kernels.py --quick   # 2 runs per row, no OpenSeesPy (CI)
 
-The same as ``femupdate bench simulate``: see :mod:`femupdate.bench.simulate` for what is
+The same as ``femupdate bench simulate``: see :mod:`femupdate.paper.bench.simulate` for what is
 timed (the prepared simulator's run, preparation separately, one BLAS thread) and how the
 ratios against OpenSeesPy are taken.
 """
@@ -14,7 +14,7 @@ import argparse
 import json
 from pathlib import Path
 
-from femupdate.bench.simulate import print_simulate_rows, run_simulate_benchmark
+from femupdate.paper.bench.simulate import print_simulate_rows, run_simulate_benchmark
 
 
 def main() -> None:

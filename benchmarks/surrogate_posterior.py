@@ -7,9 +7,9 @@ records are its own response at the truth (2.4e5, 2.0e5, 1.6e5 N/m) at floors 1 
 white noise of ``--noise`` of each channel's RMS. The likelihood is femupdate's, error model
 ``neff`` fixed at the truth's residuals, the same for both posteriors.
 
-1. The surrogate-aided posterior (femupdate.posterior.surrogate) with its design batches on
+1. The surrogate-aided posterior (femupdate.inference.surrogate) with its design batches on
    ``--workers`` local worker processes: model runs, wall time, the final check.
-2. Direct TMCMC (femupdate.posterior.tmcmc, population ``--population``) on the true model,
+2. Direct TMCMC (femupdate.inference.tmcmc, population ``--population``) on the true model,
    the same workers: model runs and wall time (skipped with ``--no-direct``).
 3. Means and standard deviations of both, their ratios, and whether the truth lies inside
    each 90 % interval of the surrogate posterior.
@@ -30,14 +30,14 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import parse_case
-from femupdate.experiment import Experiment
-from femupdate.posterior.best_fit import case_priors
-from femupdate.posterior.likelihood import ErrorModel, problem_error_model
-from femupdate.posterior.surrogate import problem_evaluator, surrogate_posterior
-from femupdate.posterior.tmcmc import run_tmcmc
+from femupdate.inference.best_fit import case_priors
+from femupdate.inference.likelihood import ErrorModel, problem_error_model
+from femupdate.inference.surrogate import problem_evaluator, surrogate_posterior
+from femupdate.inference.tmcmc import run_tmcmc
+from femupdate.problem.update import UpdateProblem
 from femupdate.runs.executors import open_executor
-from femupdate.update import UpdateProblem
-from femupdate.virtual import ec8_motion
+from femupdate.trials.experiment import Experiment
+from femupdate.trials.virtual import ec8_motion
 
 SCRIPT = (Path(__file__).resolve().parents[1] / "examples" / "surrogate"
           / "shear_frame_opensees.py")

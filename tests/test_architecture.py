@@ -13,15 +13,13 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("_optional", "_parallel", "console"),
     ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
-    ("objective", "case", "evaluation"),
-    ("trial_checks",),
-    ("experiment", "virtual", "inputs"),
-    ("update",),
-    ("posterior",),
-    ("identifiability", "results"),
-    ("workflow", "problems"),
-    ("sampling",),
-    ("bench", "report"),
+    ("case", "evaluation"),
+    ("trials",),
+    ("problem",),
+    ("inference",),
+    ("pipeline",),
+    ("paper",),
+    ("report",),
     ("cli",),
     ("__main__", "__init__"),
 )
@@ -73,11 +71,11 @@ def test_imports_only_point_down() -> None:
 
 
 def test_the_layer_check_sees_an_upward_import(tmp_path: Path) -> None:
-    # The check itself: a lazy import of the report from the workflow is an upward arrow.
+    # The check itself: a lazy import of the report from the pipeline is an upward arrow.
     module = tmp_path / "m.py"
     module.write_text("def f():\n    from femupdate.report.figures import plot_fit\n")
     assert _imports(module) == [(2, "report")]
-    assert RANK["report"] > RANK["workflow"]
+    assert RANK["report"] > RANK["pipeline"]
 
 
 def test_long_files_say_why() -> None:

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from femupdate.case import load_case, parse_case
-from femupdate.experiment import load_experiment
 from femupdate.model.modes import natural_frequencies
-from femupdate.problems import bridge
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 EXAMPLES = Path(__file__).parents[1] / "examples" / "bridge"
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from femupdate.cli import app
+from femupdate.cli.commands import app
 from femupdate.errors import DataError
 
 ROOT = Path(__file__).resolve().parents[1]

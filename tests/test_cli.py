@@ -12,7 +12,7 @@ import pytest
 from plugins import register_optimizers
 from typer.testing import CliRunner
 
-from femupdate.cli import app
+from femupdate.cli.commands import app
 
 register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 
@@ -181,7 +181,7 @@ def test_success_count_and_verdict_say_what_each_means_where_they_disagree() -> 
     # converged: … 21 different minima' with nothing to reconcile them.
     from types import SimpleNamespace
 
-    from femupdate.cli import disagreement_words
+    from femupdate.cli.tables import disagreement_words
 
     def summary(converged: bool, target: float | None, successes: int) -> SimpleNamespace:
         return SimpleNamespace(settings={"f_target": target}, successes=successes,
@@ -199,7 +199,7 @@ def test_success_count_and_verdict_say_what_each_means_where_they_disagree() -> 
 
 def test_a_rounded_zero_is_printed_without_a_sign() -> None:
     # Issue 33: `femupdate modes` printed ζ "-0.000" (a damping ratio of -1e-17).
-    from femupdate.cli import _unsigned_zero
+    from femupdate.cli.tables import _unsigned_zero
 
     assert _unsigned_zero(f"{-1e-17:.3f}") == "0.000"
     assert _unsigned_zero(f"{-0.0004:.3f}") == "0.000"
@@ -211,7 +211,7 @@ def test_undamped_modes_pair_with_the_damped_mode_of_nearest_frequency() -> None
     # and pairing by position gave ζ 0 % or 100 % against the wrong modes.
     import numpy as np
 
-    from femupdate.cli import pair_modes
+    from femupdate.cli.tables import pair_modes
 
     undamped = np.array([1.0, 5.0, 12.0])
     damped = np.array([0.3, 1.01, 4.9, 11.8, 40.0])  # two real poles: 0.3 and 40 Hz

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from data.test_data_io import need
 from data.test_network import ARCHIVES, write_at2
-from femupdate.cli import app
+from femupdate.cli.commands import app
 
 WIDTH = 80
 ROOT = Path(__file__).resolve().parents[1]

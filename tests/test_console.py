@@ -16,10 +16,10 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from femupdate.case import load_case
-from femupdate.cli import app
+from femupdate.cli.commands import app
 from femupdate.console import one_line_warnings, warning_text
 from femupdate.errors import FemupdateWarning
-from femupdate.virtual import virtual_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 ROOT = Path(__file__).resolve().parents[1]
 WIDTH = 80

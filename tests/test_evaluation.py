@@ -37,10 +37,10 @@ import pytest
 
 from femupdate.case import parse_case
 from femupdate.errors import ModelError
-from femupdate.experiment import load_experiment
-from femupdate.problems import bridge
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 RTOL = 1e-12
 #: The cap on a tolerance set by the reference's own sensitivity (module docstring).

@@ -16,9 +16,9 @@ from data.test_network import ARCHIVES, cosmos_channel, write_at2
 from femupdate.case import parse_case
 from femupdate.data.network import read_network_records
 from femupdate.errors import ConfigError, DataError, FemupdateWarning
-from femupdate.experiment import load_experiment, load_experiments, read_measurement
+from femupdate.trials.experiment import load_experiment, load_experiments, read_measurement
+from femupdate.trials.virtual import write_records
 from femupdate.units import STANDARD_GRAVITY as G
-from femupdate.virtual import write_records
 
 
 def _case(folder: Path, input_column: Any, output_column: Any, *, file: str,

@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from femupdate.identifiability import estimate_correlations, strong_correlations
+from femupdate.problem.identifiability import estimate_correlations, strong_correlations
 
 
 def test_strong_correlations_lists_each_pair_once_by_decreasing_magnitude() -> None:

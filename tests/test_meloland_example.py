@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from data.test_data_io import need
 from femupdate.case import load_case
-from femupdate.cli import app
+from femupdate.cli.commands import app
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "meloland"

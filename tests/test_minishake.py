@@ -16,9 +16,9 @@ import pytest
 
 from femupdate.case import load_case, parse_case
 from femupdate.errors import DataError
-from femupdate.experiment import load_experiment, load_experiments
-from femupdate.update import UpdateProblem
-from femupdate.workflow import with_data_directory
+from femupdate.pipeline.run import with_data_directory
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment, load_experiments
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "minishake-1story"

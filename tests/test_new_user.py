@@ -22,11 +22,11 @@ from typer.testing import CliRunner
 
 from femupdate import cli
 from femupdate.case import load_case
-from femupdate.cli import app
+from femupdate.cli.commands import app
 from femupdate.errors import ConfigError, DataError, FemupdateError, FemupdateWarning
+from femupdate.pipeline.run import run_case
 from femupdate.runs.store import StoreError
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import DATA, MODEL, TRUTH, parameters
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -171,7 +171,7 @@ def test_an_aborted_run_starts_over_with_restart(tmp_path: Path, records: Path,
 
 def test_ctrl_c_says_how_to_resume_and_the_resume_finishes(
         tmp_path: Path, records: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from femupdate.update import UpdateProblem
+    from femupdate.problem.update import UpdateProblem
 
     path = _case(tmp_path, records)
     whole = run_case(load_case(path), tmp_path / "whole", sensitivities=False).summary
@@ -394,7 +394,7 @@ def test_records_of_different_lengths_are_cut_with_a_warning(tmp_path: Path,
     floors = tmp_path / "data" / "floors.csv"
     lines = floors.read_text().splitlines()
     floors.write_text("\n".join(lines[:-100]) + "\n")  # 100 samples shorter
-    from femupdate.experiment import load_experiment
+    from femupdate.trials.experiment import load_experiment
 
     with pytest.warns(FemupdateWarning) as caught:
         exp = load_experiment(load_case(path))
@@ -433,7 +433,7 @@ def test_an_output_on_a_rotation_is_refused(tmp_path: Path) -> None:
 
 def test_all_evaluations_failing_is_an_error_not_a_best_model(tmp_path: Path,
                                                               records: Path) -> None:
-    from femupdate.update import UpdateProblem
+    from femupdate.problem.update import UpdateProblem
 
     path = _case(tmp_path, records)
     case = load_case(path)
@@ -448,7 +448,7 @@ def test_all_evaluations_failing_is_an_error_not_a_best_model(tmp_path: Path,
 
 def _summary(n_runs: int = 25):
     """A summary of the friction bridge's 13 parameters with the widest cells a run has."""
-    from femupdate.results import Best, RunRecord, Spread, Summary
+    from femupdate.pipeline.results import Best, RunRecord, Spread, Summary
 
     names = ["E", "kp1", "kp2", "kp3", "kp4", "kr1", "kr2", "kr3", "kr4", "fu1", "fu2", "fu3",
              "fu4"]
@@ -530,7 +530,7 @@ def test_ctrl_c_of_any_command_is_one_line(monkeypatch: pytest.MonkeyPatch,
     def interrupt(*args: object, **kwargs: object) -> None:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "app", interrupt)  # where main reads it
+    monkeypatch.setattr(cli.commands, "app", interrupt)  # where main reads it
     code, text = _main(monkeypatch, capsys, "demo")
     assert code == 130 and text.strip() == "interrupted"
 

@@ -1,4 +1,5 @@
-"""Tests of femupdate.objective: Eq. 1 and the experimental parameters (the paper's Eq. 1 and
+"""Tests of femupdate.problem.objective: Eq. 1 and the experimental parameters (the paper's
+Eq. 1 and
 §5.2; docs/method.md)."""
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from femupdate.errors import ConfigError, DataError
-from femupdate.objective import ErrorFunction, nmse
+from femupdate.problem.objective import ErrorFunction, nmse
 from femupdate.simulate.response import Response
 
 T = np.linspace(0.0, 4.6, 461)

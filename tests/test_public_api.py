@@ -49,7 +49,7 @@ def test_minimize_signature() -> None:
 def test_renamed_names_warn_and_still_work() -> None:
     import warnings
 
-    from femupdate.objective import ErrorFunction
+    from femupdate.problem.objective import ErrorFunction
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.bench import large_building as MAKE
 from femupdate.case import CaseModel, parse_case
 from femupdate.model.modes import natural_frequencies
-from femupdate.trial_checks import first_mode_hz
+from femupdate.paper.bench import large_building as MAKE
+from femupdate.trials.checks import first_mode_hz
 
 
 def _case(tmp_path: Path, storeys: int, method: str | None = None):

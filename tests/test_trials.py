@@ -14,12 +14,12 @@ import pytest
 from typer.testing import CliRunner
 
 from femupdate.case import load_case, parse_case
-from femupdate.cli import app
+from femupdate.cli.commands import app
 from femupdate.errors import ConfigError, DataError
-from femupdate.experiment import load_experiment, load_experiments
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case, validate_case
+from femupdate.pipeline.run import run_case, validate_case
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment, load_experiments
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import TRUTH, data_section, model_section, parameter_list
 
 OFF = {"k1": 3600.0, "k2": 2700.0, "c1": 1.0, "c2": 0.7}

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from femupdate.update import _column_blocks, _scale_blocks
+from femupdate.problem.update import _column_blocks, _scale_blocks
 
 
 def test_rows_of_several_trials_equal_the_joined_vectors_bit_for_bit():

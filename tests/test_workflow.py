@@ -18,9 +18,9 @@ import pytest
 from femupdate.case import load_case
 from femupdate.errors import ConfigError, DataError
 from femupdate.model.modes import natural_frequencies
-from femupdate.results import load_fits, read_summary
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import UpdateResult, run_case
+from femupdate.pipeline.results import load_fits, read_summary
+from femupdate.pipeline.run import UpdateResult, run_case
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import MODEL_AND_DATA, TRUTH
 
 MASSES = (1.0, 0.8)
@@ -281,7 +281,7 @@ def late_records(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _experiment(folder: Path, delay: str, highpass: float = 0.0):
-    from femupdate.experiment import load_experiment
+    from femupdate.trials.experiment import load_experiment
 
     path = folder / f"case-{abs(hash((delay, highpass)))}.toml"
     path.write_text(DELAY_CASE.format(delay=delay, highpass=highpass))
@@ -325,7 +325,7 @@ def test_without_a_delay_nothing_is_shifted_or_trimmed(late_records: Path) -> No
 
 
 def test_delay_errors_name_the_case(late_records: Path) -> None:
-    from femupdate.experiment import load_experiment
+    from femupdate.trials.experiment import load_experiment
 
     with pytest.raises(DataError) as info:
         _experiment(late_records, "delay = 10.0")  # as long as half the 20 s record
@@ -365,7 +365,7 @@ def test_search_workers_takes_effect(case_dir: Path, tmp_path: Path) -> None:
 def test_cli_workers_override_the_case_only_when_given(case_dir: Path, tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
-    from femupdate.cli import app
+    from femupdate.cli.commands import app
 
     path = _workers_case(case_dir, tmp_path, 2)
     for extra, expected in (([], 2), (["--workers", "1"], 1)):

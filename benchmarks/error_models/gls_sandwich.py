@@ -22,7 +22,7 @@ spreads the estimate. That is the HC2 correction of MacKinnon & White (1985) app
 frequency: unbiased when the whitened errors are white (E|ê(k)|² = σ²(1 − h(k)); the HC3
 correction, 1/(1 − h), overstates the variance there, by 18 % on the test's sinusoid). Where a
 sensitivity sits on a narrow-band error the fit absorbs more of the error than its leverage
-says, and the estimate stays low (0.80 of the closed form in tests/posterior/
+says, and the estimate stays low (0.80 of the closed form in tests/inference/
 test_gls_sandwich.py): a known bias, measured, not corrected.
 
 This is not a likelihood (TMCMC cannot sample it); it is the width the mode's own scatter has.
@@ -36,9 +36,9 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from femupdate.errors import DataError
-from femupdate.posterior.laplace import LaplaceResult, checked_jacobian, summarize_gaussian
-from femupdate.posterior.likelihood import ErrorModel
-from femupdate.posterior.priors import Prior
+from femupdate.inference.laplace import LaplaceResult, checked_jacobian, summarize_gaussian
+from femupdate.inference.likelihood import ErrorModel
+from femupdate.inference.priors import Prior
 
 #: Bins either side of each frequency over which the cross-periodogram is averaged.
 SMOOTHING_BINS = 1
@@ -49,7 +49,7 @@ MAX_LEVERAGE = 0.95
 def trial_groups(problem: object) -> list[list[int]]:
     """The blocks of an UpdateProblem's residual vector grouped by trial (its channels share
     the table's record, hence its noise), in the order of
-    :func:`~femupdate.posterior.likelihood.residual_blocks`."""
+    :func:`~femupdate.inference.likelihood.residual_blocks`."""
     groups, start = [], 0
     for trial in problem.fitted:  # type: ignore[attr-defined]
         channels = trial.objective.target.shape[1]
@@ -135,6 +135,6 @@ def gls_sandwich_laplace(jac: np.ndarray, residuals: np.ndarray, mode_unit: np.n
                          model: ErrorModel, prior: Prior,
                          groups: Sequence[Sequence[int]] | None = None) -> LaplaceResult:
     """The Gaussian at the mode with the GLS sandwich covariance, summarised as a
-    :class:`~femupdate.posterior.laplace.LaplaceResult` (intervals clipped to the bounds)."""
+    :class:`~femupdate.inference.laplace.LaplaceResult` (intervals clipped to the bounds)."""
     cov = gls_sandwich_covariance(jac, residuals, model, groups)
     return summarize_gaussian(np.asarray(mode_unit, dtype=float).reshape(-1), cov, prior)

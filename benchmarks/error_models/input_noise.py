@@ -25,8 +25,8 @@ coefficients E_k = rfft(A r)(ω_k) are complex Gaussian with
     S_k = n [ diag(σ_c² |A_c(ω_k) G_c(ω_k)|²) + σ_u² t_k t_kᴴ ],   t_k,c = A_c(ω_k) T_c(ω_k),
 
 independent across frequencies. G and T are not modelled by hand: they are the transforms of
-the responses of the case's own processing (:func:`femupdate.experiment.process`) and model
-(:meth:`~femupdate.update.TrialProblem.prediction_driven_by`) to a unit impulse in each raw
+the responses of the case's own processing (:func:`femupdate.trials.experiment.process`) and model
+(:meth:`~femupdate.problem.update.TrialProblem.prediction_driven_by`) to a unit impulse in each raw
 record, at the best fit, folded onto the n-point grid (so they hold whatever the case's
 processing and model are, as long as both are linear). The noise levels σ_c (each output
 sensor) and σ_u (the table's sensor), in the records' units, are fitted by maximising Whittle's
@@ -262,7 +262,7 @@ def whitening_matrices(output_gain: np.ndarray, input_transfer: np.ndarray,
 
 def _processed(trial: Any, raw_input: np.ndarray, raw_outputs: np.ndarray) -> Any:
     """The trial's processing (filters, relative motion, integration) of raw records."""
-    from femupdate.experiment import process
+    from femupdate.trials.experiment import process
 
     if trial.model.groups:
         raise ConfigError(f"{trial.case.label}: the input-noise error model takes one table "
@@ -567,7 +567,7 @@ def score_meats(problem: Any, model: Any, point: np.ndarray, point_residuals: np
     that of its score J_wᵀ W w under the fitted noise model (:func:`score_covariance`, one
     pass for all the pairs; ``model`` built at search ``point``, ``point_residuals`` its
     residuals there)."""
-    from femupdate.posterior.laplace import gaussian_precision
+    from femupdate.inference.laplace import gaussian_precision
 
     precisions, directions = [], []
     for residuals, jac in at:
@@ -589,7 +589,7 @@ def eiv_sandwich_laplaces(problem: Any, model: Any, point: np.ndarray,
     Laplace precision (the likelihood's Gauss–Newton curvature less the prior's), Var(score)
     by :func:`score_meats` (``model`` built at search ``point``, ``point_residuals`` its
     residuals there)."""
-    from femupdate.posterior.laplace import summarize_gaussian
+    from femupdate.inference.laplace import summarize_gaussian
 
     mode_unit = np.asarray(mode_unit, dtype=float).reshape(-1)
     _, prior_hess = prior.curvature_unit(mode_unit)

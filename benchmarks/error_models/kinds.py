@@ -21,8 +21,8 @@ import numpy as np
 from scipy.signal import lfilter
 
 from femupdate.errors import ConfigError
-from femupdate.posterior.error_models import ERROR_MODELS
-from femupdate.posterior.likelihood import ErrorModel, ErrorModelKind, FitResiduals, Registry
+from femupdate.inference.error_models import ERROR_MODELS
+from femupdate.inference.likelihood import ErrorModel, ErrorModelKind, FitResiduals, Registry
 
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
@@ -258,15 +258,15 @@ def registry() -> Registry:
 
 
 def error_model(blocks: Any, kind: str, **options: Any) -> ErrorModel:
-    """:func:`femupdate.posterior.error_models.error_model` over :func:`registry`."""
-    from femupdate.posterior.error_models import error_model as build
+    """:func:`femupdate.inference.error_models.error_model` over :func:`registry`."""
+    from femupdate.inference.error_models import error_model as build
 
     return build(blocks, kind, registry=registry(), **options)
 
 
 def problem_error_model(problem: Any, r: np.ndarray, kind: str,
                         jacobian: np.ndarray | None = None, **options: Any) -> ErrorModel:
-    """:func:`femupdate.posterior.error_models.problem_error_model` over :func:`registry`."""
-    from femupdate.posterior.error_models import problem_error_model as build
+    """:func:`femupdate.inference.error_models.problem_error_model` over :func:`registry`."""
+    from femupdate.inference.error_models import problem_error_model as build
 
     return build(problem, r, kind, jacobian, registry=registry(), **options)

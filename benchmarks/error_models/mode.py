@@ -2,7 +2,7 @@
 
 The least-squares best fit ξ* minimises φ = ‖r‖², which weights every sample of the residual
 alike. An error model that whitens the residuals (kinds ``"ar1"`` and ``"arp"`` of
-:mod:`femupdate.posterior.likelihood`: innovations r̃ = L r of a fixed AR filter L) has its
+:mod:`femupdate.inference.likelihood`: innovations r̃ = L r of a fixed AR filter L) has its
 own maximum elsewhere: the generalised least-squares (GLS) estimate, which weights each
 frequency by the inverse of the error's power there. When the errors are coloured (on the
 bridge: acceleration noise integrated twice to displacement, its power ∝ 1/ω⁴ near the 5 Hz
@@ -16,7 +16,7 @@ others solved without it; the step then clipped to the cube), a step taken only 
 log-posterior rises, stopping when a step moves the point by less than ``tolerance``
 posterior standard deviations (√(δᵀPδ), P the Gauss–Newton precision). Each iteration
 costs one evaluation for the trial point and 2n + 1 for the Jacobian at an accepted one
-(:func:`~femupdate.posterior.jacobian.residual_jacobian`), all counted.
+(:func:`~femupdate.inference.jacobian.residual_jacobian`), all counted.
 """
 
 from __future__ import annotations
@@ -27,11 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from femupdate.errors import DataError, FemupdateError
-from femupdate.posterior.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
-from femupdate.posterior.laplace import gaussian_precision
-from femupdate.posterior.likelihood import ErrorModel
-from femupdate.posterior.priors import Prior
-from femupdate.update import UpdateProblem
+from femupdate.inference.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
+from femupdate.inference.laplace import gaussian_precision
+from femupdate.inference.likelihood import ErrorModel
+from femupdate.inference.priors import Prior
+from femupdate.problem.update import UpdateProblem
 
 #: The error models whose likelihood maximum is not the least-squares best fit: they whiten
 #: the residual before weighing it.

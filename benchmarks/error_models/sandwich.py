@@ -11,7 +11,7 @@ the best fit (the biased sample autocovariance, which keeps M positive semi-defi
 by Bartlett weights 1 − k/(L + 1): the Newey & West 1987 estimator, with the bandwidth L of
 Andrews 1991 for an AR(1) plug-in). This is the width that the correlation of the errors
 gives the best fit itself, so it is the reference against which the likelihoods of
-:mod:`femupdate.posterior.likelihood` (which assume a correlation model: N_c independent
+:mod:`femupdate.inference.likelihood` (which assume a correlation model: N_c independent
 values, AR(1), AR(p)) are calibrated.
 """
 
@@ -22,9 +22,9 @@ import math
 import numpy as np
 from scipy.linalg import matmul_toeplitz
 
-from femupdate.posterior.laplace import LaplaceResult, checked_jacobian, summarize_gaussian
-from femupdate.posterior.likelihood import lag1_autocorrelation
-from femupdate.posterior.priors import Prior
+from femupdate.inference.laplace import LaplaceResult, checked_jacobian, summarize_gaussian
+from femupdate.inference.likelihood import lag1_autocorrelation
+from femupdate.inference.priors import Prior
 
 
 def andrews_bandwidth(r: np.ndarray) -> int:
@@ -65,7 +65,7 @@ def sandwich_covariance(jac: np.ndarray, residuals: np.ndarray,
 def sandwich_laplace(jac: np.ndarray, residuals: np.ndarray, best_unit: np.ndarray,
                      blocks: tuple[slice, ...] | list[slice], prior: Prior) -> LaplaceResult:
     """The Gaussian at the best fit ξ* with the sandwich covariance, summarised as a
-    :class:`~femupdate.posterior.laplace.LaplaceResult` (intervals clipped to the bounds;
+    :class:`~femupdate.inference.laplace.LaplaceResult` (intervals clipped to the bounds;
     the prior enters only through them)."""
     cov = sandwich_covariance(jac, residuals, blocks)
     return summarize_gaussian(np.asarray(best_unit, dtype=float).reshape(-1), cov, prior)

@@ -21,8 +21,8 @@ import os
 
 import numpy as np
 
-from femupdate.bench.dynamic import run_benchmark, run_with_history
-from femupdate.problems.dynamic import LOWER, PARAMETER_NAMES, TRUTH, UPPER, DynamicProblem
+from femupdate.paper.bench.dynamic import run_benchmark, run_with_history
+from femupdate.paper.problems.dynamic import LOWER, PARAMETER_NAMES, TRUTH, UPPER, DynamicProblem
 from femupdate.report.figures import plot_beta, plot_fit, plot_parameters, plot_phi
 
 QUICK = os.environ.get("FEMUPDATE_DOCS_QUICK", "1") != "0"

@@ -23,9 +23,9 @@ import tempfile
 from pathlib import Path
 
 from femupdate.case import parse_case
-from femupdate.problems.bridge import bridge_case, ensure_records, truth
+from femupdate.paper.problems.bridge import bridge_case, ensure_records, truth
+from femupdate.pipeline.run import run_case
 from femupdate.report.figures import plot_fit
-from femupdate.workflow import run_case
 
 QUICK = os.environ.get("FEMUPDATE_DOCS_QUICK", "1") != "0"
 RUNS = 3 if QUICK else 25

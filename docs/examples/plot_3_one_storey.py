@@ -28,9 +28,9 @@ import tempfile
 from pathlib import Path
 
 from femupdate.case import load_case
+from femupdate.pipeline.run import run_case, validate_case, with_data_directory
 from femupdate.report.figures import plot_fit
 from femupdate.report.html import write_report
-from femupdate.workflow import run_case, validate_case, with_data_directory
 
 QUICK = os.environ.get("FEMUPDATE_DOCS_QUICK", "1") != "0"
 RUNS = 2 if QUICK else None  # None: the case's [search] runs

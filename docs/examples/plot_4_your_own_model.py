@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from femupdate.case import load_case
-from femupdate.experiment import load_experiments
-from femupdate.problems import bridge
-from femupdate.update import UpdateProblem
-from femupdate.workflow import run_case, with_data_directory
+from femupdate.paper.problems import bridge
+from femupdate.pipeline.run import run_case, with_data_directory
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
 
 QUICK = os.environ.get("FEMUPDATE_DOCS_QUICK", "1") != "0"
 

@@ -6,7 +6,7 @@ frequencies. Independent of femupdate's model code: the Timoshenko beam matrices
 numerically from the interdependent shape functions, the response is a state-space model
 simulated by ``scipy.signal.lsim`` (input linear between samples, like femupdate's ``exact``).
 
-The structure (femupdate.problems.bridge): a steel deck of four 2.8 m spans (80 × 80 × 5 mm
+The structure (femupdate.paper.problems.bridge): a steel deck of four 2.8 m spans (80 × 80 × 5 mm
 square tube, κ = 0.44, ν = 0.3, ρ = 7850 kg/m³) on nodes A1, P1, P2, P3, A2, each with 48 kg
 and the DOFs (uy, rz); springs kp1 (both abutments), kp2–kp4 (piers) on uy; rotational dampers
 c1 at the abutments and dampers c2–c4 on the piers' uy.

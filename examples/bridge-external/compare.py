@@ -2,7 +2,7 @@
 
     PYTHONPATH=src python examples/bridge-external/compare.py [--candidates 5] [--json out.json]
 
-On the viscous bridge's noise-free virtual experiment (femupdate.problems.bridge), at the
+On the viscous bridge's noise-free virtual experiment (femupdate.paper.problems.bridge), at the
 truth and at random candidates inside the narrow bounds, each model's absolute accelerations at
 P1–P3, its φ and its natural frequencies against the built-in model's:
 
@@ -29,9 +29,9 @@ import numpy as np
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
 from femupdate.model.modes import natural_frequencies
-from femupdate.problems import bridge
+from femupdate.paper.problems import bridge
 from femupdate.simulate import prepare
-from femupdate.update import UpdateProblem
+from femupdate.problem.update import UpdateProblem
 
 HERE = Path(__file__).resolve().parent
 OUTPUTS = [[2, 2], [3, 2], [4, 2]]  # OpenSees node tags of P1, P2, P3; DOF 2 = uy

@@ -4,7 +4,7 @@ their case files, as ``femupdate run CASE --method multistart-lm`` does.
     python examples/bridge-external/update.py [--models builtin,python,opensees] [--snr 0]
         [--runs 1] [--workers 2] [--json out.json]
 
-The same virtual experiment (femupdate.problems.bridge, viscous, seed 0, noise ``--snr``) is
+The same virtual experiment (femupdate.paper.problems.bridge, viscous, seed 0, noise ``--snr``) is
 read by the three case files — ``examples/bridge/viscous-narrow.toml`` (the built-in model),
 ``python.toml`` and ``opensees.toml`` — and each is updated with the same method and seed
 (femupdate's default, multistart-lm: space-filling starts, a bounded Levenberg–Marquardt on
@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import load_case
-from femupdate.problems import bridge
-from femupdate.workflow import run_case, with_data_directory, with_method
+from femupdate.paper.problems import bridge
+from femupdate.pipeline.run import run_case, with_data_directory, with_method
 
 HERE = Path(__file__).resolve().parent
 CASES = {"builtin": HERE.parent / "bridge" / "viscous-narrow.toml",

@@ -22,7 +22,7 @@ import argparse
 import json
 from pathlib import Path
 
-from femupdate.bench.large_building import case_text, truth
+from femupdate.paper.bench.large_building import case_text, truth
 
 HERE = Path(__file__).resolve().parent
 

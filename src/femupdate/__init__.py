@@ -48,12 +48,12 @@ _LAZY = {
     "Response": "femupdate.simulate.response",
     "load_case": "femupdate.case",
     "Case": "femupdate.case",
-    "nmse": "femupdate.objective",
-    "ErrorFunction": "femupdate.objective",
-    "Objective": "femupdate.objective",  # deprecated name of ErrorFunction (not in __all__)
-    "run_case": "femupdate.workflow",
-    "load_results": "femupdate.results",
-    "Summary": "femupdate.results",
+    "nmse": "femupdate.problem.objective",
+    "ErrorFunction": "femupdate.problem.objective",
+    "Objective": "femupdate.problem.objective",  # deprecated name of ErrorFunction (not in __all__)
+    "run_case": "femupdate.pipeline.run",
+    "load_results": "femupdate.pipeline.results",
+    "Summary": "femupdate.pipeline.results",
 }
 
 __all__ = [

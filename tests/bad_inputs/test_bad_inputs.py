@@ -37,7 +37,7 @@ import pytest
 from femupdate import cli
 from femupdate.case import load_case
 from femupdate.errors import FemupdateError
-from femupdate.virtual import virtual_experiment
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import DATA, MODEL, TRUTH, parameters
 
 HERE = Path(__file__).resolve().parent
@@ -159,7 +159,7 @@ def _namespace(places: dict[str, str]) -> dict[str, Any]:
     """What the Python cases may use: femupdate's public API and a few functions of x."""
     import femupdate
     from femupdate import minimize
-    from femupdate.workflow import run_case, validate_case
+    from femupdate.pipeline.run import run_case, validate_case
 
     def sphere(x: np.ndarray) -> float:
         return float(np.sum((x - 0.3) ** 2))

@@ -9,10 +9,10 @@ from error_models.kinds import ar_fit, ar_order, error_model, problem_error_mode
 
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
-from femupdate.experiment import load_experiments
-from femupdate.posterior.likelihood import lag1_autocorrelation
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.inference.likelihood import lag1_autocorrelation
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import TRUTH, two_storey_spec
 
 
@@ -89,7 +89,7 @@ def test_tau_counts_fewer_than_the_samples_of_correlated_residuals(
 
 
 def test_adjusted_takes_one_power_below_one_for_every_block(problem: UpdateProblem) -> None:
-    from femupdate.posterior.jacobian import residual_jacobian
+    from femupdate.inference.jacobian import residual_jacobian
 
     x = problem.case.to_search(TRUTH)
     r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)

@@ -1,4 +1,4 @@
-"""The errors-in-variables error model (kind "eiv", femupdate.posterior.input_noise): its pieces
+"""The errors-in-variables error model (kind "eiv", femupdate.inference.input_noise): its pieces
 against closed forms, its linear maps against their transposes, its score covariance against
 simulated noise, and its refusals."""
 
@@ -15,10 +15,10 @@ from scipy.signal import fftconvolve
 
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
-from femupdate.experiment import load_experiments
-from femupdate.problems import bridge
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import TRUTH, two_storey_spec
 
 

@@ -11,12 +11,12 @@ from error_models.mode import whitened_mode
 
 from femupdate.case import parse_case
 from femupdate.errors import DataError
-from femupdate.experiment import load_experiments
-from femupdate.posterior.laplace import jacobian_unit, laplace
-from femupdate.posterior.likelihood import ErrorModel
-from femupdate.posterior.priors import Prior
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.inference.laplace import jacobian_unit, laplace
+from femupdate.inference.likelihood import ErrorModel
+from femupdate.inference.priors import Prior
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import TRUTH, two_storey_spec
 
 RHO = 0.9

@@ -16,10 +16,10 @@ import pytest
 from femupdate._parallel import single_blas_thread
 from femupdate.case import CaseModel, load_case
 from femupdate.case.reduced_path import model_dof_count
-from femupdate.experiment import load_experiment
 from femupdate.model.sparse import lowest_modes
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "frame3d"
 CASE = EXAMPLE / "building.toml"

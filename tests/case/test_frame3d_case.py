@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.bench.frame3d_check import SUPPORT_GROUPS, support_records, two_span_beam
 from femupdate.case.frame3d_case import load_frame3d_case
 from femupdate.errors import ConfigError, DataError, ModelError
+from femupdate.paper.bench.frame3d_check import SUPPORT_GROUPS, support_records, two_span_beam
 from femupdate.simulate.multisupport import multi_support_response
 
 DT = 0.01
@@ -102,7 +102,7 @@ def test_mechanism_in_a_case_names_the_file_and_dofs(folder):
 def test_cli_simulates_and_writes(folder):
     from typer.testing import CliRunner
 
-    from femupdate.cli import app
+    from femupdate.cli.commands import app
 
     (folder / "case.toml").write_text(_case_text())
     result = CliRunner().invoke(app, ["frame3d", str(folder / "case.toml"), "--out",

@@ -15,15 +15,15 @@ from typer.testing import CliRunner
 from femupdate._parallel import single_blas_thread
 from femupdate.case import CaseModel, load_case
 from femupdate.case.model3d import mechanism_dofs
-from femupdate.cli import app
+from femupdate.cli.commands import app
 from femupdate.errors import ConfigError, ModelError
-from femupdate.experiment import load_experiment
 from femupdate.model.frame3d import Frame3D
 from femupdate.model.modes import natural_frequencies
+from femupdate.pipeline.run import run_case
+from femupdate.problem.update import TrialProblem
 from femupdate.simulate import simulate
-from femupdate.update import TrialProblem
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "frame3d"
 CASE = EXAMPLE / "frame.toml"

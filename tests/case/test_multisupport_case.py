@@ -11,16 +11,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.bench.frame3d_check import support_records
-from femupdate.bench.multisupport_check import TRUTH, run_check, two_span_case
 from femupdate.case import CaseModel, load_case, parse_case
 from femupdate.errors import ConfigError, ModelError
 from femupdate.model.structure import Structure
+from femupdate.paper.bench.frame3d_check import support_records
+from femupdate.paper.bench.multisupport_check import TRUTH, run_check, two_span_case
 from femupdate.simulate.multisupport import integrate_record
 
 DT = 0.01
 
-# The two-span beam of femupdate.bench.multisupport_check as a case file; {groups}, {inputs}
+# The two-span beam of femupdate.paper.bench.multisupport_check as a case file; {groups}, {inputs}
 # and {outputs} are replaced by the tests.
 CASE = """\
 [case]
@@ -234,7 +234,7 @@ def test_case_model_agrees_with_opensees_multiple_support():
 def test_synth_then_run_recovers_the_parameters(tmp_path):
     from typer.testing import CliRunner
 
-    from femupdate.cli import app
+    from femupdate.cli.commands import app
 
     path = _write(tmp_path)
     runner = CliRunner()
@@ -266,9 +266,9 @@ def test_example_case_file_reads():
 def test_noise_free_records_fit_the_truth_only(tmp_path, quantity):
     """Records made by the truth (one channel absolute, one relative to the pier) are read and
     processed as the model's prediction is: φ is 0 at the truth, not elsewhere."""
-    from femupdate.experiment import load_experiment
-    from femupdate.update import TrialProblem
-    from femupdate.virtual import virtual_experiment
+    from femupdate.problem.update import TrialProblem
+    from femupdate.trials.experiment import load_experiment
+    from femupdate.trials.virtual import virtual_experiment
 
     text = _write(tmp_path).read_text() + f'\n[objective]\nquantity = "{quantity}"\n'
     path = tmp_path / "two-span.toml"
@@ -285,9 +285,9 @@ def test_noise_free_records_fit_the_truth_only(tmp_path, quantity):
 
 
 def test_a_3d_case_with_vertical_groups_is_the_frame3d_solution():
-    """The two-span 3-D beam of femupdate.bench.frame3d_check written as a case (dofs_per_node
+    """The two-span 3-D beam of femupdate.paper.bench.frame3d_check written as a case (dofs_per_node
     = 6, support groups along z) gives Frame3D's multi-support response at its outputs."""
-    from femupdate.bench.frame3d_check import SUPPORT_GROUPS, two_span_beam
+    from femupdate.paper.bench.frame3d_check import SUPPORT_GROUPS, two_span_beam
     from femupdate.simulate.multisupport import multi_support_response
 
     frame = two_span_beam()
@@ -330,7 +330,7 @@ def test_a_3d_case_with_vertical_groups_is_the_frame3d_solution():
 
 
 def _synth(tmp_path, **options):
-    from femupdate.virtual import virtual_experiment
+    from femupdate.trials.virtual import virtual_experiment
 
     case = load_case(_write(tmp_path))
     virtual_experiment(case, dict(TRUTH), tmp_path / "records", seed=5, snr=0.0, offset=0.0,
@@ -341,7 +341,7 @@ def _synth(tmp_path, **options):
 def test_each_group_record_is_checked_on_its_own(tmp_path):
     """A support record in the wrong unit (its peak far beyond any earthquake) is found on
     that group's channel."""
-    from femupdate.experiment import load_experiment
+    from femupdate.trials.experiment import load_experiment
 
     case = _synth(tmp_path)
     path = tmp_path / "records" / "supports.csv"
@@ -357,7 +357,7 @@ def test_each_group_record_is_checked_on_its_own(tmp_path):
 
 
 def test_one_recorded_motion_cannot_drive_several_groups(tmp_path):
-    from femupdate.virtual import Motion, simulate_truth
+    from femupdate.trials.virtual import Motion, simulate_truth
 
     case = load_case(_write(tmp_path))
     motion = Motion(support_records(100, DT)[:, 0], DT, "one record")
@@ -370,9 +370,9 @@ def test_the_report_lists_each_group_input_and_input_noise_refuses(tmp_path):
 
     from error_models.input_noise import path_responses  # a benchmark plug-in now
 
-    from femupdate.experiment import load_experiment
+    from femupdate.problem.update import TrialProblem
     from femupdate.report.sections_runs import _data_items
-    from femupdate.update import TrialProblem
+    from femupdate.trials.experiment import load_experiment
 
     case = _synth(tmp_path)
     ctx = SimpleNamespace(res=SimpleNamespace(case=case), truth=SimpleNamespace(manifest={}))
@@ -386,8 +386,8 @@ def test_the_report_lists_each_group_input_and_input_noise_refuses(tmp_path):
 
 
 def test_a_trial_gives_its_own_support_records(tmp_path):
-    from femupdate.experiment import load_experiments
-    from femupdate.virtual import virtual_experiment
+    from femupdate.trials.experiment import load_experiments
+    from femupdate.trials.virtual import virtual_experiment
 
     case = _synth(tmp_path)
     virtual_experiment(case, dict(TRUTH), tmp_path / "records2", seed=6, snr=0.0, offset=0.0,

@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 
 from femupdate._parallel import single_blas_thread
-from femupdate.bench import large_building as MAKE
 from femupdate.case import CaseModel, load_case, parse_case
 from femupdate.case.reduced_path import (
     REDUCED_MIN_DOF,
@@ -24,13 +23,14 @@ from femupdate.case.reduced_path import (
     simulation_record,
 )
 from femupdate.errors import ConfigError
-from femupdate.experiment import load_experiments
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.sparse import lowest_modes
+from femupdate.paper.bench import large_building as MAKE
+from femupdate.pipeline.run import run_case
+from femupdate.problem.update import UpdateProblem
 from femupdate.simulate.reduced import ReducedSimulator
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 
 REPO = Path(__file__).resolve().parents[2]
 STOREYS = 150

@@ -10,7 +10,7 @@ import pytest
 
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
-from femupdate.experiment import load_experiments
+from femupdate.trials.experiment import load_experiments
 from two_storey_case import two_storey_spec
 
 

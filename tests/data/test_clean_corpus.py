@@ -32,9 +32,9 @@ import scipy.signal
 from femupdate.case import parse_case
 from femupdate.data import defects
 from femupdate.errors import FemupdateWarning
-from femupdate.experiment import load_experiments
-from femupdate.trial_checks import first_mode_hz
-from femupdate.virtual import Motion, ec8_motion, recorded_motion, virtual_experiment
+from femupdate.trials.checks import first_mode_hz
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import Motion, ec8_motion, recorded_motion, virtual_experiment
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = Path(os.environ.get("FEMUPDATE_DATA", REPO.parent / "shared" / "data"))
@@ -424,7 +424,7 @@ def test_a_1000_storey_building_at_1035_hz_for_50_s_is_clean(tmp_path: Path) -> 
     """The synth defaults (1035 Hz, an EC8 motion at model scale 1:50, 2 % noise) on a
     1000-storey building whose first mode is at 0.79 Hz: its record has almost no energy
     below a third of that mode, where the unit check estimates a gain."""
-    from femupdate.bench.large_building import case_text
+    from femupdate.paper.bench.large_building import case_text
 
     text = case_text(1000, 10, data_directory=str(tmp_path)).replace(
         "masses = [\n  1.0", "masses = [\n  6.4").replace(" 1.0,", " 6.4,")

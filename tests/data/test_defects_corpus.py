@@ -22,8 +22,8 @@ import pytest
 from femupdate.case import parse_case
 from femupdate.data.defects import KINDS
 from femupdate.errors import ConfigError, DataError, FemupdateWarning
-from femupdate.experiment import load_experiments
-from femupdate.virtual import ec8_motion, virtual_experiment
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import ec8_motion, virtual_experiment
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = Path(os.environ.get("FEMUPDATE_DATA", REPO.parent / "shared" / "data"))
@@ -503,8 +503,8 @@ def _record(name: str) -> Record:
 
 def test_a_run_on_a_defective_record_is_no_success_and_says_why(clean_synth: Path,
                                                                 tmp_path: Path) -> None:
-    from femupdate.results import read_summary
-    from femupdate.workflow import run_case
+    from femupdate.pipeline.results import read_summary
+    from femupdate.pipeline.run import run_case
 
     case = _case_on(_record("synth-spike-1e5"), clean_synth, tmp_path)
     with pytest.warns(FemupdateWarning, match=r"floors\.csv: channel 'F1\.ux': spike: "):
@@ -519,8 +519,8 @@ def test_a_run_on_a_defective_record_is_no_success_and_says_why(clean_synth: Pat
 
 def test_accept_silences_a_check_by_name_and_the_verdict_decides(clean_synth: Path,
                                                                 tmp_path: Path) -> None:
+    from femupdate.pipeline.run import run_case
     from femupdate.runs.verdict import success_rule
-    from femupdate.workflow import run_case
 
     case = _case_on(_record("synth-spike-1e5"), clean_synth, tmp_path, accept=["spike"])
     result = run_case(case, None, runs=2, max_evals=40)
@@ -616,7 +616,7 @@ max_evals = 30
 def _cli_run(record: Record, clean_synth: Path, tmp: Path) -> tuple[str, Path]:
     from typer.testing import CliRunner
 
-    from femupdate.cli import app
+    from femupdate.cli.commands import app
 
     tmp.mkdir()
     folder, _ = _source_folder(record, clean_synth, tmp / "records")
@@ -660,7 +660,7 @@ def test_files_of_equal_length_are_not_said_to_differ_in_length(clean_synth: Pat
 
 
 def test_validate_keeps_the_defects(clean_synth: Path, tmp_path: Path) -> None:
-    from femupdate.workflow import validate_case
+    from femupdate.pipeline.run import validate_case
 
     case = _case_on(_record("synth-saturation-70pct"), clean_synth, tmp_path)
     with pytest.warns(FemupdateWarning, match="channel 'F2.ux': saturation: "):
@@ -674,7 +674,7 @@ def test_validate_keeps_the_defects(clean_synth: Path, tmp_path: Path) -> None:
 
 
 def test_validate_says_a_spike_in_the_last_row(clean_synth: Path, tmp_path: Path) -> None:
-    from femupdate.workflow import validate_case
+    from femupdate.pipeline.run import validate_case
 
     last = Record("last-row", "synth", "spike", _floors(_spikes((1e5,), (-1,))))
     with pytest.warns(FemupdateWarning, match=r"channel 'F1\.ux': spike: 1 isolated sample\(s\) "
@@ -708,7 +708,7 @@ def test_the_cli_run_on_an_absurd_last_sample_says_the_spike(clean_synth: Path,
                                                             tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
-    from femupdate.cli import app
+    from femupdate.cli.commands import app
 
     tmp_path.mkdir(exist_ok=True)
     folder, _ = _source_folder(_record("synth-clean-seed-1"), clean_synth, tmp_path / "records")
@@ -756,7 +756,7 @@ def test_a_spike_in_a_resampled_record_is_found_on_the_file_as_read(clean_synth:
 
 
 def test_an_nmse_that_is_not_finite_says_which_channel_and_why() -> None:
-    from femupdate.trial_checks import nonfinite_causes
+    from femupdate.trials.checks import nonfinite_causes
 
     measured = np.ones((10, 3))
     measured[4, 1] = np.nan

@@ -9,9 +9,9 @@ import pytest
 
 from femupdate.case import load_case
 from femupdate.evaluation import evaluator_for
-from femupdate.experiment import load_experiments
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 from two_storey_case import DATA
 
 CASE = """\

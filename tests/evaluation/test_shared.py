@@ -21,10 +21,10 @@ import pytest
 
 from femupdate.case import parse_case
 from femupdate.evaluation.shared import record_key, shared_groups
-from femupdate.experiment import load_experiments
-from femupdate.problems import bridge
-from femupdate.update import TrialProblem, UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.problems import bridge
+from femupdate.problem.update import TrialProblem, UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 
 #: Record time of the three fitted windows (s; the record lasts 1 s).
 WINDOWS = ([0.0, 0.45], [0.3, 0.7], [0.62, 0.98])

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from external_helpers import USER_CODE, problem_for
 
-from femupdate.update import UpdateProblem
+from femupdate.problem.update import UpdateProblem
 
 
 @pytest.fixture(scope="session")

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from femupdate.case import Case, parse_case
-from femupdate.experiment import Experiment
-from femupdate.update import UpdateProblem
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import Experiment
 
 N_SAMPLES = 200
 DT = 0.01

@@ -8,11 +8,11 @@ from pathlib import Path
 import pytest
 
 from femupdate.case import load_case
-from femupdate.experiment import load_experiments
-from femupdate.problems import bridge
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import with_data_directory
+from femupdate.paper.problems import bridge
+from femupdate.pipeline.run import with_data_directory
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

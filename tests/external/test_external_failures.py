@@ -13,10 +13,10 @@ from external_helpers import Space, experiment, problem_for
 
 from femupdate.errors import ConfigError
 from femupdate.external import Evaluation, EvaluationError, check_prediction
+from femupdate.problem.update import UpdateProblem
 from femupdate.runs import run_all
 from femupdate.runs.batch import evaluate_batch
 from femupdate.runs.executors import open_executor
-from femupdate.update import UpdateProblem
 
 #: mode → a fragment of the message of its failure.
 EXPECTED = {

@@ -10,12 +10,12 @@ import pytest
 from external_helpers import Space, problem_for
 
 from femupdate.errors import ConfigError, MissingDependencyError
-from femupdate.experiment import Experiment
 from femupdate.external import ExternalRunner, OpenSeesModel
 from femupdate.external.openseespy import import_opensees
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.structure import Structure
 from femupdate.simulate import prepare
+from femupdate.trials.experiment import Experiment
 
 try:
     import_opensees()  # the BLAS its wheel needs, before the model module imports it

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from femupdate.bench.frame3d_check import as_structure, example_frame, portal_frame
 from femupdate.errors import ModelError
 from femupdate.model.elements import frame_element
 from femupdate.model.elements3d import frame3d_element, frame3d_rotation
 from femupdate.model.frame3d import Frame3D
+from femupdate.paper.bench.frame3d_check import as_structure, example_frame, portal_frame
 
 SEC = dict(E=2.0e11, A=4e-3, Iy=2e-5, Iz=5e-5, J=3e-5, G=8e10, kappa_y=0.8, kappa_z=0.6)
 

@@ -79,7 +79,7 @@ def test_loop_agrees_with_opensees_boucwen_at_its_first_order() -> None:
     """OpenSees's BoucWen material takes a backward-Euler step in z per strain increment
     (first order): its distance to femupdate halves with the step, and both approach the
     solve_ivp solution."""
-    from femupdate.bench.opensees import import_opensees
+    from femupdate.paper.bench.opensees import import_opensees
 
     try:
         ops = import_opensees()

@@ -12,7 +12,7 @@ from scipy.optimize import Bounds
 
 from femupdate.errors import ConfigError
 from femupdate.optimize import METHODS, Status, minimize
-from femupdate.problems.dynamic import DynamicProblem
+from femupdate.paper.problems.dynamic import DynamicProblem
 
 register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 

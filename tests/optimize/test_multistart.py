@@ -12,7 +12,6 @@ from plugins import register_optimizers
 
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
-from femupdate.experiment import load_experiment
 from femupdate.optimize import METHODS, minimize, start
 from femupdate.optimize.trust import (
     forward_columns,
@@ -22,10 +21,11 @@ from femupdate.optimize.trust import (
     second_order_stencils,
     step_signs,
 )
-from femupdate.problems import bridge
-from femupdate.problems.dynamic import DynamicProblem
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
+from femupdate.paper.problems import bridge
+from femupdate.paper.problems.dynamic import DynamicProblem
+from femupdate.problem.update import UpdateProblem
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 register_optimizers()  # the comparison optimizers (benchmarks/plugins) are tested here too
 

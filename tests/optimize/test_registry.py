@@ -13,7 +13,7 @@ from femupdate.optimize import METHODS, register_method
 
 def test_the_product_registers_its_four_methods_and_nothing_else() -> None:
     # A fresh interpreter: other tests in this process register the comparison plug-ins.
-    code = ("import femupdate, femupdate.case, femupdate.workflow; "
+    code = ("import femupdate, femupdate.case, femupdate.pipeline.run; "
             "from femupdate.optimize import METHODS; print(sorted(METHODS))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout

@@ -28,12 +28,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.bench.dynamic import run_benchmark
 from femupdate.case import parse_case
-from femupdate.problems.bridge import bridge_case, truth
-from femupdate.update import EVALUATOR_ENV
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.paper.bench.dynamic import run_benchmark
+from femupdate.paper.problems.bridge import bridge_case, truth
+from femupdate.pipeline.run import run_case
+from femupdate.problem.update import EVALUATOR_ENV
+from femupdate.trials.virtual import virtual_experiment
 
 FIXTURE = Path(__file__).with_name("runs_before_refactor.json")
 EXPECTED = json.loads(FIXTURE.read_text())

@@ -19,8 +19,8 @@ from typing import Any
 import pytest
 
 from femupdate.case import Case, parse_case
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import run_case
+from femupdate.pipeline.run import run_case
+from femupdate.trials.virtual import virtual_experiment
 
 TRUTH = {"k1": 2000.0, "k2": 1500.0, "c1": 1.0, "c2": 0.5}
 #: Text that must come out HTML-escaped.

@@ -228,7 +228,7 @@ def test_fit_draws_at_most_the_first_channels() -> None:
 
 def test_demo_figures_say_which_run_with_units_and_the_truth(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from femupdate.bench.dynamic import run_with_history
+    from femupdate.paper.bench.dynamic import run_with_history
     from femupdate.report import dynamic
 
     drawn = {}

@@ -12,7 +12,7 @@ import pytest
 from grouped import run_all
 
 from femupdate.errors import FemupdateError
-from femupdate.problems.dynamic import DynamicProblem
+from femupdate.paper.problems.dynamic import DynamicProblem
 
 distributed = pytest.importorskip("dask.distributed", reason="needs the 'dask' extra")
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.problems.dynamic import DynamicProblem
+from femupdate.paper.problems.dynamic import DynamicProblem
 from femupdate.runs import Execution, run_all
 from femupdate.runs.store import FILENAME, ResultsStore
 from kill_midway import kill_midway, store_progress
@@ -32,7 +32,7 @@ EXECUTION = dict(chunk_evals=100, workers=2)
 # running when the poller sees its first checkpoints, however loaded the machine is.
 CHILD = """
 import sys, time
-from femupdate.problems.dynamic import DynamicProblem
+from femupdate.paper.problems.dynamic import DynamicProblem
 from femupdate.runs import Execution, run_all
 
 class Slow(DynamicProblem):

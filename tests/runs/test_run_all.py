@@ -12,7 +12,7 @@ from plugins import register_optimizers
 
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
-from femupdate.problems.dynamic import PARAMETER_NAMES, DynamicProblem
+from femupdate.paper.problems.dynamic import PARAMETER_NAMES, DynamicProblem
 from femupdate.runs import run_seeds
 from femupdate.runs.store import FILENAME, ResultsStore, StoreError
 
@@ -131,8 +131,8 @@ def test_a_least_squares_run_spread_over_workers_gives_the_same_bits(
     # threads of this process when the problem is evaluated compiled, else to the worker
     # processes; its optimizer and φ = r·r stay here, with one BLAS thread as in a worker (a
     # threaded dot product of that length rounds differently, and the search follows).
-    from femupdate.problems.bridge import viscous_problem
-    from femupdate.update import UpdateProblem
+    from femupdate.paper.problems.bridge import viscous_problem
+    from femupdate.problem.update import UpdateProblem
 
     problem = viscous_problem()
     threads_asked: list[int] = []

@@ -7,7 +7,7 @@ import pytest
 
 from femupdate.errors import ConfigError
 from femupdate.optimize import minimize
-from femupdate.problems.dynamic import DynamicProblem
+from femupdate.paper.problems.dynamic import DynamicProblem
 from femupdate.runs import RunOutcome, repeat, run_seeds
 from femupdate.runs.stats import BOUND_TOL, at_bounds, evaluation_stats, spread
 

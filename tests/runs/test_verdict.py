@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from femupdate.case import load_case
-from femupdate.experiment import load_experiment
+from femupdate.pipeline.run import summarize
+from femupdate.problem.update import UpdateProblem
 from femupdate.runs.outcome import RunOutcome
 from femupdate.runs.verdict import minimum_groups, successes, verdict_of
-from femupdate.update import UpdateProblem
-from femupdate.virtual import virtual_experiment
-from femupdate.workflow import summarize
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
 
 CASE = """\
 [case]
@@ -126,7 +126,7 @@ def test_nmse_of_100_percent_or_more_is_never_a_success() -> None:
 
 
 def test_summary_json_keeps_the_verdict(problem, tmp_path: Path) -> None:
-    from femupdate.results import read_summary, write_summary
+    from femupdate.pipeline.results import read_summary, write_summary
 
     outcomes = [_outcome(problem, 0, TRUTH), _outcome(problem, 1, TRUTH)]
     summary = summarize(problem, outcomes, 1.0, None)

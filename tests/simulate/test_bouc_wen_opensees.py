@@ -58,7 +58,7 @@ def test_building_agrees_with_opensees_at_its_first_order() -> None:
     difference halves with the substep (measured 1.4e-3, 7.0e-4, 3.5e-4 of the peak at 10, 20,
     40 substeps), while femupdate converges to its own solution at 320 substeps at second order
     (2.8e-5, 8.0e-6, 1.9e-6)."""
-    from femupdate.bench.opensees import import_opensees
+    from femupdate.paper.bench.opensees import import_opensees
 
     try:
         ops = import_opensees()

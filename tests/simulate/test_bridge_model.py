@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.bench.simulate import DEFAULT_FRICTION_VALUES, viscous_values
 from femupdate.case import Model, build_structure
 from femupdate.model.modes import initial_stiffness, natural_frequencies
 from femupdate.model.system import System
-from femupdate.problems import bridge
+from femupdate.paper.bench.simulate import DEFAULT_FRICTION_VALUES, viscous_values
+from femupdate.paper.problems import bridge
 from femupdate.simulate import prepare
 
 DT = 1.0 / bridge.SAMPLE_RATE

@@ -8,9 +8,9 @@ import pytest
 import scipy.linalg as sla
 import scipy.signal as ss
 
-from femupdate.bench.friction_beam import ELEMENTS, TRUTH, friction_beam_case
 from femupdate.errors import ConfigError
 from femupdate.model import Structure
+from femupdate.paper.bench.friction_beam import ELEMENTS, TRUTH, friction_beam_case
 from femupdate.simulate import prepare
 from femupdate.simulate.craig_bampton import craig_bampton, nonlinear_dofs
 
@@ -89,9 +89,9 @@ def test_a_friction_case_on_the_reduced_path(tmp_path) -> None:
         simulation_record,
         trial_truncation,
     )
-    from femupdate.experiment import load_experiment
-    from femupdate.update import UpdateProblem
-    from femupdate.virtual import virtual_experiment
+    from femupdate.problem.update import UpdateProblem
+    from femupdate.trials.experiment import load_experiment
+    from femupdate.trials.virtual import virtual_experiment
 
     truth = TRUTH
     virtual_experiment(friction_beam_case(tmp_path, "nonlinear"), truth, tmp_path, seed=1, snr=0.0,

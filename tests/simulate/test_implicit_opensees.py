@@ -57,7 +57,7 @@ def _opensees_newmark(ops, ag: np.ndarray, substeps: int) -> np.ndarray:
 def test_implicit_agrees_with_opensees_newmark() -> None:
     """The same Newmark scheme; OpenSees updates z by backward Euler (first order in the
     step), femupdate by Runge–Kutta over the increment: the difference shrinks with the step."""
-    from femupdate.bench.opensees import import_opensees
+    from femupdate.paper.bench.opensees import import_opensees
 
     try:
         ops = import_opensees()

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.bench.frame3d_check import (
+from femupdate.errors import ConfigError, DataError, MissingDependencyError
+from femupdate.paper.bench.frame3d_check import (
     SUPPORT_GROUPS,
     example_frame,
     support_records,
     two_span_beam,
 )
-from femupdate.errors import ConfigError, DataError, MissingDependencyError
 from femupdate.simulate import simulate
 from femupdate.simulate.multisupport import (
     check_records,
@@ -88,7 +88,7 @@ def figures():
         import_opensees()
     except MissingDependencyError as exc:
         pytest.skip(f"openseespy is not installed or does not import here: {exc}")
-    from femupdate.bench.frame3d_check import run_checks
+    from femupdate.paper.bench.frame3d_check import run_checks
 
     return run_checks(quick=True)
 

@@ -14,12 +14,12 @@ import sys
 import numpy as np
 import pytest
 
-from femupdate.bench.opensees import OpenSeesPeer, import_opensees
-from femupdate.bench.simulate import DEFAULT_FRICTION_VALUES, viscous_values
 from femupdate.case import Model, build_structure
 from femupdate.errors import ConfigError, MissingDependencyError, ModelError
 from femupdate.model.modes import initial_stiffness, natural_frequencies
-from femupdate.problems import bridge
+from femupdate.paper.bench.opensees import OpenSeesPeer, import_opensees
+from femupdate.paper.bench.simulate import DEFAULT_FRICTION_VALUES, viscous_values
+from femupdate.paper.problems import bridge
 from femupdate.simulate import prepare
 
 DT = 1.0 / bridge.SAMPLE_RATE

@@ -7,7 +7,7 @@ import re
 
 from rich.console import Console
 
-from femupdate.bench.simulate import PHI_BATCHES, print_simulate_rows, run_simulate_benchmark
+from femupdate.paper.bench.simulate import PHI_BATCHES, print_simulate_rows, run_simulate_benchmark
 
 
 def test_benchmark_rows_and_table_fit_80_columns():

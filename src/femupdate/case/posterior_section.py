@@ -43,7 +43,7 @@ class PriorSpec(Section):
     sigma: number_field(gt=0.0) | None = None
 
     def spec(self) -> dict[str, float | str]:
-        """The prior as :class:`femupdate.posterior.priors.Prior` takes it."""
+        """The prior as :class:`femupdate.inference.priors.Prior` takes it."""
         kind = "uniform" if self.kind == "log-uniform" else self.kind
         return {"kind": kind, **{k: v for k in PRIOR_FIELDS[self.kind]
                                  if (v := getattr(self, k)) is not None}}
@@ -69,7 +69,7 @@ class PosteriorSection(Section):
     checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
     while a parameter is unsettled, ``runs`` more are added, up to this many in all (none to
     one run);
-    ``error_model``: "neff" (the kinds of :mod:`femupdate.posterior.error_models` but
+    ``error_model``: "neff" (the kinds of :mod:`femupdate.inference.error_models` but
     "known", which needs the error's σ); unset, the default, "neff", for both the sampled
     posterior and the Laplace record at the best fit;
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
@@ -77,8 +77,8 @@ class PosteriorSection(Section):
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
     first population; ``recentre``: how many times at most the posterior is sampled again
     from a better fit the sampler finds than the one it started from (0: never; it is then
-    said in words, :mod:`femupdate.sampling.start`); ``surrogate``: the surrogate-aided
-    posterior (:mod:`femupdate.posterior.surrogate`: TMCMC on a Gaussian-process surrogate
+    said in words, :mod:`femupdate.pipeline.posterior.start`); ``surrogate``: the surrogate-aided
+    posterior (:mod:`femupdate.inference.surrogate`: TMCMC on a Gaussian-process surrogate
     trained at 300 model runs at most); unset, on for an external model
     (``[model.python]``, ``[model.opensees]``) and off for femupdate's own."""
 

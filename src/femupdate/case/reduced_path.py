@@ -58,7 +58,7 @@ __all__ = [
 REDUCED_MIN_DOF = 100
 #: The default ``cutoff_factor`` of a model with friction or Bouc–Wen elements (Craig–Bampton):
 #: stick–slip forces have a broad spectrum and excite the interior's modes far above the band.
-#: Measured by benchmarks/craig_bampton.py (femupdate.bench.friction_beam: a 122-DOF beam with
+#: Measured by benchmarks/craig_bampton.py (femupdate.paper.bench.friction_beam: a 122-DOF beam with
 #: a friction damper, an EC8 accelerogram at 200 Hz, the band to Nyquist 100 Hz): truncation error
 #: (φ of the reduced prediction against the full one, at the truth) 3.6e-3, 6.1e-5, 1.2e-6
 #: and 8.5e-8 at factors 4, 8, 16 and 32 (19, 28, 39 and 57 reduced DOFs).
@@ -261,7 +261,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
-    """The reduced prediction of one trial (a ``femupdate.update.TrialProblem``, a layer
+    """The reduced prediction of one trial (a ``femupdate.problem.update.TrialProblem``, a layer
     above this module) at ``values`` against the full model's (or, above
     :data:`FULL_CHECK_MAX_DOF` DOFs, against the reduced model with four times the cut-off)."""
     from femupdate.simulate.exact import ExactSimulator
@@ -317,7 +317,7 @@ def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
 
 def simulation_record(problem: Any) -> dict[str, Any] | None:
     """Which path simulated the case's model (``problem``: a
-    ``femupdate.update.UpdateProblem``), and on the reduced path its truncation error at
+    ``femupdate.problem.update.UpdateProblem``), and on the reduced path its truncation error at
     the nominal point for every fitted trial (warned about above :data:`TRUNCATION_WARN`).
     None for an external model."""
     case = problem.case

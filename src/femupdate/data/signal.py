@@ -197,7 +197,7 @@ def integrate_twice(acceleration: np.ndarray, dt: float) -> np.ndarray:
     """Displacement from acceleration by two trapezoidal integrations, zero initial values.
 
     The unknown initial displacement and velocity are the two "experimental parameters"
-    that the objective fits (`femupdate.objective.ErrorFunction`).
+    that the objective fits (`femupdate.problem.objective.ErrorFunction`).
     """
     return integrate(integrate(acceleration, dt), dt)
 

@@ -37,7 +37,8 @@ from femupdate.evaluation.processing import Post, process_and_compare
 
 
 class UpdateProblem(Protocol):
-    """What the evaluator reads of a trial's problem (:class:`femupdate.update.TrialProblem`):
+    """What the evaluator reads of a trial's problem
+    (:class:`femupdate.problem.update.TrialProblem`):
     the case, the experiment, the structure and integrator, the processing flags, the error
     function, and its reference path for the points the compiled one leaves."""
 
@@ -183,7 +184,7 @@ def _central_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarr
 
 
 class Evaluator:
-    """φ of an :class:`~femupdate.update.UpdateProblem`, compiled, with its own buffers.
+    """φ of an :class:`~femupdate.problem.update.UpdateProblem`, compiled, with its own buffers.
 
     Build it with :func:`evaluator_for`; call it like the problem (``ev(x)``) or on a batch
     (``ev.batch(X)``). Not thread-safe (the buffers are shared by the calls); each process

@@ -34,7 +34,7 @@ def record_key(trial: Any) -> tuple | None:
 
     Parameters
     ----------
-    trial : femupdate.update.TrialProblem
+    trial : femupdate.problem.update.TrialProblem
     """
     if not trial.compiled:
         return None
@@ -91,7 +91,8 @@ def phi_rows(trials: Sequence[Any], X: np.ndarray) -> np.ndarray:
 def residual_rows(trials: Sequence[Any], X: np.ndarray,
                   out: Sequence[np.ndarray] | None = None) -> list[list[np.ndarray]]:
     """The residual vectors of each trial of one group at every row of ``X``
-    (``rows[t][i]``), as :meth:`femupdate.update.TrialProblem.residuals_rows` gives them, from
+    (``rows[t][i]``), as :meth:`femupdate.problem.update.TrialProblem.residuals_rows` gives
+    them, from
     one simulation per row; with ``out`` (one (k, m_t) array per trial), each written into its
     row as it comes (the lists then hold those rows)."""
     X = np.ascontiguousarray(X, dtype=float)

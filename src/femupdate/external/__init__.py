@@ -5,7 +5,7 @@ step into the predicted channels; :class:`ExternalRunner` runs it for one base m
 child process (killable on a time-out, isolated from the model's global state and crashes).
 A case names its model in ``[model.python]`` or ``[model.opensees]``; everything after the
 prediction (processing, error function, runs, store, report) is femupdate's
-(:class:`femupdate.update.UpdateProblem`). A failed evaluation is φ = inf with its message.
+(:class:`femupdate.problem.update.UpdateProblem`). A failed evaluation is φ = inf with its message.
 
 Names are imported on first use: the worker process that holds a model imports only what the
 model needs (a child starts faster).

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.problems.dynamic import (
+from femupdate.paper.problems.dynamic import (
     LOWER,
     PARAMETER_NAMES,
     TRUTH,

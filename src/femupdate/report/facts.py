@@ -20,13 +20,13 @@ from femupdate.case.reduced_path import lowest_frequencies
 from femupdate.errors import FemupdateError
 from femupdate.model.modes import damped_modes, initial_stiffness, natural_frequencies
 from femupdate.model.system import System
-from femupdate.results import Results
+from femupdate.pipeline.results import Results
 
 #: Relative size of K M⁻¹C − C M⁻¹K below which damping counts as classical (proportional).
 PROPORTIONAL_TOL = 1e-8
 #: Modes shown in the frequency and damping tables.
 N_MODES = 6
-#: Written beside the records by ``femupdate synth`` (femupdate.virtual).
+#: Written beside the records by ``femupdate synth`` (femupdate.trials.virtual).
 TRUTH_FILE = "truth.json"
 MANIFEST_FILE = "manifest.json"
 

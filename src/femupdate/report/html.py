@@ -1,6 +1,6 @@
 """``femupdate report DIR``: one self-contained HTML page of a results directory.
 
-Reads the results directory (:func:`femupdate.results.load_results`: ``summary.json``, the
+Reads the results directory (:func:`femupdate.pipeline.results.load_results`: ``summary.json``, the
 best model's fit ``fit.npz`` and, optionally, the results store with the runs' histories) and
 writes ``DIR/report.html``: one file that opens offline with nothing beside it (the figures
 are PNG data URIs; plain HTML and inline CSS, no JavaScript, no link to any file).
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from femupdate.pipeline.results import REPORT_FILE, Results, load_results
 from femupdate.report.facts import bound_positions, context, spectrum_limit
 from femupdate.report.markup import Page, esc, format_number
 from femupdate.report.sections_defects import section_defects
@@ -36,7 +37,6 @@ from femupdate.report.sections_runs import (
     section_runs,
     section_spread,
 )
-from femupdate.results import REPORT_FILE, Results, load_results
 from femupdate.runs.stats import BOUND_TOL, bound_flags
 
 __all__ = [

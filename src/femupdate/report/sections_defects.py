@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from femupdate.pipeline.results import DefectRecord
 from femupdate.report.markup import esc, note, table, td, warn
-from femupdate.results import DefectRecord
 
 __all__ = ["section_defects"]
 

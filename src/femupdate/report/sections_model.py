@@ -10,9 +10,9 @@ from collections.abc import Mapping
 import numpy as np
 
 from femupdate.errors import FemupdateError
+from femupdate.pipeline.results import Fit, Summary
 from femupdate.report.facts import Context, Modes, modes_at, relative_error, spectrum_limit
 from femupdate.report.markup import Page, esc, format_number, note, num, pairs, table, td, warn
-from femupdate.results import Fit, Summary
 
 # ----------------------------------------------------------------------------- the fit
 

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from femupdate.errors import MissingDependencyError
-from femupdate.posterior.records import LaplaceRecord, Marginal, PosteriorRecord
+from femupdate.inference.records import LaplaceRecord, Marginal, PosteriorRecord
+from femupdate.pipeline.posterior.agreement import MIN_ESS
+from femupdate.pipeline.results import POSTERIOR_FILE
 from femupdate.report.facts import Context
 from femupdate.report.markup import Page, esc, note, num, pairs, table, td, warn
-from femupdate.results import POSTERIOR_FILE
-from femupdate.sampling.agreement import MIN_ESS
 
 #: Predictive bands of at most this many trials are drawn (all are in the coverage table).
 MAX_BAND_FIGURES = 6

@@ -9,6 +9,7 @@ import json
 import numpy as np
 
 from femupdate.case import Case
+from femupdate.pipeline.results import RunRecord
 from femupdate.report.facts import Context, case_positions, relative_error
 from femupdate.report.markup import (
     Page,
@@ -22,7 +23,6 @@ from femupdate.report.markup import (
     td,
     warn,
 )
-from femupdate.results import RunRecord
 from femupdate.runs.stats import BOUND_TOL, bound_flags
 
 # ----------------------------------------------------------------------------- the case

@@ -21,7 +21,7 @@ __all__ = ["evaluate_batch", "evaluate_rows"]
 
 
 class Evaluates(Protocol):
-    """A problem that says why an evaluation failed (``femupdate.update.UpdateProblem``)."""
+    """A problem that says why an evaluation failed (``femupdate.problem.update.UpdateProblem``)."""
 
     def evaluate(self, x: np.ndarray) -> Evaluation: ...
 

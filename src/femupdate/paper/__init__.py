@@ -1,0 +1,2 @@
+"""The paper's benchmark problems (Zapico-Valle et al. 2010) and the ``femupdate
+bench`` runs of them."""
