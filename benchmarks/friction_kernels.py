@@ -29,21 +29,11 @@ from pathlib import Path
 
 import numpy as np
 from doc_tables import write_table
+from evaluation_cost import friction_bridge  # the same case, built once in the benchmarks
 from threadpoolctl import threadpool_limits
 
-from femupdate.case import parse_case
 from femupdate.evaluation import evaluator as evaluator_module
-from femupdate.paper.problems import bridge
 from femupdate.problem.update import UpdateProblem
-from femupdate.trials.experiment import load_experiment
-
-
-def friction_bridge(work: Path) -> UpdateProblem:
-    data = work / "friction"
-    case = parse_case(bridge.bridge_case("friction", "narrow", directory=str(data)),
-                      source=data / "friction-narrow.toml")
-    bridge.ensure_records(case, bridge.truth("friction"), data, seed=0, snr=0.0)
-    return UpdateProblem(case, load_experiment(case))
 
 
 def use_generic_kernel(problem: UpdateProblem) -> None:

@@ -28,13 +28,16 @@ if TYPE_CHECKING:
 from femupdate.cli.bench import _bench_dynamic, bench_app
 from femupdate.cli.options import (
     CaseArgument,
+    CaseWorkersOption,
     JsonOption,
+    LogJsonOption,
+    QuietOption,
+    SchedulerOption,
     WorkersOption,
     _input_dir,
     _inputs,
     _load,
     _output_dir,
-    _output_file,
     _outside_bounds,
     _posterior_limit,
     _read_params,
@@ -129,16 +132,10 @@ def run(
         "--restart", help="Discard the runs stored in --out (results.sqlite, summary.json, "
         "fit.npz) and start over there, e.g. after a run that aborted or a change of the "
         "case.")] = False,
-    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address, e.g. "
-                                                       "tcp://host:8786 (extra 'dask').")
-                         ] = None,
-    quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
-    log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
-                                                       "run event) to this file.",
-                                                  callback=_output_file("--log-json"))] = None,
-    workers: Annotated[int | None, typer.Option(
-        "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
-        "workers).", callback=_search_limit("workers", "--workers"))] = None,
+    scheduler: SchedulerOption = None,
+    quiet: QuietOption = False,
+    log_json: LogJsonOption = None,
+    workers: CaseWorkersOption = None,
     json_path: JsonOption = None,
 ) -> None:
     """Update the model of a case from its measured data: repeated runs and their summary
@@ -241,16 +238,10 @@ def posterior(
     restart: Annotated[bool, typer.Option(
         "--restart", help="Discard the search and the sampler stored in --out and start "
         "over.")] = False,
-    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address, e.g. "
-                                                       "tcp://host:8786 (extra 'dask').")
-                         ] = None,
-    quiet: Annotated[bool, typer.Option(help="No progress bar.")] = False,
-    log_json: Annotated[Path | None, typer.Option(help="Append JSON lines (one per chunk and "
-                                                       "run event) to this file.",
-                                                  callback=_output_file("--log-json"))] = None,
-    workers: Annotated[int | None, typer.Option(
-        "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
-        "workers).", callback=_search_limit("workers", "--workers"))] = None,
+    scheduler: SchedulerOption = None,
+    quiet: QuietOption = False,
+    log_json: LogJsonOption = None,
+    workers: CaseWorkersOption = None,
     surrogate: Annotated[bool | None, typer.Option(
         "--surrogate/--no-surrogate", help="TMCMC on a Gaussian-process surrogate trained at "
         "300 model runs at most (default: [posterior] surrogate, else on for an external "

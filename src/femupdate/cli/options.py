@@ -89,6 +89,17 @@ JsonOption = Annotated[
 ]
 
 
+#: The options of the commands that run a case's searches or sampler (run, posterior).
+SchedulerOption = Annotated[str | None, typer.Option(
+    help="Dask scheduler address, e.g. tcp://host:8786 (extra 'dask').")]
+QuietOption = Annotated[bool, typer.Option(help="No progress bar.")]
+LogJsonOption = Annotated[Path | None, typer.Option(
+    help="Append JSON lines (one per chunk and run event) to this file.",
+    callback=_output_file("--log-json"))]
+CaseWorkersOption = Annotated[int | None, typer.Option(
+    "--workers", min=1, help="Parallel worker processes (default: the case's [search] "
+    "workers).", callback=_search_limit("workers", "--workers"))]
+
 WorkersOption = Annotated[
     int, typer.Option("--workers", min=1, callback=_search_limit("workers", "--workers"),
                       help="Parallel worker processes for the benchmark's "

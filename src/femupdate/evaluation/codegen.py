@@ -10,7 +10,7 @@ module holds that recurrence as LLVM IR on SIMD vectors, one point per lane
 (:mod:`femupdate.evaluation.lanes`): one point as fast as the numba code, four for little more.
 Why it is kept beside the generic numba kernel (which serves the sizes beyond ``MAX_TERMS``):
 on the product's default path, multistart-lm's Jacobian batches of the friction bridge cost
-2.7× less per point than with the generic kernel (4.96 against 13.5 ms, single φ 1.3×;
+2.9× less per point than with the generic kernel (0.59 against 1.69 ms, single φ 1.5×;
 ``python benchmarks/friction_kernels.py``, one run on this project's 2-core machine).
 
 The source is generated into a module file (``kernel_directory()``) and imported from there, so
