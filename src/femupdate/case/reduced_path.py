@@ -370,7 +370,7 @@ def describe_simulation(record: Mapping[str, Any]) -> str:
     """One line: which path ran (``"reduced: 25 modes ≤ 200 Hz of 1000 DOFs; …"``)."""
     method, n = record["method"], record["n_dof"]
     if method != "reduced":
-        return f"simulation: {method} (full model, {n} DOFs)"
+        return f"simulation: {method} (full model, {n} DOF{'' if n == 1 else 's'})"
     cut = record.get("cutoff_hz")
     where = f" ≤ {cut:.4g} Hz" if cut is not None else ""
     err = record.get("truncation_error")

@@ -96,7 +96,7 @@ def advance_chunk(fun: Callable[[np.ndarray], float], task: ChunkTask,
 
     Steps until the run is done, or ``task.chunk_evals`` evaluations or ``task.chunk_seconds``
     have passed (checked between steps, so a step's population is never split). A run whose
-    state cannot be pickled (de, ga) runs to its end in this one chunk.
+    state cannot be pickled (a plug-in such as de or ga) runs to its end in this one chunk.
     """
     t0 = time.perf_counter()
     if task.state is None:
