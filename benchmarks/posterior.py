@@ -108,17 +108,17 @@ FIT_EVALS = 2000
 REGISTRY = registry()
 KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
-#: least-squares estimate (femupdate.inference.sandwich), measured beside them
+#: least-squares estimate (benchmarks/error_models/sandwich.py), measured beside them
 SANDWICH = "sandwich"
 #: Not an error model either: the Gaussian at arp's mode with the covariance of that estimate
-#: when the whitening leaves the errors coloured (femupdate.inference.gls_sandwich)
+#: when the whitening leaves the errors coloured (benchmarks/error_models/gls_sandwich.py)
 GLS_SANDWICH = "gls-sandwich"
 #: eiv's Gaussian at its mode with the covariance of its score under its own noise model
-#: (femupdate.inference.input_noise.eiv_sandwich_laplaces)
+#: (benchmarks/error_models/input_noise.py, eiv_sandwich_laplaces)
 EIV_SANDWICH = "eiv-sandwich"
-#: The i.i.d. likelihood with the curvature adjustment (femupdate.inference.sandwich): sampled by
-#: TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction). Measured too
-#: narrow (docs/posterior.md, "The curvature adjustment, tried")
+#: The i.i.d. likelihood with the curvature adjustment (benchmarks/error_models/sandwich.py):
+#: sampled by TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction).
+#: Measured too narrow (docs/history.md, "The curvature adjustment, tried")
 CURVATURE = "curvature"
 #: The same with C from the Jacobian of steps LOCAL_STEP (the curvature at the fit's own scale)
 CURVATURE_LOCAL = "curvature-local"
@@ -298,7 +298,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
     a whitening kind (``ar1``, ``arp``) is taken at that kind's own mode, climbed to from the
-    least-squares fit (femupdate.inference.mode), as the product does; ``KIND@fit`` is the
+    least-squares fit (benchmarks/error_models/mode.py), as the product does; ``KIND@fit`` is the
     same Gaussian centred at the least-squares fit instead."""
     # the kinds of the library when these seeds were spawned (their order fixes them)
     ALL_KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
@@ -765,7 +765,7 @@ def whitening(replicates: int, seeds: int, root: Path) -> dict[str, Any]:
     clean (noise on the outputs only); then, at the bridge's nominal truth over ``seeds``
     noise draws, the scatter of the least-squares fit and of arp's mode in units of arp's
     standard deviations (1 if arp's curvature is right)."""
-    from femupdate.inference.sandwich import sandwich_covariance
+    from error_models.sandwich import sandwich_covariance
 
     children = np.random.SeedSequence(SEED).spawn(max(replicates, 1))
     print(f"\n## Whitening: arp at its own mode ({load()})")

@@ -31,7 +31,8 @@ import numpy as np
 
 from femupdate.case import parse_case
 from femupdate.inference.best_fit import case_priors
-from femupdate.inference.likelihood import ErrorModel, problem_error_model
+from femupdate.inference.error_models import problem_error_model
+from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.surrogate import problem_evaluator, surrogate_posterior
 from femupdate.inference.tmcmc import run_tmcmc
 from femupdate.problem.update import UpdateProblem

@@ -1,6 +1,6 @@
-"""The errors-in-variables error model (kind "eiv", femupdate.inference.input_noise): its pieces
-against closed forms, its linear maps against their transposes, its score covariance against
-simulated noise, and its refusals."""
+"""The errors-in-variables error model (kind "eiv", benchmarks/error_models/input_noise.py):
+its pieces against closed forms, its linear maps against their transposes, its score covariance
+against simulated noise, and its refusals."""
 
 from __future__ import annotations
 
