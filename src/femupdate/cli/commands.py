@@ -14,17 +14,13 @@ import json
 import math
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import numpy as np
 import typer
 from rich.table import Table
 from rich.text import Text
 
-from femupdate.errors import ConfigError, FemupdateError
-
-if TYPE_CHECKING:
-    pass
 from femupdate.cli.bench import _bench_dynamic, bench_app
 from femupdate.cli.options import (
     CaseArgument,
@@ -59,6 +55,7 @@ from femupdate.cli.tables import (
     print_trials,
     print_update_summary,
 )
+from femupdate.errors import ConfigError, FemupdateError
 
 # Help and messages are printed as written: rich markup would eat bracketed names such as
 # [search] or [[parameters]] (rich_markup_mode=None; console output with markup=False).

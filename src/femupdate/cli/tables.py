@@ -11,9 +11,10 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
+from femupdate.cli.options import _fmt, console, say
+
 if TYPE_CHECKING:
     from femupdate.pipeline.results import Summary, TrialRecord
-from femupdate.cli.options import _fmt, console, say
 
 
 def _dynamic_table(rows: list[dict[str, Any]]) -> Table:
