@@ -230,6 +230,18 @@ def sample_loads(
     return np.ascontiguousarray(q)
 
 
+def element_histories(n_friction: int, n_bouc_wen: int, friction_force: np.ndarray,
+                      slip: np.ndarray, hysteretic_force: np.ndarray, hysteretic_z: np.ndarray
+                      ) -> tuple[np.ndarray | None, ...]:
+    """What a nonlinear ``_integrate`` returns after (displacement, velocity, acceleration,
+    diverged): the friction force and slip when there are friction elements, then the Bouc–Wen
+    force and ``z`` when there are Bouc–Wen elements (friction's None without friction)."""
+    friction = (friction_force, slip) if n_friction else (None, None)
+    if n_bouc_wen:
+        return (*friction, hysteretic_force, hysteretic_z)
+    return friction if n_friction else ()
+
+
 def make_response(
     dt: float,
     n_samples: int,

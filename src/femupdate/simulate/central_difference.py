@@ -48,6 +48,7 @@ from femupdate.model.system import System
 from femupdate.simulate._common import (
     Simulator,
     check_critical_step,
+    element_histories,
     is_diverged,
     omega_max,
     sample_loads,
@@ -401,12 +402,8 @@ class CentralDifferenceSimulator(Simulator):
                 *friction, self._HT, self.outputs, self._bi, self._bj, self._bw,
                 self._dy_max, self._HbT,
             )
-        if self.n_bouc_wen:
-            return (disp, vel, acc, diverged, ff if self.n_friction else None,
-                    slip if self.n_friction else None, bf, bz)
-        if self.n_friction:
-            return disp, vel, acc, diverged, ff, slip
-        return disp, vel, acc, diverged
+        return (disp, vel, acc, diverged,
+                *element_histories(self.n_friction, self.n_bouc_wen, ff, slip, bf, bz))
 
 
 def prepare_central_difference(

@@ -55,7 +55,13 @@ from numba import njit
 from femupdate.errors import ConfigError, SimulationError
 from femupdate.model.hysteresis import bouc_wen_force, bouc_wen_rate, bouc_wen_step_limit
 from femupdate.model.system import System
-from femupdate.simulate._common import DIVERGENCE_LIMIT, Simulator, omega_max, sample_loads
+from femupdate.simulate._common import (
+    DIVERGENCE_LIMIT,
+    Simulator,
+    element_histories,
+    omega_max,
+    sample_loads,
+)
 
 __all__ = ["HHT_ALPHA_RANGE", "ImplicitSimulator", "bouc_wen_update_tangent",
            "check_hht_alpha", "explicit_stable_step", "prepare_implicit", "step_halving_error"]
@@ -537,12 +543,8 @@ class ImplicitSimulator(Simulator):
                 f"implicit: Newton–Raphson did not converge in {NEWTON_MAX_ITERATIONS} "
                 f"iterations in the step after sample {failed} (t = {failed * self.dt:.6g} s) "
                 f"at h = {self.h:.6g} s; use more substeps")
-        if self.n_bouc_wen:
-            return (disp, vel, acc, diverged, ff if self.n_friction else None,
-                    slip if self.n_friction else None, bf, bz)
-        if self.n_friction:
-            return disp, vel, acc, diverged, ff, slip
-        return disp, vel, acc, diverged
+        return (disp, vel, acc, diverged,
+                *element_histories(self.n_friction, self.n_bouc_wen, ff, slip, bf, bz))
 
 
 def prepare_implicit(
