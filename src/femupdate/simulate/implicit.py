@@ -41,6 +41,11 @@ step below the highest frequency, so stiff zero-length links do not set the step
 second order in ``h`` (period elongation ``(ωh)²/12`` per cycle for ``α = 0``): the step is
 chosen for the modes that carry the response, and :func:`step_halving_error` states the error
 at a given step by comparing with half of it.
+
+Why this file is long (about 600 lines): the scheme is one compiled time loop with what it calls
+inside the loop (the element laws with their exact tangents, the condensed Newton solve and its
+small LU), and the simulator that prepares its matrices; apart, they would still be compiled
+and read together.
 """
 
 from __future__ import annotations
