@@ -197,3 +197,72 @@ def test_links_on_any_of_six_dofs(tmp_path: Path) -> None:
     for name in ("M", "C", "K"):
         np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
     assert got.C[got.dof_labels.index("B.uz"), got.dof_labels.index("B.uz")] == 7.0
+
+
+# ------------------------------------------------------------------ links in the mechanism check
+
+BOUC_WEN_LINK = 'k = 4000.0\nalpha = 0.1\nA = 1.5\nbeta = 100.0\ngamma = 100.0\n'
+SHEAR_MASS = ('[case]\nname = "one-mass"\n[model.shear_building]\nmasses = [2.0]\n'
+              'stiffnesses = [0.0]\n')
+
+
+def test_mass_on_one_bouc_wen_link_is_not_a_mechanism(tmp_path: Path) -> None:
+    """A mass held only by a Bouc–Wen element counts its initial stiffness k (α + (1 − α) A):
+    accepted, its frequency the closed form √(k₀/m)/2π; the same mass without it is free."""
+    case = _load(tmp_path, SHEAR_MASS + "[model.shear_building.bouc_wen]\n" + BOUC_WEN_LINK)
+    model = CaseModel(case)
+    k0 = 4000.0 * (0.1 + 0.9 * 1.5)
+    freqs, _ = natural_frequencies(model.system({}))
+    np.testing.assert_allclose(freqs, [np.sqrt(k0 / 2.0) / (2 * np.pi)], rtol=1e-12)
+    with pytest.raises(ModelError, match=r"the model is a mechanism .* F1\.ux"):
+        CaseModel(_load(tmp_path, SHEAR_MASS))
+
+
+def test_mass_on_one_friction_link_is_not_a_mechanism(tmp_path: Path) -> None:
+    case = _load(tmp_path, SHEAR_MASS + "[model.shear_building.frictions]\nk_r = 500.0\n"
+                 "f_u = 3.0\n")
+    assert mechanism_dofs(CaseModel(case).structure, {}, "x") == []
+
+
+PLANE = """
+[case]
+name = "plane"
+[model]
+dofs_per_node = 3
+nodes = [{ name = "A", x = 0.0 }, { name = "B", x = 1.0 }]
+beams = [{ nodes = ["A", "B"], E = 2e11, A = 1e-3, I = 1e-6, rho = 7850.0 }]
+masses = [{ node = "B", m = 10.0, J = 0.1 }]
+"""
+
+
+def test_plane_frame_on_bouc_wen_links_is_not_a_mechanism(tmp_path: Path) -> None:
+    """A plane frame held only by Bouc–Wen links at one node (ux, uy, rz) is accepted; without
+    them it is refused, its free DOFs named."""
+    links = "".join(f'[[model.bouc_wen]]\nnode = "A"\ndof = "{dof}"\n{BOUC_WEN_LINK}'
+                    for dof in ("ux", "uy", "rz"))
+    assert mechanism_dofs(CaseModel(_load(tmp_path, PLANE + links)).structure, {}, "x") == []
+    with pytest.raises(ModelError) as err:
+        CaseModel(_load(tmp_path, PLANE))
+    message = str(err.value)
+    assert "\n" not in message and "the model is a mechanism" in message
+    assert "A.ux" in message and "B.rz" in message and "(allowed: " in message
+    # a link on ux and uy only leaves the rotation about A free
+    two = "".join(f'[[model.bouc_wen]]\nnode = "A"\ndof = "{dof}"\n{BOUC_WEN_LINK}'
+                  for dof in ("ux", "uy"))
+    with pytest.raises(ModelError, match="the model is a mechanism"):
+        CaseModel(_load(tmp_path, PLANE + two))
+
+
+def test_3d_column_on_bouc_wen_links_is_not_a_mechanism(tmp_path: Path) -> None:
+    """The 3-D column with its foot on six Bouc–Wen links instead of a support."""
+    text = NODES.replace('supports = [{ node = "A", dofs = ["ux", "uy", "uz", "rx", "ry", '
+                         '"rz"] }]\n', "masses = [{ node = \"B\", m = 100.0, J = 1.0 }, "
+                         "{ node = \"A\", m = 10.0, J = 0.1 }]\n")
+    text = text.replace('masses = [{ node = "B", m = 100.0, J = 1.0 }]\n', "", 1)
+    beam = 'nu = 0.3\nIy = 1e-6\nIz = 1e-6\nJ = 1e-6\nvecxz = [1.0, 0.0, 0.0]\n'
+    links = "".join(f'[[model.bouc_wen]]\nnode = "A"\ndof = "{dof}"\n{BOUC_WEN_LINK}'
+                    for dof in ("ux", "uy", "uz", "rx", "ry", "rz"))
+    case = _load(tmp_path, text + BEAM + beam + links)
+    assert mechanism_dofs(CaseModel(case).structure, {}, "x") == []
+    with pytest.raises(ModelError, match="the 3-D frame is a mechanism"):
+        CaseModel(_load(tmp_path, text + BEAM + beam))

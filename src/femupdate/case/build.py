@@ -178,11 +178,10 @@ class CaseModel:
             self.influence = np.zeros_like(self.influence)
         else:  # multi-support cases move their supports, group by group
             check_base_motion_moves_mass(self.structure, case, self.direction)
-        if case.model.dofs_per_node == 6:
-            from femupdate.case.model3d import check_not_mechanism
+        from femupdate.case.model3d import check_not_mechanism
 
-            check_not_mechanism(self.structure, {p.name: p.nominal_value for p in
-                                                 case.parameters}, self.direction, case.label)
+        check_not_mechanism(self.structure, {p.name: p.nominal_value for p in
+                                             case.parameters}, self.direction, case.label)
 
     def _builtin(self, what: str) -> Structure:
         if self.structure is None:

@@ -1,5 +1,5 @@
-"""3-D frames in ``[model]`` (``dofs_per_node = 6``): the checks of their fields, and the check
-that the frame is not a mechanism.
+"""3-D frames in ``[model]`` (``dofs_per_node = 6``): the checks of their fields; and the check
+that a model (of any ``dofs_per_node``) is not a mechanism.
 
 Nodes take ``z`` (vertical: floors lie in ``xy`` planes, the base motion is along ``x`` or
 ``y``); beams take ``Iy``, ``Iz``, ``J`` and ``vecxz`` instead of ``I`` and ``G`` or ``nu`` (the
@@ -109,25 +109,29 @@ def mechanism_dofs(structure: Structure, values: Mapping[str, float],
                    direction: str) -> list[str]:
     """Free DOFs in the zero-energy modes of the structure's stiffness at ``values`` (empty
     when it is not a mechanism), from the null space of the diagonally scaled ``K``
-    (:func:`femupdate.model.frame3d.null_space_dofs`)."""
+    (:func:`femupdate.model.frame3d.null_space_dofs`). ``K`` counts the friction and Bouc–Wen
+    elements by their initial stiffness (:func:`femupdate.model.modes.initial_stiffness`): a
+    structure held only by them is not a mechanism."""
     from femupdate.model.frame3d import null_space_dofs
+    from femupdate.model.modes import initial_stiffness
 
     # sparse: no positive-definite mass asked of a model whose floors carry all its mass
     system = structure.assemble(values, direction=direction, sparse=True)
-    return null_space_dofs(system.K.toarray(), system.dof_labels)
+    return null_space_dofs(initial_stiffness(system).toarray(), system.dof_labels)
 
 
-#: Free DOFs up to which a 3-D frame's stiffness is checked for a mechanism by a dense
-#: eigendecomposition when its case is built (larger frames: the sparse factorisation of the
+#: Free DOFs up to which a model's stiffness is checked for a mechanism by a dense
+#: eigendecomposition when its case is built (larger models: the sparse factorisation of the
 #: reduced path reports a singular stiffness itself).
 MECHANISM_CHECK_MAX_DOFS = 1000
 
 
 def check_not_mechanism(structure: Structure, values: Mapping[str, float], direction: str,
                         label: str) -> None:
-    """Raise a one-line ``ModelError`` when the 3-D frame of a case (``label``: its file) is a
+    """Raise a one-line ``ModelError`` when the model of a case (``label``: its file) is a
     mechanism at the parameter ``values`` (the nominal ones): a singular stiffness has
-    zero-frequency modes, which no measured response can fit."""
+    zero-frequency modes, which no measured response can fit. Friction and Bouc–Wen elements
+    count by their initial stiffness."""
     from femupdate.errors import ModelError
 
     if structure.n_dof > MECHANISM_CHECK_MAX_DOFS:
@@ -135,7 +139,9 @@ def check_not_mechanism(structure: Structure, values: Mapping[str, float], direc
     loose = mechanism_dofs(structure, values, direction)
     if loose:
         shown = ", ".join(loose[:12]) + (", ..." if len(loose) > 12 else "")
-        raise ModelError(f"{label}: model: the 3-D frame is a mechanism (singular stiffness at "
+        what = "the 3-D frame" if structure.dofs_per_node == 6 else "the model"
+        raise ModelError(f"{label}: model: {what} is a mechanism (singular stiffness at "
                          f"the parameters' nominal values); free DOFs in its zero-energy modes: "
-                         f"{shown} (allowed: supports, springs or beams that restrain every "
-                         "rigid-body motion: add them at these DOFs)")
+                         f"{shown} (allowed: supports, springs, beams, or friction and Bouc–Wen "
+                         "elements by their initial stiffness, that restrain every rigid-body "
+                         "motion: add them at these DOFs)")

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 
 from femupdate.errors import ModelError
 from femupdate.model.system import System
@@ -47,15 +48,18 @@ def check_mass_matrix(M: np.ndarray, dof_labels: Sequence[str] = ()) -> None:
     )
 
 
-def initial_stiffness(system: System) -> np.ndarray:
+def initial_stiffness(system: System) -> Any:
     """``K`` plus the initial stiffness of the nonlinear elements: the friction elements'
-    stuck stiffness ``k_r`` and the Bouc–Wen elements' ``k (α + (1 − α) A)`` at ``z = 0``."""
-    k = system.K
-    if system.n_friction:
-        k = k + system.friction.stuck_stiffness(system.n_dof)
-    if system.n_bouc_wen:
-        k = k + system.bouc_wen.initial_stiffness(system.n_dof)
-    return k
+    stuck stiffness ``k_r`` and the Bouc–Wen elements' ``k (α + (1 − α) A)`` at ``z = 0``
+    (:mod:`femupdate.model.links`). Dense for a dense ``K``, CSR for a sparse one."""
+    if system.is_linear:
+        return system.K
+    from femupdate.model.links import initial_link_stiffness
+
+    sparse = scipy.sparse.issparse(system.K)
+    links = initial_link_stiffness(system.friction, system.bouc_wen, system.n_dof,
+                                   sparse=sparse)
+    return (system.K + links).tocsr() if sparse else system.K + links
 
 
 def _sign_normalised(shapes: np.ndarray) -> np.ndarray:
