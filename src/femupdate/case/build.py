@@ -86,7 +86,8 @@ def build_structure(model: Model) -> Structure:
         for floor in model.diaphragms:
             structure.add_diaphragm(floor.master, floor.nodes)
     if model.rayleigh is not None:
-        structure.set_rayleigh(alpha=model.rayleigh.alpha, beta=model.rayleigh.beta)
+        structure.set_rayleigh(alpha=model.rayleigh.alpha, beta=model.rayleigh.beta,
+                               hysteretic=model.rayleigh.hysteretic)
     structure.influence_vector(model.excitation_direction)  # builds and checks the topology
     return structure
 

@@ -248,10 +248,12 @@ class SupportGroup(Section):
 
 
 class Rayleigh(Section):
-    """``[model.rayleigh]``: damping ``C += alpha M + beta K``."""
+    """``[model.rayleigh]``: damping ``C += alpha M + beta K₀``, ``K₀`` with the friction and
+    Bouc–Wen elements' initial stiffness unless ``hysteretic = false``."""
 
     alpha: RayleighAlpha = 0.0
     beta: RayleighBeta = 0.0
+    hysteretic: bool = True
 
 
 def _per_storey(value: typing.Any) -> typing.Any:

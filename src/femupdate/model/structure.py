@@ -37,6 +37,7 @@ from femupdate.model.elements import (
 )
 from femupdate.model.elements3d import frame3d_mass, frame3d_rotation, frame3d_stiffness
 from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
+from femupdate.model.links import initial_link_stiffness
 from femupdate.model.modes import check_mass_matrix
 from femupdate.model.sparse import SparsePattern, check_sparse_mass, scatter_sparse
 from femupdate.model.system import BoucWenElements, FrictionElements, System
@@ -243,6 +244,8 @@ class _Topology:
     bouc_wen_props: tuple[_Prop, ...] = ()
     # rigid floor diaphragms (3-D frames): the elimination of the follower DOFs, or None
     diaphragms: Diaphragms | None = None
+    # Rayleigh's β also on the friction and Bouc–Wen elements' initial stiffness
+    rayleigh_hysteretic: bool = True
 
 
 class Structure:
@@ -572,14 +575,22 @@ class Structure:
             self._fixed.add(n * self.dofs_per_node + self._dof(d, f"fix({node!r})"))
         self._topology = None
 
-    def set_rayleigh(self, alpha: Value = 0.0, beta: Value = 0.0) -> None:
-        """Add (or replace) Rayleigh damping ``C += α M + β K`` (``K`` without friction)."""
+    def set_rayleigh(self, alpha: Value = 0.0, beta: Value = 0.0, *,
+                     hysteretic: bool = True) -> None:
+        """Add (or replace) Rayleigh damping ``C += α M + β K₀``.
+
+        ``K₀`` is ``K`` plus, with ``hysteretic`` (the default, as OpenSees's ``rayleigh``
+        with ``betaKinit``), the initial stiffness of the friction (``k_r``) and Bouc–Wen
+        (``k (α + (1 − α) A)``) elements (:mod:`femupdate.model.links`); without it, ``K``
+        of the linear elements only.
+        """
         props = {
             "alpha": self._value(alpha, "Rayleigh damping", "alpha", _NONNEG),
             "beta": self._value(beta, "Rayleigh damping", "beta", _NONNEG),
         }
         self._records = [r for r in self._records if r.kind != "rayleigh"]
-        self._add(_Record("rayleigh", "rayleigh", props))
+        self._add(_Record("rayleigh", "rayleigh", props,
+                          options={"hysteretic": bool(hysteretic)}))
 
     # ------------------------------------------------------------------ DOFs and loads
 
@@ -662,6 +673,10 @@ class Structure:
         p = self._parameter_vector(values)
         m, c, k, friction, beam_m = self._matrices(p, sparse)
         bouc_wen = self._bouc_wen(p)
+        if topo.rayleigh is not None and topo.rayleigh_hysteretic and (friction or bouc_wen):
+            beta = float(topo.rayleigh[1].evaluate(p)[0])  # β K₀: the links' initial stiffness
+            if beta:
+                c = c + beta * initial_link_stiffness(friction, bouc_wen, topo.n, sparse=sparse)
         seismic = None
         rows, keep, gcols = topo.beam_coupling
         if rows.size:  # consistent beam mass couples the moving supports to free DOFs
@@ -1151,6 +1166,7 @@ class Structure:
             bouc_wen_props=tuple(self._prop(bouc_wens, "bouc_wen", what, _BOUC_WEN_SPECS[what])
                                  for what in BOUC_WEN_PARAMETERS),
             diaphragms=diaphragms,
+            rayleigh_hysteretic=bool(ray[0].options.get("hysteretic", True)) if ray else True,
         )
 
 

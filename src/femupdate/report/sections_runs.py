@@ -90,9 +90,12 @@ def section_case(ctx: Context) -> str:
              ("excitation", esc(f"base motion in {model.excitation_direction}")),
              ("simulation", esc(case.simulation_method))]
     if model.rayleigh is not None:
+        links = ("" if not model.has_nonlinear else " (K with the friction and Bouc–Wen "
+                 "elements' initial stiffness)" if model.rayleigh.hysteretic else
+                 " (K without the friction and Bouc–Wen elements)")
         items.append(("Rayleigh damping C += α M + β K",
                       esc(f"α = {format_value(model.rayleigh.alpha, '1/s')}, "
-                          f"β = {format_value(model.rayleigh.beta, 's')}")))
+                          f"β = {format_value(model.rayleigh.beta, 's')}{links}")))
     out.append(pairs(items))
     out.append("<h3>Parameters</h3>")
     truth = ctx.truth.values
