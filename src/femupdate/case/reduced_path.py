@@ -179,6 +179,7 @@ class ReducedPath:
     def start_modes(self, dt: float) -> NaturalModes:
         """The modes at the case's nominal point that start every eigensolution (computed once
         per process and cut-off, without a start of their own: the same in every process)."""
+        from femupdate.model.modes import initial_stiffness
         from femupdate.model.sparse import lowest_modes
 
         key = float(dt)
@@ -187,8 +188,8 @@ class ReducedPath:
             if modes is None:
                 system = self._structure.assemble(self._nominal, direction=self._direction,
                                                   sparse=True)
-                modes = lowest_modes(system.K, system.M, n_modes=self.n_modes,
-                                     cutoff_hz=self.cutoff_hz(dt))
+                modes = lowest_modes(initial_stiffness(system), system.M,
+                                     n_modes=self.n_modes, cutoff_hz=self.cutoff_hz(dt))
                 self._starts[key] = modes
         return modes
 
@@ -235,14 +236,17 @@ class ReducedPath:
     def frequencies(self, values: Mapping[str, float], dt: float | None = None,
                     count: int = 12) -> np.ndarray:
         """The lowest natural frequencies (Hz) at ``values``, by the sparse eigensolver: those
-        kept for samples ``dt`` apart, or the lowest ``count`` (never a dense eigenproblem)."""
+        kept for samples ``dt`` apart, or the lowest ``count`` (never a dense eigenproblem).
+        Friction and Bouc–Wen elements count by their initial stiffness."""
+        from femupdate.model.modes import initial_stiffness
         from femupdate.model.sparse import lowest_modes
 
         system = self._structure.assemble(values, direction=self._direction, sparse=True)
         if dt is None:
-            modes = lowest_modes(system.K, system.M, n_modes=min(count, mode_count(system)))
+            modes = lowest_modes(initial_stiffness(system), system.M,
+                                 n_modes=min(count, mode_count(system)))
         else:
-            modes = lowest_modes(system.K, system.M, n_modes=self.n_modes,
+            modes = lowest_modes(initial_stiffness(system), system.M, n_modes=self.n_modes,
                                  cutoff_hz=self.cutoff_hz(dt), previous=self.start_modes(dt))
         return modes.freqs_hz
 
@@ -392,13 +396,15 @@ def lowest_case_modes(path: ReducedPath, values: Mapping[str, float],
                       count: int = MODES_SHOWN) -> tuple[NaturalModes, Any, tuple[str, ...]]:
     """The lowest ``count`` undamped modes of the model at ``values`` by the sparse
     eigensolver, the damped modes of its damping projected on them (``Φᵀ C Φ``: exact for
-    damping that does not couple modes), and the DOF labels; never a dense n × n matrix."""
-    from femupdate.model.modes import damped_modes
+    damping that does not couple modes), and the DOF labels; never a dense n × n matrix.
+    Friction and Bouc–Wen elements count by their initial stiffness, as on the dense path."""
+    from femupdate.model.modes import damped_modes, initial_stiffness
     from femupdate.model.sparse import lowest_modes
     from femupdate.model.system import System
 
     system = path.system(values)
-    modes = lowest_modes(system.K, system.M, n_modes=min(count, mode_count(system)))
+    modes = lowest_modes(initial_stiffness(system), system.M,
+                         n_modes=min(count, mode_count(system)))
     phi = modes.shapes
     c_red = phi.T @ np.asarray(system.C @ phi)
     m = phi.shape[1]
