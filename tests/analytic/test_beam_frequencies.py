@@ -162,3 +162,80 @@ def test_inclined_cantilever_has_the_frequencies_of_a_horizontal_one() -> None:
     reference = cantilever(0.0)
     np.testing.assert_allclose(cantilever(math.radians(30)), reference, rtol=1e-9)
     np.testing.assert_allclose(cantilever(math.radians(-135)), reference, rtol=1e-9)
+
+
+# ------------------------------------------------------------------ 3-D Euler–Bernoulli beams
+
+#: A thick rectangular section (b ≠ h: two bending planes), L/h = 10: shear deformation
+#: lowers the Timoshenko frequencies by several per cent.
+B3, H3 = 0.06, 0.1
+
+
+def column_3d(L: float, n_el: int, *, shear_deformation: bool, rotary: bool = False,
+              torsional: bool | None = True, supports: str = "cantilever") -> Structure:
+    """A beam along x in 3-D (Iy about the local y = global y, Iz about z), ``nu`` given (the
+    torsional stiffness G J) with or without shear deformation."""
+    s = Structure(dofs_per_node=6)
+    for i in range(n_el + 1):
+        s.add_node(f"N{i}", x=L * i / n_el)
+    iy, iz = B3 * H3**3 / 12, H3 * B3**3 / 12
+    for i in range(n_el):
+        s.add_beam(f"N{i}", f"N{i + 1}", E=E, nu=NU, A=B3 * H3, Iy=iy, Iz=iz, J=iy + iz,
+                   rho=RHO, vecxz=(0.0, 0.0, 1.0), shear_deformation=shear_deformation,
+                   rotary_inertia=rotary, torsional_inertia=torsional)
+    if supports == "cantilever":
+        s.fix("N0")
+    else:  # pinned at both ends, the twist held at one
+        s.fix("N0", "ux", "uy", "uz", "rx")
+        s.fix(f"N{n_el}", "uy", "uz")
+    return s
+
+
+def _nearest(f: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    return f[np.abs(f[:, None] - targets[None, :]).argmin(axis=0)]
+
+
+@pytest.mark.parametrize("supports", ["cantilever", "pinned"])
+def test_3d_euler_bernoulli_beam_without_shear_deformation(supports: str) -> None:
+    """shear_deformation=False with G given: both bending planes at the Euler–Bernoulli
+    closed form, torsion at c_t / 4L (cantilever; c_t = √(G/ρ), Ip = J); with shear
+    deformation the same beam is several per cent lower."""
+    L, n_el = 1.0, 24
+    if supports == "cantilever":
+        beta_l = np.array([brentq(lambda b: math.cos(b) * math.cosh(b) + 1, lo, lo + 3)
+                           for lo in (1, 4, 7)])
+    else:
+        beta_l = np.arange(1, 4) * math.pi
+    a, iy, iz = B3 * H3, B3 * H3**3 / 12, H3 * B3**3 / 12
+    exact = np.concatenate([euler_bernoulli(beta_l, L, a, iy), euler_bernoulli(beta_l, L, a, iz)])
+    f, _ = natural_frequencies(column_3d(L, n_el, shear_deformation=False,
+                                         supports=supports).assemble())
+    np.testing.assert_allclose(_nearest(f, exact), exact, rtol=1e-4)
+    if supports == "cantilever":
+        # the first torsion mode (linear elements: (k h)² / 24 = 1.8e-4 high)
+        torsion = np.array([math.sqrt(E / (2 * (1 + NU)) / RHO) / (4 * L)])
+        np.testing.assert_allclose(_nearest(f, torsion), torsion, rtol=3e-4)
+    timoshenko, _ = natural_frequencies(column_3d(L, n_el, shear_deformation=True,
+                                                  supports=supports).assemble())
+    # the second mode in the stiff plane (h = 0.1 m, L/h = 10): 4.0 % (cantilever) and
+    # 4.7 % (pinned) below Euler–Bernoulli
+    assert _nearest(timoshenko, exact[[1]])[0] < exact[1] * (1 - 3e-2)
+
+
+def test_3d_rotary_inertia_switches_by_dof_kind() -> None:
+    """rotary_inertia=False, torsional_inertia=True: the bending rotations carry no rotary
+    inertia (ρIy, ρIz), the twist keeps ρJ; torsional_inertia defaults to rotary_inertia
+    (without either the twist has no inertia: a dense assembly refuses that M)."""
+    def m(**kw: bool | None) -> np.ndarray:
+        s = column_3d(1.0, 4, shear_deformation=False, **kw)
+        return s.assemble(sparse=True).M.toarray()
+
+    both, neither = m(rotary=True, torsional=None), m(rotary=False, torsional=None)
+    twist_only = m(rotary=False, torsional=True)
+    labels = column_3d(1.0, 4, shear_deformation=False).dof_labels
+    rx = [i for i, lab in enumerate(labels) if lab.endswith(".rx")]
+    bend = [i for i, lab in enumerate(labels) if lab.endswith((".ry", ".rz"))]
+    np.testing.assert_array_equal(twist_only[np.ix_(rx, rx)], both[np.ix_(rx, rx)])
+    np.testing.assert_array_equal(twist_only[np.ix_(bend, bend)], neither[np.ix_(bend, bend)])
+    assert np.all(np.diag(both)[rx] > 0) and not np.any(neither[np.ix_(rx, rx)])
+    assert np.all(np.diag(both)[bend] > np.diag(neither)[bend])

@@ -266,3 +266,35 @@ def test_3d_column_on_bouc_wen_links_is_not_a_mechanism(tmp_path: Path) -> None:
     assert mechanism_dofs(CaseModel(case).structure, {}, "x") == []
     with pytest.raises(ModelError, match="the 3-D frame is a mechanism"):
         CaseModel(_load(tmp_path, text + BEAM + beam))
+
+
+def test_euler_bernoulli_fields_reach_the_structure(tmp_path: Path) -> None:
+    """shear_deformation = false and torsional_inertia in [[model.beams]] are the Structure's
+    options; torsional_inertia is refused in a planar model."""
+    from femupdate.model.structure import Structure
+
+    beam = ('nu = 0.3\nIy = 1e-6\nIz = 2e-6\nJ = 1e-6\nvecxz = [1.0, 0.0, 0.0]\n'
+            'shear_deformation = false\nrotary_inertia = false\ntorsional_inertia = true\n')
+    got = CaseModel(_load(tmp_path, NODES + BEAM + beam)).system({})
+    s = Structure(dofs_per_node=6)
+    s.add_node("A", 0.0)
+    s.add_node("B", 0.0, z=3.0)
+    s.add_beam("A", "B", E=2e11, A=1e-3, rho=7850.0, nu=0.3, Iy=1e-6, Iz=2e-6, J=1e-6,
+               vecxz=(1.0, 0.0, 0.0), shear_deformation=False, rotary_inertia=False,
+               torsional_inertia=True)
+    s.add_mass("B", m=100.0, J=1.0)
+    s.fix("A")
+    expected = s.assemble(direction="x")
+    for name in ("M", "K"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+    # the tip flexibility of a cantilever without shear deformation: L³ / 3 E I, global x
+    # being the column's local z (vecxz), its bending about local y (Iy)
+    b_ux = got.dof_labels.index("B.ux")
+    flexibility = np.linalg.inv(got.K)[b_ux, b_ux]
+    assert flexibility == pytest.approx(3.0**3 / (3 * 2e11 * 1e-6), rel=1e-12)
+    text = NODES.replace("dofs_per_node = 6", "dofs_per_node = 3").replace(
+        'dofs = ["ux", "uy", "uz", "rx", "ry", "rz"]', 'dofs = ["ux", "uy", "rz"]').replace(
+        "z = 3.0", "y = 3.0")
+    with pytest.raises(ConfigError, match=r"model.beams\[0\].torsional_inertia: "
+                                          r"torsional_inertia given with dofs_per_node = 3"):
+        _load(tmp_path, text + BEAM + "I = 1e-6\ntorsional_inertia = true\n")

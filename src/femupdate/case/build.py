@@ -64,7 +64,9 @@ def build_structure(model: Model) -> Structure:
                 beam.nodes[0], beam.nodes[1], E=beam.E, A=beam.A, I=beam.I, rho=beam.rho,
                 G=beam.G, nu=beam.nu, kappa=beam.kappa, mass_per_length=beam.mass_per_length,
                 rotary_inertia=beam.rotary_inertia, name=beam.name or f"model.beams[{i}]",
-                Iy=beam.Iy, Iz=beam.Iz, J=beam.J, vecxz=beam.vecxz)
+                Iy=beam.Iy, Iz=beam.Iz, J=beam.J, vecxz=beam.vecxz,
+                shear_deformation=beam.shear_deformation,
+                torsional_inertia=beam.torsional_inertia)
         for i, spring in enumerate(model.springs):
             structure.add_spring(spring.node, spring.dof, spring.k, node2=spring.node2,
                                  dof2=spring.dof2, name=spring.name or f"model.springs[{i}]")

@@ -32,6 +32,8 @@ Vector3 = Annotated[list[number_field(ge=-1e6, le=1e6)], Field(min_length=3, max
 
 #: The beam fields of a 3-D frame (refused in a planar model).
 SECTION_3D = ("Iy", "Iz", "J", "vecxz")
+#: Beam fields that only a 3-D frame uses, though optional there.
+OPTIONS_3D = ("torsional_inertia",)
 
 #: Relative size of ``vecxz × axis`` below which ``vecxz`` is along the beam
 #: (``femupdate.model.elements3d.frame3d_rotation``'s test).
@@ -56,7 +58,7 @@ def beam_issues(model: Model, coordinates: Mapping[str, tuple[float, float, floa
     for i, beam in enumerate(model.beams):
         path = f"beams[{i}]"
         if model.dofs_per_node != 6:
-            given = [key for key in SECTION_3D if getattr(beam, key) is not None]
+            given = [key for key in (*SECTION_3D, *OPTIONS_3D) if getattr(beam, key) is not None]
             if given:
                 issues.append((f"{path}.{given[0]}", f"{', '.join(given)} given with "
                                f"dofs_per_node = {model.dofs_per_node} (a planar model)",

@@ -63,8 +63,9 @@ class Node(Section):
 
 
 class Beam(Section):
-    """``[[model.beams]]``: a Timoshenko beam between two nodes (bending and shear); ``I`` for
-    planar models, ``Iy``, ``Iz``, ``J`` and ``vecxz`` for 3-D frames (``model3d``)."""
+    """``[[model.beams]]``: a Timoshenko beam between two nodes (bending and shear;
+    ``shear_deformation = false``: Euler–Bernoulli); ``I`` for planar models, ``Iy``, ``Iz``,
+    ``J`` and ``vecxz`` for 3-D frames (``model3d``)."""
 
     nodes: Annotated[list[NodeName], Field(min_length=2, max_length=2)]
     E: Modulus
@@ -80,6 +81,8 @@ class Beam(Section):
     kappa: ShearFactor = 5.0 / 6.0
     mass_per_length: MassPerLength = 0.0
     rotary_inertia: bool = True
+    torsional_inertia: bool | None = None
+    shear_deformation: bool = True
     name: ElementName | None = None
 
     @model_validator(mode="after")

@@ -90,6 +90,7 @@ def frame3d_stiffness(
 def frame3d_mass(
     mu: float, rho: float, E: float, G: float, A: float, Iy: float, Iz: float, Avy: float,
     Avz: float, L: float, *, Ip: float, rotary_inertia: bool = True,
+    torsional_inertia: bool | None = None,
 ) -> FloatArray:
     """Local 12 × 12 consistent mass of a 3-D Timoshenko beam-column.
 
@@ -104,13 +105,17 @@ def frame3d_mass(
     Ip : float
         Polar moment of the section for the torsional inertia.
     rotary_inertia : bool
-        Include rotary and torsional inertia.
+        Include the rotary inertia of the bending rotations (and the torsional inertia, unless
+        ``torsional_inertia`` is given).
+    torsional_inertia : bool, optional
+        Include the torsional inertia ``ρ Ip`` (default: as ``rotary_inertia``).
     """
     m = np.zeros((12, 12))
     consistent = np.array([[2.0, 1.0], [1.0, 2.0]]) * L / 6.0
     _bar(mu, consistent, m, 0)
     r = rho if rotary_inertia else 0.0
-    _bar(r * Ip, consistent, m, 3)
+    twist = rotary_inertia if torsional_inertia is None else torsional_inertia
+    _bar((rho if twist else 0.0) * Ip, consistent, m, 3)
     m[np.ix_(_XY, _XY)] += beam_mass(mu, r * Iz, L, _shear_phi(E * Iz, G, Avy, L))
     m[np.ix_(_XZ, _XZ)] += _FLIP_XZ @ beam_mass(
         mu, r * Iy, L, _shear_phi(E * Iy, G, Avz, L)) @ _FLIP_XZ

@@ -246,6 +246,9 @@ class _Topology:
     diaphragms: Diaphragms | None = None
     # Rayleigh's β also on the friction and Bouc–Wen elements' initial stiffness
     rayleigh_hysteretic: bool = True
+    # beams without shear deformation (True) and with torsional inertia (3-D), per beam
+    beam_shear_off: np.ndarray | None = None
+    beam_torsion: np.ndarray | None = None
 
 
 class Structure:
@@ -344,6 +347,8 @@ class Structure:
         Iz: Value | None = None,
         J: Value | None = None,
         vecxz: Sequence[float] | None = None,
+        shear_deformation: bool = True,
+        torsional_inertia: bool | None = None,
     ) -> str:
         """Add a Timoshenko beam (``dofs_per_node`` 2: along x; 3: any direction in the plane;
         6: a 3-D beam-column, :mod:`femupdate.model.elements3d`).
@@ -370,9 +375,17 @@ class Structure:
             Non-structural mass per unit length (≥ 0), e.g. added masses spread along a deck;
             translational inertia only.
         rotary_inertia : bool
-            Include the rotary inertia ``ρI``.
+            Include the rotary inertia ``ρI`` (3-D: ``ρIy``, ``ρIz`` of the bending rotations
+            and, unless ``torsional_inertia`` says otherwise, ``ρJ`` of the twist).
         name : str, optional
             Element name (default ``"beam<k>"``).
+        shear_deformation : bool
+            ``False``: no shear deformation (Euler–Bernoulli bending) even with ``G`` or ``nu``
+            given, which a 3-D beam needs for its torsional stiffness ``G J``.
+        torsional_inertia : bool, optional
+            3-D beams: include the torsional inertia ``ρJ`` (default: as ``rotary_inertia``);
+            ``rotary_inertia=False, torsional_inertia=True`` drops the bending rotations'
+            inertia only (OpenSees's ``elasticBeamColumn`` with ``-cMass``).
 
         Returns
         -------
@@ -399,7 +412,9 @@ class Structure:
         if G is not None and nu is not None:
             raise ModelError(f"{label}: give G or nu, not both")
         shear = 0 if G is None and nu is None else (1 if G is not None else 2)
-        options: dict[str, object] = {"shear": shear, "rotary": bool(rotary_inertia)}
+        options: dict[str, object] = {
+            "shear": shear, "rotary": bool(rotary_inertia), "shear_off": not shear_deformation,
+            "torsion": bool(rotary_inertia if torsional_inertia is None else torsional_inertia)}
         extra = _beam3d_options(label, self.dofs_per_node, self._xyz(n1), self._xyz(n2),
                                 I, Iy, Iz, J, vecxz, shear)
         options.update(extra.pop("options"))  # type: ignore[arg-type]
@@ -783,11 +798,15 @@ class Structure:
             np.where(topo.beam_shear == 2, 24.0 * (1.0 + bp["nu"]), 0.0),
         )
         phi = flex * I / (bp["kappa"] * A * L * L)
+        # no shear deformation: Φ = 0 (planar), infinite shear areas (3-D: G J stays)
+        shear_off = topo.beam_shear_off if topo.beam_shear_off is not None else False
+        phi = np.where(shear_off, 0.0, phi)
+        shear_area = np.where(shear_off, _INF, bp["kappa"] * A)
         frame = self.dofs_per_node == 3
         if self.dofs_per_node == 6:
             g = _shear_modulus(E, bp, topo.beam_shear)
-            kb = frame3d_stiffness(E, g, A, bp["Iy"], bp["Iz"], bp["J"], bp["kappa"] * A,
-                                   bp["kappa"] * A, L).reshape(L.size, 12, 12)
+            kb = frame3d_stiffness(E, g, A, bp["Iy"], bp["Iz"], bp["J"], shear_area,
+                                   shear_area, L).reshape(L.size, 12, 12)
         elif frame:
             kb = frame_stiffness(E * A, E * I, L, phi)
         else:
@@ -803,10 +822,13 @@ class Structure:
             rho_i = bp["rho"] * I * topo.beam_rotary
             if self.dofs_per_node == 6:
                 g = _shear_modulus(E, bp, topo.beam_shear)
+                torsion = (topo.beam_torsion if topo.beam_torsion is not None
+                           else topo.beam_rotary.astype(bool))
                 mb = np.array([
                     frame3d_mass(mu[e], bp["rho"][e], E[e], g[e], A[e], bp["Iy"][e], bp["Iz"][e],
-                                 bp["kappa"][e] * A[e], bp["kappa"][e] * A[e], L[e],
-                                 Ip=bp["J"][e], rotary_inertia=bool(topo.beam_rotary[e]))
+                                 shear_area[e], shear_area[e], L[e], Ip=bp["J"][e],
+                                 rotary_inertia=bool(topo.beam_rotary[e]),
+                                 torsional_inertia=bool(torsion[e]))
                     for e in range(L.size)]).reshape(L.size, 12, 12)
             elif frame:
                 mb = frame_mass(mu, rho_i, L, phi)
@@ -1167,6 +1189,8 @@ class Structure:
                                  for what in BOUC_WEN_PARAMETERS),
             diaphragms=diaphragms,
             rayleigh_hysteretic=bool(ray[0].options.get("hysteretic", True)) if ray else True,
+            beam_shear_off=np.array([bool(rec.options["shear_off"]) for rec in beams], bool),
+            beam_torsion=np.array([bool(rec.options["torsion"]) for rec in beams], bool),
         )
 
 
