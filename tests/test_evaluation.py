@@ -466,3 +466,16 @@ def test_minimize_evaluates_a_population_as_one_batch(viscous_spec: dict[str, An
     assert calls and set(calls) == {5}
     assert np.array_equal(batched.history["fun"], single.history["fun"])
     assert np.array_equal(batched.history["x"], single.history["x"])
+
+
+def test_frame_beam_without_shear_deformation(tmp_path: Path) -> None:
+    # shear_deformation = false with nu given: the compiled assembly's Φ is 0, as the
+    # Structure's (and the same beam with shear deformation gives another φ)
+    spec = copy.deepcopy(FRAME)
+    spec["model"]["beams"][2]["shear_deformation"] = False
+    spec["data"]["directory"] = str(tmp_path / "data")
+    virtual_experiment(parse_case(spec, source="p.toml"), {"E": 2.1e11, "Ab": 2e-3, "c": 500.0},
+                       tmp_path / "data", seed=4, duration=1.0, rate=500.0, snr=0.02)
+    problem = _problem(spec)
+    assert not problem.evaluator.plan.beam_shear[2]  # rigid in shear
+    assert _max_relative_difference(problem, _points(problem)) <= RTOL

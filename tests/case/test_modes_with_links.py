@@ -1,6 +1,7 @@
-"""`femupdate modes` of a frame held only by Bouc–Wen links, with Rayleigh damping: its modes
-from the initial stiffness and its damping ratios from the damping matrix, on the dense path
-and on the reduced (sparse) one: ζ = β ω / 2 for every mode (C = β K₀ is proportional)."""
+"""`femupdate modes` of a frame held only by Bouc–Wen links, with Rayleigh damping
+(examples/hysteresis/portal-on-links.toml): its modes from the initial stiffness and its
+damping ratios from the damping matrix, on the dense path and on the reduced (sparse) one:
+ζ = β ω / 2 for every mode (C = β K₀ is proportional)."""
 
 from __future__ import annotations
 
@@ -13,25 +14,9 @@ from typer.testing import CliRunner
 
 from femupdate.cli.commands import app
 
-BETA = 2e-4
-PORTAL = f"""
-[case]
-name = "portal"
-[model]
-dofs_per_node = 3
-rayleigh = {{ beta = {BETA} }}
-nodes = [{{ name = "A", x = 0.0 }}, {{ name = "B", x = 6.0 }}, {{ name = "C", x = 0.0, y = 3.0 }},
-         {{ name = "D", x = 6.0, y = 3.0 }}]
-beams = [
-  {{ nodes = ["A", "C"], E = 2.1e11, A = 5e-3, I = 5e-5, rho = 7850.0 }},
-  {{ nodes = ["B", "D"], E = 2.1e11, A = 5e-3, I = 5e-5, rho = 7850.0 }},
-  {{ nodes = ["C", "D"], E = 2.1e11, A = 5e-3, I = 8e-5, rho = 7850.0 }},
-]
-masses = [{{ node = "C", m = 2000.0, J = 10.0 }}, {{ node = "D", m = 2000.0, J = 10.0 }},
-          {{ node = "A", m = 50.0, J = 1.0 }}, {{ node = "B", m = 50.0, J = 1.0 }}]
-""" + "".join(f'[[model.bouc_wen]]\nnode = "{node}"\ndof = "{dof}"\nk = {k}\nalpha = 0.1\n'
-              'beta = 100.0\ngamma = 100.0\n'
-              for node in "AB" for dof, k in (("ux", 2e7), ("uy", 1e9), ("rz", 1e8)))
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "hysteresis"
+PORTAL = (EXAMPLE / "portal-on-links.toml").read_text()
+BETA = 2e-4  # its [model] rayleigh
 
 
 def _modes(tmp_path: Path, text: str) -> dict[str, list[float]]:

@@ -113,3 +113,19 @@ def test_non_proportional_damping_runs_the_physical_kernel(tmp_path: Path) -> No
     assert not status.any()
     reference = [trial.phi_reference(x) for x in X]
     np.testing.assert_allclose(evaluator.batch(X), reference, rtol=1e-10, atol=0)
+
+
+def test_rayleigh_beta_on_the_links_takes_the_reference_path(tmp_path: Path) -> None:
+    """β K₀ with the links' initial stiffness (the default) is not in the compiled assembly:
+    such a model's φ is the step-by-step reference's, which has it; with hysteretic = false
+    (or β = 0) the compiled path runs."""
+    problem = _problem(tmp_path, "acceleration", "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3")
+    trial = problem.trials[0]
+    evaluator = evaluator_for(trial)
+    assert not evaluator.supported
+    X = _points(problem, 2)
+    np.testing.assert_array_equal(evaluator.batch(X), [trial.phi_reference(x) for x in X])
+    (tmp_path / "linear-only").mkdir()
+    linear_only = _problem(tmp_path / "linear-only", "acceleration",
+                           "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3\nhysteretic = false")
+    assert evaluator_for(linear_only.trials[0]).supported

@@ -33,6 +33,7 @@ __all__ = [
     "assemble",
     "physical_values",
     "plan_assembly",
+    "rayleigh_on_links",
 ]
 
 #: Beam properties in the order of the rows of ``AssemblyPlan.beam_const`` and ``beam_pidx``.
@@ -164,7 +165,10 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
         n=int(topo.n), dofs_per_node=int(structure.dofs_per_node),
         log_scale=np.asarray(log_scale, dtype=np.bool_),
         beam_const=beam_const, beam_pidx=beam_pidx, beam_spec=beam_spec, beam_L=beam_L,
-        beam_L3=beam_L**3, beam_shear=np.asarray(topo.beam_shear, dtype=np.int64),
+        # a beam without shear deformation is rigid in shear (Φ = 0), whatever its G
+        beam_L3=beam_L**3, beam_shear=np.where(
+            topo.beam_shear_off if topo.beam_shear_off is not None else False, 0,
+            topo.beam_shear).astype(np.int64),
         beam_rotary=np.asarray(topo.beam_rotary, dtype=float),
         beam_T=(np.zeros((0, d, d)) if topo.beam_T is None
                 else np.ascontiguousarray(topo.beam_T, dtype=float)),
@@ -188,6 +192,20 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
         r=system.r.astype(float), fixed_mass=fixed_mass, M=np.ascontiguousarray(system.M),
         minv=np.ascontiguousarray(minv), beam_mass_flat=beam_mass_flat,
     )
+
+
+def rayleigh_on_links(structure: Structure) -> bool:
+    """Whether Rayleigh's ``β`` (a parameter, or a number other than 0) multiplies the
+    initial stiffness of friction or Bouc–Wen elements (``Structure.set_rayleigh(...,
+    hysteretic=True)``): the compiled assembly leaves it out, so such a model's φ is the
+    reference path's (``Structure.assemble`` adds it)."""
+    topo = structure._topo()
+    if topo.rayleigh is None or not topo.rayleigh_hysteretic:
+        return False
+    if not (topo.friction_i.size or topo.bouc_wen_i.size):
+        return False
+    beta = topo.rayleigh[1]
+    return not beta.is_const or bool(beta.const[0] != 0.0)
 
 
 # --------------------------------------------------------------------------------- kernels
