@@ -46,6 +46,30 @@ def test_cantilever_tip_flexibilities_are_closed_form():
     assert flex[ry, ry] == pytest.approx(L / (G * SEC["J"]), rel=1e-12)  # torsion about Y
 
 
+def test_cantilever_without_shear_deformation_keeps_its_torsion():
+    """shear_deformation=False (G given): the tip flexibilities lose the shear terms L / κGA,
+    the torsion L / GJ stays; torsional_inertia=True with rotary_inertia=False keeps ρJ only."""
+    f = Frame3D()
+    f.add_node("P0", 0.0)
+    f.add_node("P1", 0.0, 2.5)
+    f.add_beam("P0", "P1", vecxz=(1.0, 0.0, 0.0), rho=7850.0, shear_deformation=False,
+               rotary_inertia=False, torsional_inertia=True, **SEC)
+    f.fix("P0")
+    system = f.assemble().system
+    flex = np.linalg.inv(system.K)
+    labels = system.dof_labels
+    L, E, G = 2.5, SEC["E"], SEC["G"]
+    uz, ux, ry = (labels.index(f"P1.{d}") for d in ("uz", "ux", "ry"))
+    assert flex[uz, uz] == pytest.approx(L**3 / (3 * E * SEC["Iz"]), rel=1e-12)
+    assert flex[ux, ux] == pytest.approx(L**3 / (3 * E * SEC["Iy"]), rel=1e-12)
+    assert flex[ry, ry] == pytest.approx(L / (G * SEC["J"]), rel=1e-12)
+    # the twist's consistent mass ρ J L / 3 at the tip; no rotary inertia on rx, rz
+    assert system.M[ry, ry] == pytest.approx(7850.0 * SEC["J"] * L / 3.0, rel=1e-12)
+    rx, rz = labels.index("P1.rx"), labels.index("P1.rz")
+    assert system.M[rx, rx] == pytest.approx(7850.0 * SEC["A"] * L**3 / 105.0, rel=1e-12)
+    assert system.M[rz, rz] == pytest.approx(7850.0 * SEC["A"] * L**3 / 105.0, rel=1e-12)
+
+
 def test_planar_element_is_embedded():
     x1, x2 = (0.3, 0.1), (2.0, 1.4)
     k3, m3 = frame3d_element((*x1, 0.0), (*x2, 0.0), (0.0, 0.0, 1.0), E=SEC["E"], A=SEC["A"],

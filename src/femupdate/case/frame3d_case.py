@@ -7,7 +7,8 @@ A TOML file of its own (docs/frames-3d.md gives an example)::
 
     [[frame3d.nodes]]              # name, x, y, z (m)
     [[frame3d.beams]]              # nodes, E, G or nu, A, Iy, Iz, J, vecxz, kappa_y, kappa_z,
-                                   # rho, mass_per_length, Ip, name
+                                   # rho, mass_per_length, Ip, rotary_inertia,
+                                   # torsional_inertia, shear_deformation, name
     [[frame3d.masses]]             # node, m, Jx, Jy, Jz
     [[frame3d.springs]]            # node, dof, k (to the ground)
     [[frame3d.supports]]           # node, dofs (default all six)
@@ -89,6 +90,8 @@ class Beam3D(Section):
     mass_per_length: MassPerLength = 0.0
     Ip: SecondMoment | None = None
     rotary_inertia: bool = True
+    torsional_inertia: bool | None = None
+    shear_deformation: bool = True
     name: text_field(64, 1) | None = None
 
 

@@ -152,7 +152,8 @@ def frame3d_element(
     xyz1: ArrayLike, xyz2: ArrayLike, vecxz: ArrayLike, *, E: float, A: float, Iy: float,
     Iz: float, J: float, G: float = math.inf, kappa_y: float = 5 / 6, kappa_z: float = 5 / 6,
     rho: float = 0.0, mass_per_length: float = 0.0, rotary_inertia: bool = True,
-    Ip: float | None = None, name: str = "beam",
+    Ip: float | None = None, name: str = "beam", shear_deformation: bool = True,
+    torsional_inertia: bool | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Checked global stiffness and consistent mass (12 × 12) of one 3-D beam-column.
 
@@ -160,6 +161,9 @@ def frame3d_element(
     ``Avy = kappa_y A`` and ``Avz = kappa_z A``; ``G = inf`` (the default) is Euler–Bernoulli
     bending (and no torsional stiffness: give ``G`` for a frame that must resist torsion).
     ``Ip`` (default ``J``) is the polar moment for the torsional inertia.
+    ``shear_deformation=False`` makes the bending Euler–Bernoulli with a finite ``G`` (its
+    torsional stiffness ``G J`` kept: infinite shear areas); ``torsional_inertia`` (default
+    ``rotary_inertia``) switches ``ρ Ip`` apart from the bending rotations' inertia.
     """
     label = f"3-D beam {name!r}"
     E = check_value(label, "E", E)
@@ -176,7 +180,8 @@ def frame3d_element(
     except ModelError as exc:
         raise ModelError(f"{label}: {str(exc).removeprefix('3-D beam: ')}") from None
     L = float(np.linalg.norm(np.asarray(xyz2, float) - np.asarray(xyz1, float)))
-    k = frame3d_stiffness(E, G, A, Iy, Iz, J, kappa_y * A, kappa_z * A, L)
-    m = frame3d_mass(rho * A + mass_per_length, rho, E, G, A, Iy, Iz, kappa_y * A,
-                     kappa_z * A, L, Ip=Ip, rotary_inertia=rotary_inertia)
+    avy, avz = (kappa_y * A, kappa_z * A) if shear_deformation else (math.inf, math.inf)
+    k = frame3d_stiffness(E, G, A, Iy, Iz, J, avy, avz, L)
+    m = frame3d_mass(rho * A + mass_per_length, rho, E, G, A, Iy, Iz, avy, avz, L, Ip=Ip,
+                     rotary_inertia=rotary_inertia, torsional_inertia=torsional_inertia)
     return t.T @ k @ t, t.T @ m @ t

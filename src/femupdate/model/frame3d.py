@@ -193,7 +193,8 @@ class Frame3D:
         vecxz: Sequence[float], G: Value | None = None, nu: Value | None = None,
         kappa_y: Value = 5 / 6, kappa_z: Value = 5 / 6, rho: Value = 0.0,
         mass_per_length: Value = 0.0, Ip: Value | None = None, rotary_inertia: bool = True,
-        name: str | None = None,
+        name: str | None = None, shear_deformation: bool = True,
+        torsional_inertia: bool | None = None,
     ) -> str:
         """Add a 3-D Timoshenko beam-column (:mod:`femupdate.model.elements3d`).
 
@@ -215,7 +216,11 @@ class Frame3D:
         Ip : float, optional
             Polar moment for the torsional inertia (default ``J``, as OpenSees).
         rotary_inertia : bool
-            Include rotary and torsional inertia.
+            Include rotary and (unless ``torsional_inertia`` says otherwise) torsional inertia.
+        shear_deformation : bool
+            ``False``: Euler–Bernoulli bending (no shear deformation), ``G J`` kept.
+        torsional_inertia : bool, optional
+            Include the torsional inertia ``ρ Ip`` (default: as ``rotary_inertia``).
         """
         k = len(self._beams) + 1
         while name is None and f"beam{k}" in {b[0] for b in self._beams}:
@@ -232,7 +237,9 @@ class Frame3D:
         n1, n2 = self._node(node1, label), self._node(node2, label)
         props = dict(E=E, A=A, Iy=Iy, Iz=Iz, J=J, G=G, nu=nu, kappa_y=kappa_y, kappa_z=kappa_z,
                      rho=rho, mass_per_length=mass_per_length, Ip=Ip,
-                     rotary_inertia=rotary_inertia, vecxz=vec)
+                     rotary_inertia=rotary_inertia, vecxz=vec,
+                     shear_deformation=bool(shear_deformation),
+                     torsional_inertia=torsional_inertia)
         for key in _BEAM_NUMBERS:
             if props[key] == "":
                 raise ModelError(f"{label}: {key} is an empty parameter name")
