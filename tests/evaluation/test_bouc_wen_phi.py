@@ -115,17 +115,24 @@ def test_non_proportional_damping_runs_the_physical_kernel(tmp_path: Path) -> No
     np.testing.assert_allclose(evaluator.batch(X), reference, rtol=1e-10, atol=0)
 
 
-def test_rayleigh_beta_on_the_links_takes_the_reference_path(tmp_path: Path) -> None:
-    """β K₀ with the links' initial stiffness (the default) is not in the compiled assembly:
-    such a model's φ is the step-by-step reference's, which has it; with hysteretic = false
-    (or β = 0) the compiled path runs."""
-    problem = _problem(tmp_path, "acceleration", "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3")
+@pytest.mark.parametrize("hysteretic", [True, False])
+def test_rayleigh_beta_on_the_links_compiled(tmp_path: Path, hysteretic: bool) -> None:
+    """β K₀ with the friction and Bouc–Wen elements' initial stiffness (the default) in the
+    compiled assembly as in Structure.assemble: φ to rounding on every point, compiled (the
+    damping couples the modes: the physical kernel); and without the links
+    (hysteretic = false) another φ."""
+    links = "" if hysteretic else "\nhysteretic = false"
+    problem = _problem(tmp_path, "acceleration",
+                       "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3" + links)
     trial = problem.trials[0]
     evaluator = evaluator_for(trial)
-    assert not evaluator.supported
-    X = _points(problem, 2)
-    np.testing.assert_array_equal(evaluator.batch(X), [trial.phi_reference(x) for x in X])
-    (tmp_path / "linear-only").mkdir()
-    linear_only = _problem(tmp_path / "linear-only", "acceleration",
-                           "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3\nhysteretic = false")
-    assert evaluator_for(linear_only.trials[0]).supported
+    X = _points(problem, 4)
+    phi = np.empty(len(X))
+    status = np.ones(len(X), dtype=np.int64)
+    evaluator._run(np.ascontiguousarray(X), False, phi, status)
+    assert not status.any()  # every point on the compiled path
+    reference = np.array([trial.phi_reference(x) for x in X])
+    np.testing.assert_allclose(phi, reference, rtol=1e-10, atol=0)
+    system = trial.structure.assemble(TRUTH)
+    links = system.C - 0.6 * system.M - 1e-3 * system.K
+    assert (np.abs(links).max() > 1.0) == hysteretic  # β k₀ of the links, or nothing

@@ -40,6 +40,9 @@ __all__ = [
 BEAM_PROPS = ("E", "A", "I", "rho", "G", "nu", "kappa", "mass_per_length")
 _E, _A, _I, _RHO, _G, _NU, _KAPPA, _MPL = range(8)
 
+#: Where Rayleigh's β on the links' initial stiffness is added (``AssemblyPlan.rayleigh_links``).
+LINKS_NONE, LINKS_IN_ASSEMBLY, LINKS_IN_HYSTERESIS = 0, 1, 2
+
 #: Status codes of :func:`assemble`.
 ASSEMBLY_OK = 0
 OUT_OF_RANGE = 1
@@ -90,6 +93,11 @@ class AssemblyPlan(NamedTuple):
     rayleigh_pidx: np.ndarray
     friction_const: np.ndarray  # (2, n_friction): k_r, f_u
     friction_pidx: np.ndarray
+    friction_i: np.ndarray  # the friction elements' end DOFs (-1: ground)
+    friction_j: np.ndarray
+    # Rayleigh's β on the links' initial stiffness: LINKS_NONE, LINKS_IN_ASSEMBLY (friction
+    # only: assemble adds it) or LINKS_IN_HYSTERESIS (the Bouc–Wen batch adds it, friction too)
+    rayleigh_links: int
     nonneg_spec: np.ndarray  # (3,) the range of springs, dampers, masses, Rayleigh, friction
     r: np.ndarray  # influence vector
     fixed_mass: bool  # no parameter changes M: M and M⁻¹ below are used as they are
@@ -188,6 +196,9 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
         mass_J_owner=topo.mass_J_owner.astype(np.int64),
         rayleigh_const=rayleigh_const, rayleigh_pidx=rayleigh_pidx,
         friction_const=friction_const, friction_pidx=friction_pidx,
+        friction_i=topo.friction_i.astype(np.int64), friction_j=topo.friction_j.astype(np.int64),
+        rayleigh_links=(LINKS_NONE if not rayleigh_on_links(structure) else
+                        LINKS_IN_HYSTERESIS if topo.bouc_wen_i.size else LINKS_IN_ASSEMBLY),
         nonneg_spec=np.array([spec.low, spec.high, float(spec.low_open)]),
         r=system.r.astype(float), fixed_mass=fixed_mass, M=np.ascontiguousarray(system.M),
         minv=np.ascontiguousarray(minv), beam_mass_flat=beam_mass_flat,
@@ -197,8 +208,8 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
 def rayleigh_on_links(structure: Structure) -> bool:
     """Whether Rayleigh's ``β`` (a parameter, or a number other than 0) multiplies the
     initial stiffness of friction or Bouc–Wen elements (``Structure.set_rayleigh(...,
-    hysteretic=True)``): the compiled assembly leaves it out, so such a model's φ is the
-    reference path's (``Structure.assemble`` adds it)."""
+    hysteretic=True)``): then the step-by-step assembly (``Structure.assemble``) and the
+    compiled one (:func:`add_link_damping`) add ``β`` times that stiffness to ``C``."""
     topo = structure._topo()
     if topo.rayleigh is None or not topo.rayleigh_hysteretic:
         return False
@@ -447,6 +458,7 @@ def assemble(plan: AssemblyPlan, x: np.ndarray, p: np.ndarray, M: np.ndarray, mi
     _scatter_add(plan.spring_target, plan.spring_keep, _link_flat(ks), Kf)
     Cf[:] = 0.0
     _scatter_add(plan.damper_target, plan.damper_keep, _link_flat(cs), Cf)
+    beta = 0.0
     if plan.rayleigh_const.shape[1]:
         ab = np.empty(1)
         if not _values(plan.rayleigh_const[0], plan.rayleigh_pidx[0], spec, p, ab):
@@ -468,4 +480,41 @@ def assemble(plan: AssemblyPlan, x: np.ndarray, p: np.ndarray, M: np.ndarray, mi
     if not (_values(plan.friction_const[0], plan.friction_pidx[0], spec, p, kr)
             and _values(plan.friction_const[1], plan.friction_pidx[1], spec, p, fu)):
         return OUT_OF_RANGE
+    if plan.rayleigh_links == LINKS_IN_ASSEMBLY and beta != 0.0:
+        add_link_damping(C, beta, plan.friction_i, plan.friction_j, kr)
     return ASSEMBLY_OK
+
+
+@njit(cache=True)
+def rayleigh_beta(plan: AssemblyPlan, p: np.ndarray) -> float:
+    """Rayleigh's ``β`` at physical values ``p`` (0 without Rayleigh damping; in range: the
+    assembly checked it)."""
+    if not plan.rayleigh_const.shape[1]:
+        return 0.0
+    ab = np.empty(1)
+    _values(plan.rayleigh_const[1], plan.rayleigh_pidx[1], plan.nonneg_spec, p, ab)
+    return ab[0]
+
+
+@njit(cache=True)
+def add_link_damping(C: np.ndarray, beta: float, dof_i: np.ndarray, dof_j: np.ndarray,
+                     k: np.ndarray) -> None:
+    """``C += β L``, ``L`` the links' stiffness ``Bᵀ diag(k) B`` accumulated entry by entry
+    in the order of :func:`femupdate.model.links.link_stiffness` (the same sums)."""
+    n = C.shape[0]
+    links = np.zeros((n, n))
+    for e in range(k.shape[0]):
+        if dof_i[e] >= 0:
+            links[dof_i[e], dof_i[e]] += k[e]
+    for e in range(k.shape[0]):
+        if dof_j[e] >= 0:
+            links[dof_j[e], dof_j[e]] += k[e]
+    for e in range(k.shape[0]):
+        if dof_i[e] >= 0 and dof_j[e] >= 0:
+            links[dof_i[e], dof_j[e]] += -k[e]
+    for e in range(k.shape[0]):
+        if dof_i[e] >= 0 and dof_j[e] >= 0:
+            links[dof_j[e], dof_i[e]] += -k[e]
+    for a in range(n):
+        for b in range(n):
+            C[a, b] = C[a, b] + beta * links[a, b]

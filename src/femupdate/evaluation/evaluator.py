@@ -31,13 +31,7 @@ from numba import njit
 
 from femupdate.data import signal
 from femupdate.evaluation import central, exact
-from femupdate.evaluation.assembly import (
-    ASSEMBLY_OK,
-    AssemblyPlan,
-    assemble,
-    plan_assembly,
-    rayleigh_on_links,
-)
+from femupdate.evaluation.assembly import ASSEMBLY_OK, AssemblyPlan, assemble, plan_assembly
 from femupdate.evaluation.lanes import LANES, LaneWork, lane_work
 from femupdate.evaluation.processing import Post, process_and_compare
 
@@ -243,8 +237,7 @@ class Evaluator:
         self.zero_phase = bool(problem.filter and pre.zero_phase)
         self.post = _post(problem.objective, self._sos[:0] if self.zero_phase else self._sos,
                           problem.integrate, self.dt, exp.score, self.ag.size)
-        self.supported = (self.method in ("exact", "nonlinear", "central_difference")
-                          and not rayleigh_on_links(structure))
+        self.supported = self.method in ("exact", "nonlinear", "central_difference")
         self.bouc_wen: Any = None  # (BoucWenPlan, PhysicalWork) of a Bouc–Wen model
         n_out = self.outputs.size
         self._central_batch: Callable[..., None] = _central_batch

@@ -24,7 +24,14 @@ import numpy as np
 from numba import njit
 
 from femupdate.evaluation import central
-from femupdate.evaluation.assembly import ASSEMBLY_OK, AssemblyPlan, assemble
+from femupdate.evaluation.assembly import (
+    ASSEMBLY_OK,
+    LINKS_IN_HYSTERESIS,
+    AssemblyPlan,
+    add_link_damping,
+    assemble,
+    rayleigh_beta,
+)
 from femupdate.evaluation.central import CentralWork
 from femupdate.evaluation.lapack import sygvx_largest
 from femupdate.evaluation.processing import Post, process_and_compare
@@ -136,6 +143,20 @@ def _table(bw: BoucWenPlan, p: np.ndarray) -> bool:
             return False
         bw.dy_max[e] = 0.5 / (n * (beta + abs(gamma)) * math.exp((n - 1.0) * log_z_u))
     return True
+
+
+@njit(cache=True)
+def _link_damping(plan: AssemblyPlan, p: np.ndarray, C: np.ndarray, kr: np.ndarray,
+                  bw: BoucWenPlan) -> None:
+    """``C += β K_links``: Rayleigh's β on the friction (``k_r``) and Bouc–Wen
+    (``k (α + (1 − α) A)``) elements' initial stiffness, as ``Structure.assemble`` adds it."""
+    beta = rayleigh_beta(plan, p)
+    if beta == 0.0:
+        return
+    t = bw.table
+    k0 = t[:, 0] * (t[:, 1] + (1.0 - t[:, 1]) * t[:, 2])
+    add_link_damping(C, beta, np.concatenate((plan.friction_i, bw.dof_i)),
+                     np.concatenate((plan.friction_j, bw.dof_j)), np.concatenate((kr, k0)))
 
 
 @njit(cache=True)
@@ -374,6 +395,8 @@ def bouc_wen_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarr
             continue
         if not _table(bw, p):
             continue
+        if plan.rayleigh_links == LINKS_IN_HYSTERESIS:
+            _link_damping(plan, p, C, kr, bw)
         code, active = central.prepare_central(M, K, C, load, minv, kr, fu, fi, fj, outputs,
                                                h, ag[0], work)
         if code == central.UNSTABLE:
