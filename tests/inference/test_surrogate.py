@@ -15,16 +15,22 @@ from femupdate.errors import ConfigError, ModelError
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
 from femupdate.inference.surrogate import (
+    MAX_SHIFT,
     ChannelSurrogate,
     centred_error,
     convex_trend,
+    importance_check,
     log_sums,
-    problem_evaluator,
     pseudo_model,
     quadratic_features,
     spread_points,
     surrogate_loglike,
     surrogate_posterior,
+)
+from femupdate.pipeline.posterior.surrogate import (
+    DesignStore,
+    problem_evaluator,
+    surrogate_record,
     wants_surrogate,
 )
 from femupdate.problem.update import UpdateProblem
@@ -78,7 +84,8 @@ def test_matches_the_exact_posterior_in_few_runs() -> None:
     assert result.model_runs <= 80
     np.testing.assert_allclose(result.means(), means, rtol=0.005)
     np.testing.assert_allclose(result.sds(), sds, rtol=0.15)
-    assert result.check_error <= result.tolerance
+    assert result.check.passed and result.check.ess >= 0.5
+    assert np.all(np.abs(result.check.shifts) <= MAX_SHIFT)
     assert "model runs" in result.message
 
 
@@ -90,6 +97,50 @@ def test_a_surrogate_short_of_its_budget_says_what_it_reached() -> None:
     assert result.accuracy > result.tolerance
     assert "did not reach its accuracy" in result.message
     assert f"{result.accuracy:.3g} nats against a tolerance of 1" in result.message
+    # the final check ran all the same, and says what it found
+    assert result.check.runs == 2 and "effective share" in result.message
+    record = surrogate_record(result, PRIOR, 3)
+    assert not record.reached and record.params == {} and record.nfev == 18
+    assert record.surrogate is not None and record.surrogate.check_runs == 2
+
+
+def test_the_check_weighs_true_against_surrogate_likelihood() -> None:
+    rng = np.random.default_rng(0)
+    unit = rng.random((16, 2))
+    sd = unit.std(axis=0)
+    predicted = rng.normal(size=16)
+    # a constant error in log L changes nothing: flat weights, no shift
+    same = importance_check(unit, predicted, predicted - 3.0, sd)
+    assert same.passed and same.ess == pytest.approx(1.0)
+    np.testing.assert_allclose(same.shifts, 0.0, atol=1e-12)
+    np.testing.assert_allclose(same.sd_ratios, 1.0)
+    # an error that grows along the first parameter moves its mean that way, not the other's
+    tilted = importance_check(unit, predicted, predicted + 3.0 * (unit[:, 0] - 0.5) / sd[0],
+                              sd)
+    assert not tilted.passed and tilted.shifts[0] > MAX_SHIFT
+    assert "largest shift of a mean" in tilted.words(["f", "d"]) and "(f;" in \
+        tilted.words(["f", "d"])
+    # fewer than two finite true log L: no check
+    none = importance_check(unit[:2], predicted[:2], np.array([np.nan, 1.0]), sd)
+    assert not none.passed and "fewer than two" in none.words(["f", "d"])
+
+
+def test_a_resumed_design_replays_its_stored_runs(tmp_path: Path) -> None:
+    calls: list[int] = []
+
+    def counted(X: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
+        calls.append(len(X))
+        return evaluate(X)
+
+    X = PRIOR.to_search(np.random.default_rng(1).random((5, 2)))
+    first = DesignStore(tmp_path / "d.npz", counted, "case:3", resume=False)
+    rows, _ = first(X[:3])
+    again = DesignStore(tmp_path / "d.npz", counted, "case:3", resume=True)
+    replayed, why = again(X)
+    assert calls == [3, 2] and again.reused == 3 and why == [None] * 5
+    np.testing.assert_array_equal(replayed[:3], rows)
+    with pytest.raises(ConfigError, match="another case or seed"):
+        DesignStore(tmp_path / "d.npz", counted, "case:4", resume=True)
 
 
 def test_failing_design_points_are_reported() -> None:
@@ -266,13 +317,23 @@ seed = 3
     result = CliRunner().invoke(app, ["posterior", str(tmp_path / "case.toml"), "--out",
                                       str(tmp_path / "out"), "--quiet"])
     assert result.exit_code == 0, result.output
-    record = json.loads((tmp_path / "out" / "surrogate.json").read_text())
-    assert record["reached"], record["message"]
-    assert record["model_runs"] <= 300 and record["failures"] == []
+    record = json.loads((tmp_path / "out" / "summary.json").read_text())["posterior"]
+    assert record["method"] == "surrogate" and record["reached"], record["message"]
+    assert record["nfev"] <= 300 and record["surrogate"]["failures"] == []
+    assert record["surrogate"]["passed"]
     assert abs(record["params"]["a"]["mean"] - 2.0) < 0.05
-    assert "surrogate posterior in" in result.output
+    assert "surrogate posterior in" in record["message"]
+    assert "Gaussian-process surrogate" in result.output
     samples = np.load(tmp_path / "out" / "surrogate.npz")["samples"]
     assert samples.shape[1] == 1
+    assert np.array_equal(np.load(tmp_path / "out" / "posterior.npz")["samples"], samples)
+    # killed and resumed: the stored design points are replayed, not run again
+    resumed = CliRunner().invoke(app, ["posterior", str(tmp_path / "case.toml"), "--out",
+                                       str(tmp_path / "out"), "--quiet", "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    again = json.loads((tmp_path / "out" / "summary.json").read_text())["posterior"]
+    assert again["params"] == record["params"]
+    assert f"({record['nfev']} of them replayed" in again["message"]
 
 
 def test_the_trend_never_falls_away_from_the_data() -> None:

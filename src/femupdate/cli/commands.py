@@ -242,7 +242,7 @@ def posterior(
     surrogate: Annotated[bool | None, typer.Option(
         "--surrogate/--no-surrogate", help="TMCMC on a Gaussian-process surrogate trained at "
         "300 model runs at most (default: [posterior] surrogate, else on for an external "
-        "model); results in OUT/surrogate.json and OUT/surrogate.npz.")] = None,
+        "model); results in OUT/summary.json (posterior) as TMCMC's.")] = None,
     json_path: JsonOption = None,
 ) -> None:
     """The posterior of the parameters by TMCMC, beside the best fit: intervals,
@@ -271,13 +271,16 @@ def posterior(
     from femupdate.pipeline.posterior.run import run_surrogate_posterior
 
     aided = run_surrogate_posterior(case, out, surrogate=surrogate, seed=seed, workers=workers,
-                                    execution=execution)
+                                    execution=execution, resume=resume)
     if aided is not None:
-        say(aided.message)
-        for name, mean, sd in zip(aided.names, aided.means(), aided.sds(), strict=True):
-            say(f"{name}: mean {mean:.6g}, sd {sd:.3g}")
-        say(f"results in {out.resolve()} (surrogate.json, surrogate.npz)")
-        _write_json(json_path, json.loads((out / "surrogate.json").read_text()))
+        from femupdate.pipeline.results import SUMMARY_FILE, read_summary
+
+        summary = read_summary(out / SUMMARY_FILE)
+        print_posterior(summary.posterior, console)
+        say(f"results in {out.resolve()} (femupdate report {out})")
+        _write_json(json_path, summary.model_dump())
+        if not aided.reached:  # finished, but its check or accuracy not met: scripts must tell
+            raise SystemExit(NOT_THE_RESULT)
         return
     try:
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
