@@ -21,10 +21,15 @@ points of the largest log-likelihood variance near it (explore). Before a batch 
 surrogate's log-likelihood at its posterior points is compared with the true one: the batch's
 error is the 90th percentile of |e_i − median(e)| (a constant offset in log L does not change
 the posterior). Once it is within the tolerance, the surrogate is refitted with every point,
-TMCMC (:mod:`femupdate.inference.tmcmc`, unchanged) samples it, and a few of its samples are
-run on the true model as a final check of the same error measure. A surrogate that does not
-reach the tolerance within its budget says so and what it reached; a design point at which
-the model fails is reported with the model's own message, not silently dropped.
+TMCMC (:mod:`femupdate.inference.tmcmc`, unchanged) samples it, and random draws of its
+samples are run on the true model as the final check (:func:`importance_check`): the true
+posterior is the surrogate's reweighted by exp(true − surrogate log L), so what matters is
+how much those weights spread (their effective share) and how far they move each mean (in
+posterior sds), not the largest error at a point of little posterior mass. A check that fails
+adds its runs to the design and the batches go on while the budget lasts. A surrogate that
+does not reach its accuracy or check within its budget says so and what it reached; a design
+point at which the model fails is reported with the model's own message, not silently
+dropped.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from femupdate._optional import require
+from femupdate._parallel import single_blas_thread
 from femupdate.errors import ConfigError, ModelError
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
@@ -467,6 +473,15 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
     -------
     SurrogateResult
     """
+    with single_blas_thread():  # small dense algebra: many BLAS threads only slow it down
+        return _surrogate_posterior(evaluate, prior, error_model_at, rng, max_runs, tolerance,
+                                    initial, batch, check, population, progress)
+
+
+def _surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorModelAt,
+                         rng: np.random.Generator, max_runs: int, tolerance: float,
+                         initial: int | None, batch: int | None, check: int, population: int,
+                         progress: Callable[[str], None] | None) -> SurrogateResult:
     start = time.perf_counter()
     qmc = require("scipy.stats.qmc", "posterior")
     n = prior.dim
