@@ -15,17 +15,20 @@ from femupdate.errors import ConfigError, ModelError
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
 from femupdate.inference.surrogate import (
-    MAX_SHIFT,
     ChannelSurrogate,
-    centred_error,
     convex_trend,
-    importance_check,
     log_sums,
     pseudo_model,
     quadratic_features,
     spread_points,
     surrogate_loglike,
     surrogate_posterior,
+)
+from femupdate.inference.surrogate_check import (
+    COVERAGE_BAND,
+    centred_error,
+    coverage_of,
+    importance_check,
 )
 from femupdate.pipeline.posterior.surrogate import (
     DesignStore,
@@ -85,7 +88,7 @@ def test_matches_the_exact_posterior_in_few_runs() -> None:
     np.testing.assert_allclose(result.means(), means, rtol=0.005)
     np.testing.assert_allclose(result.sds(), sds, rtol=0.15)
     assert result.check.passed and result.check.ess >= 0.5
-    assert np.all(np.abs(result.check.shifts) <= MAX_SHIFT)
+    assert np.all(result.check.coverage >= COVERAGE_BAND[0])
     assert "model runs" in result.message
 
 
@@ -117,12 +120,23 @@ def test_the_check_weighs_true_against_surrogate_likelihood() -> None:
     # an error that grows along the first parameter moves its mean that way, not the other's
     tilted = importance_check(unit, predicted, predicted + 3.0 * (unit[:, 0] - 0.5) / sd[0],
                               sd)
-    assert not tilted.passed and tilted.shifts[0] > MAX_SHIFT
-    assert "largest shift of a mean" in tilted.words(["f", "d"]) and "(f;" in \
+    assert not tilted.passed and tilted.shifts[0] > 0.5
+    # the narrower reweighted sd keeps it inside the surrogate's interval: the reverse
+    # coverage (the surrogate's inside the reweighted interval) is what fails
+    assert tilted.coverage[1, 0] < COVERAGE_BAND[0] < tilted.coverage[1, 1]
+    assert "largest shift of a mean" in tilted.words(["f", "d"]) and "sd (f)" in \
         tilted.words(["f", "d"])
     # fewer than two finite true log L: no check
     none = importance_check(unit[:2], predicted[:2], np.array([np.nan, 1.0]), sd)
     assert not none.passed and "fewer than two" in none.words(["f", "d"])
+
+
+def test_the_coverage_of_a_90_percent_interval() -> None:
+    np.testing.assert_allclose(coverage_of(np.zeros(1), np.ones(1)), 0.90)
+    # the rule's bounds: a mean 0.55 sd away, or an sd 14 % too wide or 16 % too narrow
+    assert coverage_of(np.array([0.545]), np.ones(1))[0] == pytest.approx(0.85, abs=0.001)
+    assert coverage_of(np.zeros(1), np.array([1.143]))[0] == pytest.approx(0.85, abs=0.001)
+    assert coverage_of(np.zeros(1), np.array([0.839]))[0] == pytest.approx(0.95, abs=0.001)
 
 
 def test_a_resumed_design_replays_its_stored_runs(tmp_path: Path) -> None:

@@ -79,9 +79,11 @@ class SurrogateCheckRecord(_Record):
     batches, the last batch's log-likelihood error against its tolerance (nats), and the
     final check at ``check_runs`` of its samples run on the true model: the importance weights
     exp(true − surrogate log L)'s effective share (``check_ess``, at least ``min_check_ess``
-    to pass), each mean's shift under them in posterior sds (``shifts_sd``, at most
-    ``max_shift_sd``) and each sd's ratio; ``failures``: each design point where the model
-    failed, with its message; ``history``: runs and error after each batch."""
+    to pass), each mean's shift under them in posterior sds (``shifts_sd``), each sd's ratio,
+    the share of the reweighted posterior inside each 90 % interval (``coverage``) and of
+    the surrogate's inside the reweighted one's (``reverse_coverage``), both within
+    ``coverage_band`` to pass; ``failures``: each design point where the model failed, with
+    its message; ``history``: runs and error after each batch."""
 
     model_runs: int
     iterations: int
@@ -91,8 +93,10 @@ class SurrogateCheckRecord(_Record):
     check_ess: float
     min_check_ess: float
     shifts_sd: dict[str, float | None] = Field(default_factory=dict)
-    max_shift_sd: float
     sd_ratios: dict[str, float | None] = Field(default_factory=dict)
+    coverage: dict[str, float | None] = Field(default_factory=dict)
+    reverse_coverage: dict[str, float | None] = Field(default_factory=dict)
+    coverage_band: list[float] = Field(default_factory=list)
     check_error_nats: float
     passed: bool
     failures: list[str] = Field(default_factory=list)

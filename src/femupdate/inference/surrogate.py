@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,6 +47,7 @@ from femupdate._parallel import single_blas_thread
 from femupdate.errors import ConfigError, ModelError
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
+from femupdate.inference.surrogate_check import Check, centred_error, importance_check
 from femupdate.inference.tmcmc import TMCMC, TMCMCPosterior
 
 #: True model runs at most, all included (design, batches, error model, final check).
@@ -56,14 +57,6 @@ MAX_RUNS = 300
 TOLERANCE = 1.0
 #: Posterior samples run on the true model in the final check.
 CHECK_RUNS = 16
-#: The final check passes when the importance weights exp(true − surrogate log L) of its
-#: samples keep at least this share of them effective (the degeneracy threshold of
-#: sequential Monte Carlo, and the weights' spread TMCMC itself accepts between stages:
-#: a coefficient of variation of 1) ...
-MIN_CHECK_ESS = 0.5
-#: ... and move no posterior mean by more than this many posterior standard deviations: a
-#: shift of 0.2 sd moves a 90 % interval's coverage by under one point (90 → 89.3 %).
-MAX_SHIFT = 0.2
 #: TMCMC's population on the surrogate while design points are chosen (the batch needs
 #: only the bulk of the posterior; the final samples take :data:`POPULATION`).
 DESIGN_POPULATION = 400
@@ -239,89 +232,6 @@ def spread_points(candidates: np.ndarray, k: int, scale: np.ndarray,
         picks.append(i)
         dist = np.minimum(dist, np.linalg.norm(x - x[i], axis=1))
     return np.array(picks, dtype=int)
-
-
-def centred_error(predicted: np.ndarray, true: np.ndarray) -> float:
-    """The 90th percentile of |e − median(e)|, e = predicted − true log L over finite pairs
-    (inf when fewer than two)."""
-    ok = np.isfinite(predicted) & np.isfinite(true)
-    if ok.sum() < 2:
-        return math.inf
-    e = predicted[ok] - true[ok]
-    return float(np.quantile(np.abs(e - np.median(e)), 0.9))
-
-
-@dataclass(frozen=True)
-class Check:
-    """The final check: surrogate posterior samples run on the true model, and what
-    reweighting them by exp(true − surrogate log L) changes.
-
-    Attributes
-    ----------
-    runs : int
-        Check samples run (failed ones included).
-    ess : float
-        The weights' effective sample size as a share of the samples with a finite true
-        log L, (Σw)²/(k·Σw²) in (0, 1]: 1 when true and surrogate agree up to a constant.
-    shifts : ndarray (n,)
-        Each posterior mean moved by the reweighting, in the surrogate posterior's
-        standard deviations (unit cube).
-    sd_ratios : ndarray (n,)
-        Each standard deviation over the check samples, reweighted over unweighted.
-    error : float
-        :func:`centred_error` of the surrogate's log L there (nats).
-    passed : bool
-        ``ess`` ≥ :data:`MIN_CHECK_ESS` and every ``|shifts|`` ≤ :data:`MAX_SHIFT`.
-    """
-
-    runs: int
-    ess: float
-    shifts: np.ndarray
-    sd_ratios: np.ndarray
-    error: float
-    passed: bool
-
-    def words(self, names: Sequence[str]) -> str:
-        """The check in one clause: effective share of the weights and the largest shift."""
-        if not np.all(np.isfinite(self.shifts)):
-            return (f"the final check at {self.runs} posterior samples has fewer than two "
-                    "finite true log-likelihoods")
-        j = int(np.argmax(np.abs(self.shifts)))
-        return (f"importance weights of true against surrogate likelihood at {self.runs} "
-                f"posterior samples: effective share {self.ess:.0%} (at least "
-                f"{MIN_CHECK_ESS:.0%}), largest shift of a mean {self.shifts[j]:+.2f} sd "
-                f"({names[j]}; at most {MAX_SHIFT:g})")
-
-
-def importance_check(unit: np.ndarray, predicted: np.ndarray, true: np.ndarray,
-                     sd: np.ndarray) -> Check:
-    """The final check of surrogate posterior samples ``unit`` (k, n), drawn at random from
-    it: ``predicted`` and ``true`` log L there (the surrogate's as TMCMC sampled it), ``sd``
-    the surrogate posterior's standard deviations.
-
-    The true posterior is the surrogate's reweighted by w ∝ exp(true − predicted), so the
-    weights say what matters: their effective share (a constant error in log L changes
-    nothing; an error that varies over the posterior spreads them) and how far they move
-    each mean, in posterior sds (a mean moves by at most the weights' coefficient of
-    variation in sds, by Cauchy–Schwarz, and by less when the error does not follow that
-    parameter). The reweighted and unweighted figures are of the same samples, so the
-    sampling noise of drawing k of them mostly cancels."""
-    ok = np.isfinite(predicted) & np.isfinite(true)
-    k, n = ok.sum(), unit.shape[1]
-    if k < 2:
-        nan = np.full(n, np.nan)
-        return Check(int(predicted.size), 0.0, nan, nan, math.inf, False)
-    x, d = unit[ok], (true - predicted)[ok]
-    w = np.exp(d - d.max())
-    w /= w.sum()
-    ess = float(1.0 / (k * np.sum(w ** 2)))
-    mean, weighted = x.mean(axis=0), w @ x
-    shifts = (weighted - mean) / np.maximum(sd, 1e-300)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratios = np.sqrt((w @ (x - weighted) ** 2) / ((x - mean) ** 2).mean(axis=0))
-    passed = ess >= MIN_CHECK_ESS and bool(np.all(np.abs(shifts) <= MAX_SHIFT))
-    return Check(int(predicted.size), ess, shifts, ratios, centred_error(predicted, true),
-                 passed)
 
 
 @dataclass

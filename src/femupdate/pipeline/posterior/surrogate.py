@@ -38,13 +38,12 @@ from femupdate.inference.records import (
     marginals,
 )
 from femupdate.inference.surrogate import (
-    MAX_SHIFT,
-    MIN_CHECK_ESS,
     ErrorModelAt,
     Evaluate,
     SurrogateResult,
     surrogate_posterior,
 )
+from femupdate.inference.surrogate_check import COVERAGE_BAND, MIN_CHECK_ESS
 from femupdate.pipeline.posterior.bands import save_bands
 from femupdate.pipeline.results import (
     POSTERIOR_FILE,
@@ -234,8 +233,10 @@ def check_record(result: SurrogateResult) -> SurrogateCheckRecord:
         model_runs=result.model_runs, iterations=result.iterations,
         accuracy_nats=_finite(result.accuracy), tolerance_nats=result.tolerance,
         check_runs=check.runs, check_ess=check.ess, min_check_ess=MIN_CHECK_ESS,
-        shifts_sd=_named(names, check.shifts), max_shift_sd=MAX_SHIFT,
-        sd_ratios=_named(names, check.sd_ratios), check_error_nats=_finite(check.error),
+        shifts_sd=_named(names, check.shifts), sd_ratios=_named(names, check.sd_ratios),
+        coverage=_named(names, check.coverage[0]),
+        reverse_coverage=_named(names, check.coverage[1]), coverage_band=list(COVERAGE_BAND),
+        check_error_nats=_finite(check.error),
         passed=check.passed, failures=list(result.failures),
         history=[dict(h) for h in result.history])
 
