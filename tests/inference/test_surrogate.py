@@ -3,6 +3,7 @@ says when it cannot reach its accuracy or the model fails at design points."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -129,6 +130,38 @@ def test_the_check_weighs_true_against_surrogate_likelihood() -> None:
     # fewer than two finite true log L: no check
     none = importance_check(unit[:2], predicted[:2], np.array([np.nan, 1.0]), sd)
     assert not none.passed and "fewer than two" in none.words(["f", "d"])
+
+
+def test_a_failed_check_continues_the_design(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A check that fails adds its runs to the design and the batches go on; one that never
+    passes ends at the budget and says so, with the check's figures."""
+    import femupdate.inference.surrogate as module
+
+    real, calls = module.importance_check, []
+
+    def first_fails(*args: object) -> object:
+        calls.append(args)
+        return dataclasses.replace(real(*args), passed=len(calls) > 1)
+
+    monkeypatch.setattr(module, "importance_check", first_fails)
+    settings = dict(rng=np.random.default_rng(3), max_runs=60, initial=12, batch=4, check=4,
+                    population=100, tolerance=1e6)
+    result = surrogate_posterior(evaluate, PRIOR, fixed_model, **settings)
+    assert len(calls) == 2 and result.reached, result.message
+    # 12 initial, a batch, the failed check, a batch, the check that passed
+    assert result.model_runs == 12 + 4 + 4 + 4 + 4 and result.iterations == 2
+    assert "1 earlier check(s) failed and the design went on" in result.message
+
+    def never(*args: object) -> object:
+        return dataclasses.replace(real(*args), passed=False)
+
+    monkeypatch.setattr(module, "importance_check", never)
+    settings["rng"] = np.random.default_rng(3)
+    result = surrogate_posterior(evaluate, PRIOR, fixed_model, **settings)
+    assert not result.reached and result.model_runs <= 60
+    assert result.model_runs + 4 + 4 > 60  # no room for another batch and check
+    assert f"failed its final check after {result.model_runs} model runs (max_runs 60" in \
+        result.message and "effective share" in result.message
 
 
 def test_the_coverage_of_a_90_percent_interval() -> None:
