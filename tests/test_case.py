@@ -13,8 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from femupdate.case import Case, build_structure, format_value, load_case, parse_case
+from femupdate.case import Case, format_value, load_case, parse_case
 from femupdate.errors import ConfigError
+from femupdate.problem.case_model import build_structure
 
 ROOT = Path(__file__).resolve().parents[1]
 MINISHAKE = ROOT / "examples" / "minishake-1story" / "elcentro.toml"

@@ -3,19 +3,23 @@
 References to nodes, DOFs and parameters, duplicates, supports, bounds against the ranges of
 the properties that use them, outputs on fixed DOFs, filter and delay bands against the
 sampling rate. The sections of ``schema`` call these from their ``model_validator``.
+:func:`check_parameter_values` checks the parameter values a user passes beside a case (JSON on
+the command line, a truth file).
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 import typing
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 
 from pydantic import BaseModel, ValidationError
 
 from femupdate.case.fields import DOF_NAMES, Range, field_range, find_range, format_value
 from femupdate.case.issues import Issue, did_you_mean, duplicates, join_path
 from femupdate.case.model3d import beam_issues, node_issues
+from femupdate.errors import ConfigError
 
 if typing.TYPE_CHECKING:
     from femupdate.case.model_sections import Model
@@ -456,3 +460,31 @@ def _external_output_issues(model: Model, data: Data, where: str) -> list[Issue]
         return [(f"{where}.outputs", f"{len(data.outputs)} channels but {key} gives {count}",
                  f"one channel per output of the model, in the order of {key}")]
     return []
+
+
+def check_parameter_values(values: object, names: tuple[str, ...],
+                           what: str = "parameter values") -> dict[str, float]:
+    """``values`` as {name: float} for exactly the parameters ``names``; ConfigError otherwise.
+
+    For values a user passes (JSON on the command line, a truth file): says which names are
+    missing or unknown and which values are not finite numbers.
+    """
+    if not isinstance(values, Mapping):
+        raise ConfigError(f"{what}: expected an object of parameter values {{name: number}}, "
+                          f"got {type(values).__name__} (allowed: the parameters "
+                          f"{list(names)})")
+    missing = [n for n in names if n not in values]
+    unknown = [str(n) for n in values if n not in names]
+    if missing or unknown:
+        wrong = "; ".join(f"{word} {listed}" for word, listed in (("missing", missing),
+                                                                 ("unknown", unknown)) if listed)
+        raise ConfigError(f"{what}: {wrong} (allowed: exactly the parameters {list(names)})")
+    out = {}
+    for name in names:
+        value = values[name]
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
+                float(value)):
+            raise ConfigError(f"{what}: {name} = {value!r} is not a finite number (allowed: a "
+                              "finite number)")
+        out[name] = float(value)
+    return out

@@ -50,7 +50,7 @@ from femupdate.case.model_sections import (
     Model,
 )
 from femupdate.case.posterior_section import PosteriorSection, posterior_issues
-from femupdate.case.reduced_path import reduced_by_default, simulation_issues
+from femupdate.case.simulation_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.data.network import FORMATS as NETWORK_FORMATS
 from femupdate.errors import ConfigError
@@ -382,7 +382,7 @@ class Simulation(Section):
 
     method: Literal["exact", "central_difference", "newmark", "nonlinear",
                     "reduced"] | None = None
-    # the reduced path's (femupdate.case.reduced_path): modes kept up to cutoff_factor × the
+    # the reduced path's (femupdate.problem.reduced_path): modes kept up to cutoff_factor × the
     # fitted band, or the lowest n_modes
     cutoff_factor: number_field(ge=1.0, le=1e3) | None = None
     n_modes: integer_field(ge=1, le=10**7) | None = None
@@ -502,7 +502,7 @@ class Case(Section):
     def simulation_method(self) -> str:
         """``simulation.method``, or its default: ``"nonlinear"`` with frictions, ``"reduced"``
         for a linear model of ``REDUCED_MIN_DOF`` DOFs or more
-        (:mod:`femupdate.case.reduced_path`), else exact."""
+        (:mod:`femupdate.problem.reduced_path`), else exact."""
         if self.simulation.method is not None:
             return self.simulation.method
         if self.model.support_groups:  # multi-support: the dense linear path

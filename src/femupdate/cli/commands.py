@@ -141,9 +141,9 @@ def run(
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
     so an interrupted or killed run continues with --resume; --restart starts over.
     """
-    from femupdate.case.reduced_path import describe_simulation
     from femupdate.optimize.minimize import METHODS
     from femupdate.pipeline.run import run_case, with_data_directory, with_method
+    from femupdate.problem.reduced_path import describe_simulation
     from femupdate.runs import Execution
 
     if resume and restart:
@@ -316,15 +316,15 @@ def modes(
     json_path: JsonOption = None,
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes of a case's model."""
-    from femupdate.case import CaseModel
     from femupdate.model.modes import damped_modes, natural_frequencies
+    from femupdate.problem.case_model import CaseModel
 
     case = _load(case_file)
     values = case.nominal() if params is None else _read_params("--params", params, case)
     _warn_outside_bounds("--params", case, values)
     model = CaseModel(case)
     if model.reduced is not None:  # a large model: its lowest modes, sparse (no dense n × n)
-        from femupdate.case.reduced_path import lowest_case_modes
+        from femupdate.problem.reduced_path import lowest_case_modes
 
         (freqs, shapes), damped, dof_labels = lowest_case_modes(model.reduced, values)
         title = (f"{case.label}: the lowest {freqs.size} natural frequencies of "
@@ -524,7 +524,7 @@ def frame3d(
                                              "central_difference.")] = "exact",
 ) -> None:
     """Simulate a 3-D frame under its ground motions (one record per support group)."""
-    from femupdate.case.frame3d_case import run_frame3d_case
+    from femupdate.pipeline.frame3d import run_frame3d_case
 
     if method not in FRAME3D_METHODS:  # before the case is read and assembled
         raise ConfigError(f"--method: got {method!r} (allowed: {', '.join(FRAME3D_METHODS)})")

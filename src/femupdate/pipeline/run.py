@@ -22,7 +22,6 @@ import numpy as np
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
 from femupdate.case.overrides import check_search_override
-from femupdate.case.reduced_path import simulation_record, worst_truncation
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError, SimulationError
 from femupdate.inference.best_fit import laplace_record
@@ -39,6 +38,7 @@ from femupdate.pipeline.results import (
     save_fits,
     write_summary,
 )
+from femupdate.problem.reduced_path import simulation_record, worst_truncation
 from femupdate.problem.update import TrialProblem, UpdateProblem
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
@@ -470,7 +470,7 @@ def validate_case(case: Case, params: dict[str, float], *,
     ConfigError
         ``params`` do not name exactly the case's parameters as finite numbers.
     """
-    from femupdate.case.build import check_parameter_values
+    from femupdate.case.checks import check_parameter_values
 
     values = check_parameter_values(params, case.parameter_names, "parameter values")
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]

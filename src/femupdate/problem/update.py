@@ -21,13 +21,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from femupdate._parallel import thread_pool
-from femupdate.case import Case, CaseModel
+from femupdate.case import Case
 from femupdate.data import signal
 from femupdate.errors import ConfigError, SimulationError
 from femupdate.external.protocol import Evaluation
 from femupdate.external.runner import ExternalRunner
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.system import System
+from femupdate.problem.case_model import CaseModel
 from femupdate.problem.objective import ErrorFunction
 from femupdate.simulate.response import Response
 from femupdate.trials.experiment import Experiment

@@ -45,8 +45,8 @@ def first_mode_hz(case: Case) -> float | None:
     as for an external model, which is not built here: it may load a script). A model on the
     reduced path gets it from the sparse eigensolver (a dense eigenproblem of its 1,000 DOFs
     took 1.9 s of a run's fixed cost)."""
-    from femupdate.case import CaseModel
     from femupdate.model.modes import natural_frequencies
+    from femupdate.problem.case_model import CaseModel
 
     if case.model.external is not None:
         return None

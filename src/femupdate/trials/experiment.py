@@ -592,9 +592,9 @@ def _check_band_below_modes(case: Case, band: tuple[float, float]) -> list[str]:
     the first resonance: near a mode the structure's own phase (−90° at resonance) would be
     taken for a sensor delay of a quarter period.
     """
-    from femupdate.case import CaseModel
-    from femupdate.case.reduced_path import lowest_frequencies
     from femupdate.model.modes import natural_frequencies
+    from femupdate.problem.case_model import CaseModel
+    from femupdate.problem.reduced_path import lowest_frequencies
 
     try:
         model = CaseModel(case)

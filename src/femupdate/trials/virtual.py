@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import Case, CaseModel
+from femupdate.case import Case
 from femupdate.data import datasets, io, network, synth
 from femupdate.errors import ConfigError
+from femupdate.problem.case_model import CaseModel
 from femupdate.units import ACCELERATION_UNITS, STANDARD_GRAVITY
 
 

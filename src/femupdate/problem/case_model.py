@@ -4,21 +4,23 @@
 knows the case's integrator, substeps, excitation direction and output DOFs; per evaluation it
 assembles the system at parameter values and simulates it under a base motion. The update
 problem, virtual experiments, ``femupdate modes`` and the report all go through it.
+
+It sits below the trials in the layers (``tests/test_architecture.py``): virtual experiments
+simulate a case's model, and the update problem above reads the trials. The case package
+(schema and validation) never imports it.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 import typing
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from femupdate.case.model_sections import Model, storey_values
-from femupdate.case.reduced_path import ReducedPath
 from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError, DataError
+from femupdate.problem.reduced_path import ReducedPath
 from femupdate.simulate.response import Response
 
 if typing.TYPE_CHECKING:
@@ -267,34 +269,6 @@ class CaseModel:
                                       displacement=displacement, outputs=self.outputs)
         return Response(resp.t, resp.total, resp.total_velocity, resp.acceleration,
                         diverged=resp.diverged)
-
-
-def check_parameter_values(values: object, names: tuple[str, ...],
-                           what: str = "parameter values") -> dict[str, float]:
-    """``values`` as {name: float} for exactly the parameters ``names``; ConfigError otherwise.
-
-    For values a user passes (JSON on the command line, a truth file): says which names are
-    missing or unknown and which values are not finite numbers.
-    """
-    if not isinstance(values, Mapping):
-        raise ConfigError(f"{what}: expected an object of parameter values {{name: number}}, "
-                          f"got {type(values).__name__} (allowed: the parameters "
-                          f"{list(names)})")
-    missing = [n for n in names if n not in values]
-    unknown = [str(n) for n in values if n not in names]
-    if missing or unknown:
-        wrong = "; ".join(f"{word} {listed}" for word, listed in (("missing", missing),
-                                                                 ("unknown", unknown)) if listed)
-        raise ConfigError(f"{what}: {wrong} (allowed: exactly the parameters {list(names)})")
-    out = {}
-    for name in names:
-        value = values[name]
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
-                float(value)):
-            raise ConfigError(f"{what}: {name} = {value!r} is not a finite number (allowed: a "
-                              "finite number)")
-        out[name] = float(value)
-    return out
 
 
 def external_model(case: Case, channels: Sequence[OutputChannel]) -> ExternalModel | None:
