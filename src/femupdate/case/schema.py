@@ -388,6 +388,10 @@ class Simulation(Section):
     n_modes: integer_field(ge=1, le=10**7) | None = None
 
 
+#: ``[search] agree`` when not given (femupdate.runs.verdict.AGREE).
+AGREE_DEFAULT = 2
+
+
 class Search(Section):
     """``[search]``: the optimiser, its stopping criteria and the repeated runs."""
 
@@ -399,6 +403,9 @@ class Search(Section):
     f_target: number_field(ge=0.0, le=1e6) | None = None
     sigma_min: number_field(gt=0.0, lt=SIGMA_MAX) | None = None
     f_change_min: number_field(ge=0.0, le=1e6) | None = None
+    # runs that must end at the same best φ before the others are not needed (with residuals
+    # and no f_target only: femupdate.runs.verdict.runs_needed); 0 or None: every run
+    agree: integer_field(ge=0, le=10_000) | None = AGREE_DEFAULT
     options: Options = Field(default_factory=dict)
 
     @model_validator(mode="after")
@@ -565,11 +572,17 @@ class Case(Section):
             if trial.get("file") is None:
                 trial.pop("file", None)
         _drop_unused_support_fields(data)  # nor multi-support's fields, unused
+        if data["search"].get("agree") == AGREE_DEFAULT:  # nor the agreement stop's default
+            data["search"].pop("agree", None)
         return data
 
     def fingerprint(self) -> str:
-        """SHA-256 of the canonical JSON of ``to_dict()``: equal for equal cases."""
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"),
+        """SHA-256 of the canonical JSON of ``to_dict()``: equal for equal cases. Without
+        ``[search] agree``: it chooses which runs are needed, never what a run computes, so a
+        set resumes with another ``agree`` (0: the runs not needed before are run now)."""
+        data = self.to_dict()
+        data["search"].pop("agree", None)
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"),
                           ensure_ascii=False, allow_nan=False)
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 

@@ -158,6 +158,8 @@ class VerdictRecord(_Record):
     phi_range: list[float]
     fits: bool
     words: str
+    #: Runs asked for, when the agreement stop left some not needed (None: every run ran).
+    planned: int | None = None
 
 
 class DefectRecord(_Record):

@@ -9,7 +9,7 @@ import json
 import numpy as np
 
 from femupdate.case import Case
-from femupdate.pipeline.results import RunRecord
+from femupdate.pipeline.results import RunRecord, Summary
 from femupdate.report.facts import Context, case_positions, relative_error
 from femupdate.report.markup import (
     Page,
@@ -145,6 +145,15 @@ def section_case(ctx: Context) -> str:
     return "\n".join(out)
 
 
+def _runs_ran(summary: Summary) -> str:
+    """The runs made; "k of n, the others not needed" when the first ones agreed."""
+    planned = summary.verdict.planned if summary.verdict is not None else None
+    if planned is None:
+        return str(len(summary.runs))
+    return (f"{len(summary.runs)} of {planned} (the others were not needed: "
+            f"[search] agree = {summary.settings.get('agree', '?')})")
+
+
 def _search_items(ctx: Context) -> list[tuple[str, str]]:
     res = ctx.res
     search, summary = res.case.search, res.summary
@@ -152,7 +161,7 @@ def _search_items(ctx: Context) -> list[tuple[str, str]]:
     seed = settings.get("seed", search.seed)
     items = [
         ("method", esc(summary.method)),
-        ("runs", esc(len(summary.runs))),
+        ("runs", esc(_runs_ran(summary))),
         ("root seed", esc(seed if seed is not None else "fresh entropy")),
         ("max evaluations", num(settings.get("max_evals", search.max_evals))),
         ("f_target (φ_s)", num(settings.get("f_target", search.f_target))),
