@@ -16,7 +16,7 @@ reach into the other's private state.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -279,6 +279,10 @@ class Structure:
         self._followers: dict[int, int] = {}  # node → master node of its rigid diaphragm
         self._topology: _Topology | None = None
         self._parameters: tuple[str, ...] | None = None
+        #: Maps a caller's named parameter values to the structure's own (its string
+        #: properties: a case's derived fields, femupdate.case.expressions.FieldValues);
+        #: None: the same names.
+        self.derive: Callable[[Mapping[str, float]], Mapping[str, float]] | None = None
         # support_coupling's twins with supports released, for the topology they were made of
         self._released: dict[tuple[int, ...], tuple[_Topology, Structure]] = {}
 
@@ -707,6 +711,7 @@ class Structure:
             twin._records, twin._element_names = list(self._records), set(self._element_names)
             twin._fixed = self._fixed - set(key)
             twin._followers = dict(self._followers)
+            twin.derive = self.derive
             cached = self._released[key] = (topo, twin)
         twin = cached[1]
         # sparse: the released DOFs may carry no mass (a support node without beam mass)
@@ -836,6 +841,8 @@ class Structure:
         names = self.parameters
         if values is None:
             values = {}
+        if isinstance(values, Mapping) and self.derive is not None:
+            values = self.derive(values)
         if isinstance(values, Mapping):
             unknown = [key for key in values if key not in names]
             if unknown:

@@ -6,6 +6,10 @@ repeated runs in worker processes. A case of several trials shares the model and
 φ is the mean of the fitted trials' φ, weighted by their ``weight`` (Eq. 1 per trial); its
 residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, scaled so that
 φ = ‖r‖².
+
+Why this file is long (about 610 lines): a trial's φ and residuals on both paths (compiled and
+step by step, with the checks of a point before it is simulated) and the case's combination of
+its trials over batches and threads are one contract, tested as one.
 """
 
 from __future__ import annotations
@@ -22,8 +26,10 @@ import numpy as np
 
 from femupdate._parallel import thread_pool
 from femupdate.case import Case, CaseModel
+from femupdate.case.derived import constraints_of
+from femupdate.case.expressions import first_violation
 from femupdate.data import signal
-from femupdate.errors import ConfigError, SimulationError
+from femupdate.errors import ConfigError, ModelError, SimulationError
 from femupdate.external.protocol import Evaluation
 from femupdate.external.runner import ExternalRunner
 from femupdate.model.modes import natural_frequencies
@@ -59,7 +65,7 @@ class TrialProblem:
         None: compiled unless ``FEMUPDATE_EVALUATOR=reference``. The compiled path covers
         femupdate's own planar models, scored over the whole trial or its ``score_window`` (the
         prediction processed from the record's start, as step by step); an external model, a
-        3-D frame and the reduced path are evaluated step by step.
+        3-D frame, the reduced path, derived fields and constraints go step by step.
     """
 
     def __init__(self, case: Case, experiment: Experiment, *,
@@ -91,12 +97,15 @@ class TrialProblem:
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         # The compiled evaluator covers femupdate's planar models on the full path (a score
-        # window too); a 3-D frame (6 DOFs per node, femupdate.case.model3d: its compiled
-        # assembly would be planar) and the reduced path (sparse, few modes) are evaluated
-        # step by step.
+        # window too); a 3-D frame (its compiled assembly would be planar), the reduced path
+        # (sparse, few modes), fields that are expressions of parameters and [[constraints]]
+        # (a point where one fails is a failed evaluation) are evaluated step by step.
+        self.constraints = constraints_of(case)
+        self.derived = self._runner is None and self.model.structure.derive is not None
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None and not self.model.groups)
+                         and self.model.reduced is None and not self.model.groups
+                         and not (self.derived or self.constraints))
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -294,17 +303,20 @@ class TrialProblem:
 
     def _scored_prediction(self, values: Mapping[str, float]) -> np.ndarray | None:
         """The scored prediction, or None for a failed simulation (``last_failure`` says why:
-        an unstable step, a divergence, an external model's error)."""
-        self.last_failure = None
+        an unstable step, a divergence, an external model's error, a failed constraint)."""
+        why, response = first_violation(self.constraints, values), None
         try:
-            response = self.simulate(values)
+            response = None if why else self.simulate(values)
         except SimulationError as exc:
-            self.last_failure = f"trial {self.name!r}: {exc}"
-            return None
-        if response.diverged:
-            self.last_failure = f"trial {self.name!r}: the simulation diverged"
-            return None
-        return self.scored(self.prediction(response))
+            why = str(exc)
+        except ModelError as exc:  # with derived fields: a value out of its range here
+            if not (self.derived or self.constraints):
+                raise
+            why = str(exc)
+        if response is not None and response.diverged:
+            why = "the simulation diverged"
+        self.last_failure = None if why is None else f"trial {self.name!r}: {why}"
+        return None if why else self.scored(self.prediction(response))
 
     def phi(self, values: Mapping[str, float]) -> float:
         """φ of the trial at physical parameter values (inf for a failed simulation)."""
