@@ -97,12 +97,29 @@ def test_the_records_hold_the_derived_value(derived_dir: Path) -> None:
     free_problem = UpdateProblem(free, load_experiments(load_case(derived_dir / "case.toml")),
                                  compiled=False)
     problem = UpdateProblem(load_case(derived_dir / "case.toml"),
-                            load_experiments(load_case(derived_dir / "case.toml")))
-    assert not problem.compiled  # derived fields are evaluated step by step
+                            load_experiments(load_case(derived_dir / "case.toml")),
+                            compiled=False)
     x = problem.case.to_search(TRUTH)
     assert problem(x) < 1e-20  # the truth, up to the rounding of k's log scale
     away = problem.case.to_search({"k": 3000.0, "beta": 300.0})
     assert problem(away) == free_problem(away) > 1e-3
+
+
+def test_the_compiled_path_computes_the_derived_values(derived_dir: Path) -> None:
+    case = load_case(derived_dir / "case.toml")
+    experiments = load_experiments(case)
+    compiled = UpdateProblem(case, experiments)
+    reference = UpdateProblem(case, experiments, compiled=False)
+    assert compiled.compiled and compiled.fitted[0].derived_fields == ("0.5 * beta",)
+    rng = np.random.default_rng(4)
+    X = np.column_stack([rng.uniform(3.31, 3.9, 8), rng.uniform(150.0, 450.0, 8)])
+    assert compiled.fitted[0].compiled_rows(X)[0][:, 2].tolist() == (0.5 * X[:, 1]).tolist()
+    batch = compiled.evaluate_batch(X)
+    assert np.all(np.isfinite(batch)) and np.all(batch > 0.0)
+    assert batch == pytest.approx([reference(x) for x in X], rel=1e-9)
+    assert [compiled(x) for x in X] == batch.tolist()  # single calls: the batch's bits
+    rows = compiled.residuals_batch(X)
+    assert np.sum(rows**2, axis=1) == pytest.approx(batch, rel=1e-12)
 
 
 def test_a_derived_case_runs_and_recovers_beta(derived_dir: Path) -> None:
@@ -116,7 +133,7 @@ def test_a_derived_case_runs_and_recovers_beta(derived_dir: Path) -> None:
 def test_a_point_outside_the_constraints_is_a_failed_evaluation(derived_dir: Path) -> None:
     case = load_case(_write(derived_dir / "free", '"gamma"', GAMMA_FREE))
     problem = UpdateProblem(case, load_experiments(load_case(derived_dir / "case.toml")))
-    assert not problem.compiled
+    assert problem.compiled  # the constraints are checked before the compiled evaluator
     inside = case.to_search({"k": 4000.0, "beta": 300.0, "gamma": 150.0})
     outside = case.to_search({"k": 4000.0, "beta": 200.0, "gamma": 250.0})
     assert problem(inside) < 1e-20 and problem.last_failure is None

@@ -65,7 +65,7 @@ class TrialProblem:
         None: compiled unless ``FEMUPDATE_EVALUATOR=reference``. The compiled path covers
         femupdate's own planar models, scored over the whole trial or its ``score_window`` (the
         prediction processed from the record's start, as step by step); an external model, a
-        3-D frame, the reduced path, derived fields and constraints go step by step.
+        3-D frame and the reduced path are evaluated step by step.
     """
 
     def __init__(self, case: Case, experiment: Experiment, *,
@@ -98,14 +98,16 @@ class TrialProblem:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         # The compiled evaluator covers femupdate's planar models on the full path (a score
         # window too); a 3-D frame (its compiled assembly would be planar), the reduced path
-        # (sparse, few modes), fields that are expressions of parameters and [[constraints]]
-        # (a point where one fails is a failed evaluation) are evaluated step by step.
+        # (sparse, few modes) are evaluated step by step. [[constraints]]: a point where one
+        # fails is a failed evaluation.
         self.constraints = constraints_of(case)
-        self.derived = self._runner is None and self.model.structure.derive is not None
+        derive = self.model.structure.derive if self._runner is None else None
+        #: The model's fields that are expressions, appended (as physical values) to the
+        #: points the compiled evaluator takes (:meth:`compiled_rows`).
+        self.derived_fields = tuple(derive.expressions) if derive is not None else ()
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None and not self.model.groups
-                         and not (self.derived or self.constraints))
+                         and self.model.reduced is None and not self.model.groups)
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -162,12 +164,31 @@ class TrialProblem:
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "_evaluators": {}}  # buffers: rebuilt where unpickled
 
+    def compiled_rows(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The search points ``X`` (k, n) as the compiled evaluator takes them, with the
+        derived fields' values appended, and which of them satisfy the constraints (the
+        others are failed evaluations, said step by step)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        inside = np.ones(X.shape[0], dtype=bool)
+        if not (self.derived_fields or self.constraints):
+            return X, inside
+        # physical values as Case.to_physical computes them (the step-by-step path's bits)
+        env = {p.name: np.array([p.to_physical(float(v)) for v in X[:, i]])
+               for i, p in enumerate(self.case.parameters)}
+        for constraint in self.constraints:
+            inside &= np.asarray(constraint.holds(env), dtype=bool)
+        derive = self.model.structure.derive
+        columns = [np.broadcast_to(np.asarray(derive.expressions[key](env), dtype=float),
+                                   inside.shape) for key in self.derived_fields]
+        return np.ascontiguousarray(np.column_stack([X, *columns])), inside
+
     def phi_at(self, x: np.ndarray) -> float:
         """φ at search point ``x``: compiled when it can be; a failed evaluation is then
         repeated step by step, which says why (``last_failure``)."""
         if not self.compiled:
             return self.phi_reference(x)
-        phi = self.evaluator(x)
+        rows, inside = self.compiled_rows(x)
+        phi = self.evaluator(rows[0]) if inside[0] else math.inf
         if not math.isfinite(phi):
             return self.phi_reference(x)
         self.last_failure = None
@@ -177,7 +198,12 @@ class TrialProblem:
         """φ at every row of ``X``: one compiled loop, bit for bit the single calls."""
         if not self.compiled:
             return np.array([self.phi_reference(x) for x in X])
-        out = self.evaluator.batch(X)
+        if self.derived_fields or self.constraints:
+            rows, inside = self.compiled_rows(X)
+            out = np.full(rows.shape[0], math.inf)
+            out[inside] = self.evaluator.batch(rows[inside])
+        else:
+            out = self.evaluator.batch(X)
         for i in np.flatnonzero(~np.isfinite(out)):  # why they failed, step by step
             out[i] = self.phi_reference(X[i])
         return out
@@ -193,8 +219,11 @@ class TrialProblem:
         call (the compiled evaluator runs several rows per call where it can). With ``out``
         (k, m), each vector is written into its row as it comes (the list then holds the rows
         of ``out``: no k vectors held besides)."""
-        rows = (self.evaluator.residuals_batch(X) if self.compiled
-                else [None] * X.shape[0])
+        rows: Any = [None] * X.shape[0]
+        if self.compiled:
+            ext, inside = self.compiled_rows(X)
+            computed = iter(self.evaluator.residuals_batch(ext[inside]))
+            rows = (next(computed) if ok else None for ok in inside)
         result = []
         for i, (x, r) in enumerate(zip(X, rows, strict=True)):
             if r is None:  # step by step, which also says why a failed evaluation failed
@@ -310,7 +339,7 @@ class TrialProblem:
         except SimulationError as exc:
             why = str(exc)
         except ModelError as exc:  # with derived fields: a value out of its range here
-            if not (self.derived or self.constraints):
+            if not (self.derived_fields or self.constraints):
                 raise
             why = str(exc)
         if response is not None and response.diverged:
@@ -372,7 +401,9 @@ class UpdateProblem:
         #: Fitted trials (indices into ``fitted``) simulated once per point: windows of one
         #: record (:mod:`femupdate.evaluation.shared`); each other trial a group of its own.
         self.shared_records = [[i] for i in range(len(self.fitted))]
-        if sum(t.compiled for t in self.fitted) > 1:
+        first = self.fitted[0]  # derived fields and constraints: each trial on its own
+        if sum(t.compiled for t in self.fitted) > 1 and not (first.derived_fields
+                                                            or first.constraints):
             from femupdate.evaluation import shared
 
             self.shared_records = shared.shared_groups(self.fitted)
