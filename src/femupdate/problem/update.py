@@ -172,15 +172,17 @@ class TrialProblem:
         inside = np.ones(X.shape[0], dtype=bool)
         if not (self.derived_fields or self.constraints):
             return X, inside
-        # physical values as Case.to_physical computes them (the step-by-step path's bits)
-        env = {p.name: np.array([p.to_physical(float(v)) for v in X[:, i]])
-               for i, p in enumerate(self.case.parameters)}
+        # physical values as Case.to_physical computes them (the step-by-step path's bits),
+        # a column per parameter
+        env: dict[str, Any] = {p.name: np.array([p.to_physical(float(v)) for v in X[:, i]])
+                               for i, p in enumerate(self.case.parameters)}
         for constraint in self.constraints:
-            inside &= np.asarray(constraint.holds(env), dtype=bool)
-        derive = self.model.structure.derive
-        columns = [np.broadcast_to(np.asarray(derive.expressions[key](env), dtype=float),
-                                   inside.shape) for key in self.derived_fields]
-        return np.ascontiguousarray(np.column_stack([X, *columns])), inside
+            inside &= constraint.holds(env)
+        out = np.empty((X.shape[0], X.shape[1] + len(self.derived_fields)))
+        out[:, :X.shape[1]] = X
+        for j, key in enumerate(self.derived_fields, start=X.shape[1]):
+            out[:, j] = self.model.structure.derive.expressions[key](env)
+        return out, inside
 
     def phi_at(self, x: np.ndarray) -> float:
         """φ at search point ``x``: compiled when it can be; a failed evaluation is then
