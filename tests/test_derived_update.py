@@ -4,6 +4,7 @@ derived from beta, and points outside the constraints as failed evaluations."""
 from __future__ import annotations
 
 import math
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +121,8 @@ def test_the_compiled_path_computes_the_derived_values(derived_dir: Path) -> Non
     assert [compiled(x) for x in X] == batch.tolist()  # single calls: the batch's bits
     rows = compiled.residuals_batch(X)
     assert np.sum(rows**2, axis=1) == pytest.approx(batch, rel=1e-12)
+    again = pickle.loads(pickle.dumps(compiled))  # as worker processes receive it
+    assert again.evaluate_batch(X).tolist() == batch.tolist()
 
 
 def test_a_derived_case_runs_and_recovers_beta(derived_dir: Path) -> None:
