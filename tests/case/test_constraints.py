@@ -3,6 +3,7 @@ messages that name the file and the field."""
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import pytest
@@ -176,3 +177,20 @@ def test_expressions_in_any_numeric_model_field() -> None:
     assert system.K.tolist() == [[2500.0 + 1500.0, -1500.0], [-1500.0, 1500.0]]
     assert system.M.tolist() == [[1.0, 0.0], [0.0, 0.8]]
     assert system.C[0, 0] == pytest.approx(1.0 + 0.5, rel=1e-15)
+
+
+def test_beyond_12_parameters_the_check_points_are_one_bound_at_a_time() -> None:
+    names = [f"p{i}" for i in range(13)]
+    case = parse_case({
+        "case": {"name": "chain"},
+        "model": {"shear_building": {"masses": [1.0] * 13, "stiffnesses": names,
+                                     "dampers": [0.5] * 13}},
+        "parameters": [{"name": n, "lower": 1.0, "upper": 3.0} for n in names],
+        "constraints": [{"rule": f"{a} <= 2 * {b}"} for a, b in itertools.pairwise(names)]})
+    chain = [parse_constraint(c.rule) for c in case.constraints]
+    points = check_points(case.parameters, ["p0"], chain)  # p0 tied to all 13 by the chain
+    assert set(points) == set(names)
+    assert points["p0"].size == 2 * 13 + 1  # each at either bound, then the nominal point
+    small = check_points(case.parameters, ["p0"], chain[:1])  # p0, p1: their 4 corners
+    assert sorted(zip(small["p0"].tolist(), small["p1"].tolist(), strict=True)) == [
+        (1.0, 1.0), (1.0, 3.0), (2.0, 2.0), (3.0, 3.0)]  # (3, 1) excluded: 3 > 2 * 1
