@@ -7,7 +7,7 @@ repeated runs in worker processes. A case of several trials shares the model and
 residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, scaled so that
 φ = ‖r‖².
 
-Why this file is long (about 610 lines): a trial's φ and residuals on both paths (compiled and
+Why this file is long (about 650 lines): a trial's φ and residuals on both paths (compiled and
 step by step, with the checks of a point before it is simulated) and the case's combination of
 its trials over batches and threads are one contract, tested as one.
 """
@@ -189,8 +189,11 @@ class TrialProblem:
         repeated step by step, which says why (``last_failure``)."""
         if not self.compiled:
             return self.phi_reference(x)
-        rows, inside = self.compiled_rows(x)
-        phi = self.evaluator(rows[0]) if inside[0] else math.inf
+        if self.derived_fields or self.constraints:
+            rows, inside = self.compiled_rows(x)
+            phi = self.evaluator(rows[0]) if inside[0] else math.inf
+        else:
+            phi = self.evaluator(x)
         if not math.isfinite(phi):
             return self.phi_reference(x)
         self.last_failure = None
@@ -222,10 +225,12 @@ class TrialProblem:
         (k, m), each vector is written into its row as it comes (the list then holds the rows
         of ``out``: no k vectors held besides)."""
         rows: Any = [None] * X.shape[0]
-        if self.compiled:
+        if self.compiled and (self.derived_fields or self.constraints):
             ext, inside = self.compiled_rows(X)
             computed = iter(self.evaluator.residuals_batch(ext[inside]))
             rows = (next(computed) if ok else None for ok in inside)
+        elif self.compiled:
+            rows = self.evaluator.residuals_batch(X)
         result = []
         for i, (x, r) in enumerate(zip(X, rows, strict=True)):
             if r is None:  # step by step, which also says why a failed evaluation failed
