@@ -115,3 +115,17 @@ def test_cli_simulates_and_writes(folder):
     expected = multi_support_response(model, groups, acc, dt, method="newmark").total
     np.testing.assert_allclose(total[:, 1:], expected, rtol=1e-15,
                                atol=1e-15 * np.abs(expected).max())
+
+
+def test_a_property_may_be_an_expression_of_the_values(folder):
+    (folder / "case.toml").write_text(_case_text())
+    plain = load_frame3d_case(folder / "case.toml")[2]
+    text = _case_text().replace('E = 3e10\n', 'E0 = 1.5e10\n', 1).replace('E = "E"',
+                                                                           'E = "2 * E0"')
+    (folder / "case.toml").write_text(text)
+    derived = load_frame3d_case(folder / "case.toml")[2]
+    assert np.array_equal(derived.system.K, plain.system.K)
+    (folder / "case.toml").write_text(text.replace('"2 * E0"', '"2 * E1"'))
+    with pytest.raises(ConfigError, match=r"frame3d\.beams\[0\]\.E: '2 \* E1' names 'E1', "
+                       r"which has no value \(allowed: names given in \[values\]: E0\)"):
+        load_frame3d_case(folder / "case.toml")

@@ -16,6 +16,8 @@ from collections.abc import Iterator, Mapping
 
 from pydantic import BaseModel, ValidationError
 
+from femupdate.case.derived import bouc_wen_bound_issues, constraint_issues, derived_issues
+from femupdate.case.expressions import ExpressionError, is_name, parse_expression
 from femupdate.case.fields import DOF_NAMES, Range, field_range, find_range, format_value
 from femupdate.case.issues import Issue, did_you_mean, duplicates, join_path
 from femupdate.case.model3d import beam_issues, node_issues
@@ -246,17 +248,32 @@ def case_issues(case: Case) -> list[Issue]:
     issues = duplicates([(f"parameters[{i}].name", p.name)
                           for i, p in enumerate(case.parameters)], "parameter name")
     declared = {p.name: (i, p) for i, p in enumerate(case.parameters)}
-    names = ", ".join(repr(n) for n in declared) or "none declared"
+    names_listed = ", ".join(repr(n) for n in declared) or "none declared"
     used: set[str] = set()
     out_of_range: set[str] = set()
+    expressions: list[tuple[str, str, Range]] = []
     for path, value, rng in quantities(case.model, "model"):
         if not isinstance(value, str):
+            continue
+        if not is_name(value):  # an expression: its names declared, its values in range
+            try:
+                names = parse_expression(value).names
+            except ExpressionError:
+                continue  # said by the field's own check
+            used.update(names)
+            unknown = [n for n in names if n not in declared]
+            for name in unknown:
+                hint = did_you_mean(name, list(declared))
+                issues.append((path, f"{value!r} names {name!r}, not declared in "
+                               f"[[parameters]]{hint}", f"declared parameters: {names_listed}"))
+            if not unknown:
+                expressions.append((path, value, rng))
             continue
         used.add(value)
         if value not in declared:
             hint = did_you_mean(value, list(declared))
             issues.append((path, f"parameter {value!r} is not declared in [[parameters]]{hint}",
-                           f"a number, or a declared parameter: {names}"))
+                           f"a number, or a declared parameter: {names_listed}"))
             continue
         i, p = declared[value]
         if not rng.contains_closed(p.lower, p.upper) and value not in out_of_range:
@@ -265,6 +282,7 @@ def case_issues(case: Case) -> list[Issue]:
             issues.append((f"parameters[{i}].{side}", f"parameter {value!r} has bounds "
                            f"[{format_value(p.lower)}, {format_value(p.upper)}] but is used "
                            f"at {path}", f"bounds {rng.interval()}"))
+    issues += constraint_issues(case) + derived_issues(case, expressions)
     for name, (i, _) in declared.items():
         if name not in used and case.model.external is None:  # an external model's own use
             issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
@@ -298,38 +316,6 @@ def case_issues(case: Case) -> list[Issue]:
                            "at least one trial with role = \"fit\""))
     for spec in case.trial_specs():
         issues += _data_issues(case, spec.data, spec.path)
-    return issues
-
-
-def bouc_wen_bound_issues(case: Case) -> list[Issue]:
-    """Bouc–Wen elements whose (beta, gamma) can leave −β < γ ≤ β inside the parameters'
-    bounds: the search would reach points without hysteresis."""
-    bounds = {p.name: (p.lower, p.upper) for p in case.parameters}
-    model = case.model
-    pairs: list[tuple[str, object, object]] = [
-        (f"model.bouc_wen[{i}].gamma", bw.beta, bw.gamma) for i, bw in enumerate(model.bouc_wen)]
-    storeys = model.shear_building.bouc_wen if model.shear_building is not None else None
-    if storeys is not None:
-        n = len(model.shear_building.masses)
-        for i in range(n):
-            beta, gamma = (v[i] if isinstance(v, list) else v for v in (storeys.beta,
-                                                                        storeys.gamma))
-            pairs.append((f"model.shear_building.bouc_wen.gamma (storey {i + 1})", beta,
-                          gamma))
-    issues: list[Issue] = []
-    for path, beta, gamma in pairs:
-        if not (isinstance(beta, str) or isinstance(gamma, str)):
-            continue  # two numbers: checked with the section
-        if (isinstance(beta, str) and beta not in bounds) or (
-                isinstance(gamma, str) and gamma not in bounds):
-            continue  # an undeclared parameter: said elsewhere
-        b_low = bounds[beta][0] if isinstance(beta, str) else beta
-        g_low, g_high = bounds[gamma] if isinstance(gamma, str) else (gamma, gamma)
-        if not (-b_low < g_low and g_high <= b_low):
-            issues.append((path, f"beta = {format_value(beta)} and gamma = "
-                           f"{format_value(gamma)} can leave -beta < gamma <= beta within "
-                           "the parameters' bounds (no hysteresis there)",
-                           "bounds with -(lowest beta) < gamma <= lowest beta everywhere"))
     return issues
 
 

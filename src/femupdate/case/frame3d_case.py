@@ -169,6 +169,31 @@ class Frame3DCase(Section):
         return f
 
 
+def _with_derived(case: Frame3DCase, path: Path) -> dict[str, float]:
+    """``[values]`` with the value of every field that is an expression of them, keyed by its
+    text (as ``Frame3D.assemble`` looks a string field up); a value read only by expressions
+    is left out (the frame knows it under no name)."""
+    from femupdate.case.checks import quantities
+    from femupdate.case.expressions import is_name, parse_expression
+
+    derived: dict[str, float] = {}
+    plain: set[str] = set()
+    for where, text, _ in quantities(case.frame3d, "frame3d"):
+        if not isinstance(text, str) or is_name(text):
+            plain.add(str(text))
+            continue
+        expression = parse_expression(text)
+        missing = [n for n in expression.names if n not in case.values]
+        if missing:
+            raise ConfigError(f"{path}: {where}: {text!r} names {missing[0]!r}, which has no "
+                              f"value (allowed: names given in [values]: "
+                              f"{', '.join(case.values) or 'none'})")
+        derived[text] = float(expression(case.values))
+    only_in_expressions = {n for text in derived for n in parse_expression(text).names} - plain
+    return {**{k: v for k, v in case.values.items() if k not in only_in_expressions},
+            **derived}
+
+
 def _read_record(path: Path, column: int, where: str) -> np.ndarray:
     try:
         data = np.loadtxt(path, delimiter="," if path.suffix == ".csv" else None, ndmin=2)
@@ -215,7 +240,7 @@ def load_frame3d_case(path: str | os.PathLike[str]
         raise ConfigError("\n".join(lines)) from None
     try:
         frame = case.build()
-        model = frame.assemble(case.values)
+        model = frame.assemble(_with_derived(case, path))
     except ModelError as exc:
         raise ModelError(f"{path}: frame3d: {exc}") from None
     records: dict[str, tuple[np.ndarray, float]] = {}

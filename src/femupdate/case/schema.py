@@ -119,6 +119,15 @@ class Parameter(Section):
         return self.to_physical(0.5 * (low + high))
 
 
+class ConstraintRule(Section):
+    """``[[constraints]]``: a condition between parameters, ``rule = "gamma <= beta"``
+    (:mod:`femupdate.case.expressions`); a searched point where it fails is a failed
+    evaluation, and the checks of the box leave such points out (:mod:`femupdate.case.derived`).
+    """
+
+    rule: text_field(400, 1)
+
+
 # ----------------------------------------------------------------------------- [data]
 
 
@@ -428,6 +437,7 @@ class Case(Section):
     case: CaseInfo
     model: Model
     parameters: list[Parameter] = Field(default_factory=list)
+    constraints: list[ConstraintRule] = Field(default_factory=list)
     data: Data | None = None
     trials: list[Trial] = Field(default_factory=list)
     preprocess: Preprocess = Field(default_factory=Preprocess)
@@ -556,6 +566,8 @@ class Case(Section):
         Without ``[posterior]`` nothing is saved for it, nor for a low-pass not given: the
         fingerprints of cases written before they existed stay the same."""
         data = self.model_dump(mode="json")
+        if not data.get("constraints"):  # nor constraints when there are none
+            data.pop("constraints", None)
         if data.get("posterior") is None:
             data.pop("posterior", None)
         else:

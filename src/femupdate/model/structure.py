@@ -26,7 +26,7 @@ over the helpers above, and splitting them from the class would only move its do
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -107,6 +107,10 @@ class Structure:
         self._followers: dict[int, int] = {}  # node → master node of its rigid diaphragm
         self._topology: Topology | None = None
         self._parameters: tuple[str, ...] | None = None
+        #: Maps a caller's named parameter values to the structure's own (its string
+        #: properties: a case's derived fields, femupdate.case.expressions.FieldValues);
+        #: None: the same names.
+        self.derive: Callable[[Mapping[str, float]], Mapping[str, float]] | None = None
         # support_coupling's twins with supports released, for the topology they were made of
         self._released: dict[tuple[int, ...], tuple[Topology, Structure]] = {}
 
@@ -460,6 +464,8 @@ class Structure:
         topo = self._topo()
         rigid = self._rigid(direction)
         r = rigid[topo.free >= 0]
+        if isinstance(values, Mapping) and self.derive is not None:
+            values = self.derive(values)
         p = parameter_vector(self.parameters, values)
         m, c, k, beam_m = structure_matrices(topo, p, self.dofs_per_node, sparse)
         friction = friction_elements(topo, p)
@@ -505,6 +511,7 @@ class Structure:
             twin._records, twin._element_names = list(self._records), set(self._element_names)
             twin._fixed = self._fixed - set(key)
             twin._followers = dict(self._followers)
+            twin.derive = self.derive
             cached = self._released[key] = (topo, twin)
         twin = cached[1]
         # sparse: the released DOFs may carry no mass (a support node without beam mass)

@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from femupdate.case.expressions import FieldValues
 from femupdate.case.model_sections import Model, storey_values
 from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError, DataError
@@ -34,9 +35,10 @@ def build_structure(model: Model) -> Structure:
     """The ``femupdate.model.Structure`` described by ``[model]``.
 
     Numbers that name a parameter stay names: ``structure.assemble(values,
-    direction=model.excitation_direction)`` substitutes them. Elements without a ``name`` are
-    named by their place in the case file (``"model.springs[2]"``), so the model's own error
-    messages point into the file.
+    direction=model.excitation_direction)`` substitutes them; fields that are expressions of
+    parameters (``"0.5 * beta"``) are computed from ``values`` (``structure.derive``).
+    Elements without a ``name`` are named by their place in the case file
+    (``"model.springs[2]"``), so the model's own error messages point into the file.
 
     Parameters
     ----------
@@ -89,6 +91,9 @@ def build_structure(model: Model) -> Structure:
             structure.add_diaphragm(floor.master, floor.nodes)
     if model.rayleigh is not None:
         structure.set_rayleigh(alpha=model.rayleigh.alpha, beta=model.rayleigh.beta)
+    derived = FieldValues(structure.parameters)
+    if derived:  # fields that are expressions: assembled from the case's parameter values
+        structure.derive = derived
     structure.influence_vector(model.excitation_direction)  # builds and checks the topology
     return structure
 
