@@ -296,3 +296,14 @@ def test_synth_with_an_angle_writes_one_record(tmp_path):
     np.testing.assert_allclose(experiment.ag[:, 1], experiment.ag[:, 0] * math.tan(
         math.radians(30.0)), atol=1e-12)
     assert TrialProblem(case, experiment).phi(VALUES) < 1e-12
+
+
+def test_the_report_says_the_components():
+    from femupdate.report.sections_runs import _excitation_text
+
+    assert _excitation_text(_case()) == ("uniform base motion with components along x and y, "
+                                         "a record each")
+    assert _excitation_text(_case(ANGLE.format(angle=30))).startswith(
+        "base motion at 30° from x")
+    assert _excitation_text(_case('[data.input]\nfile = "b.csv"\ncolumn = "a"')) == (
+        "base motion in x")
