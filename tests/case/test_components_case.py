@@ -207,12 +207,16 @@ def test_nonlinear_frame_explicit_and_implicit_agree():
     ref = explicit.simulate(values, ag, DT)
     got = implicit.simulate(values, ag, DT)
     assert not ref.diverged and not got.diverged
-    assert _nmse(got.displacement, ref.displacement) <= 1e-4
-    assert _nmse(got.acceleration, ref.acceleration) <= 1e-4
+    gaps = _nmse(got.displacement, ref.displacement), _nmse(got.acceleration, ref.acceleration)
+    print(f"implicit against explicit: NMSE {gaps[0]:.2g} (displacement), "
+          f"{gaps[1]:.2g} (acceleration)")
+    assert max(gaps) <= 1e-4
     # the links yield: x and y alone do not add up to x and y together
     only_x = explicit.simulate(values, ag * [1.0, 0.0], DT).displacement
     only_y = explicit.simulate(values, ag * [0.0, 1.0], DT).displacement
-    assert _nmse(only_x + only_y, ref.displacement) > 1e-3
+    apart = _nmse(only_x + only_y, ref.displacement)
+    print(f"x alone + y alone against x and y together: NMSE {apart:.2g}")
+    assert apart > 1e-3
 
 
 @pytest.mark.parametrize(("inputs", "field", "words"), [
