@@ -323,3 +323,33 @@ def test_reduced_path_takes_the_components():
                                              f'n_modes = {n}')).simulate(VALUES, ag, DT)
         assert _nmse(reduced.displacement, exact.displacement) <= limit
         assert _nmse(reduced.acceleration, exact.acceleration) <= limit
+
+
+def test_example_isolated_frame_under_the_recorded_components(tmp_path):
+    """examples/frames: the two free-field components of Meloland 1979 read by the network
+    reader drive the hysteretic frame; noise-free records are fitted exactly at the truth."""
+    import importlib.util
+    import json
+    import shutil
+    from pathlib import Path
+
+    from femupdate.problem.update import TrialProblem
+    from femupdate.trials.experiment import load_experiment
+    from femupdate.trials.virtual import virtual_experiment
+
+    folder = Path(__file__).resolve().parents[2] / "examples" / "frames"
+    spec = importlib.util.spec_from_file_location("make_records", folder / "make_records.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    if not (script.DATA / script.EVENT).exists():
+        pytest.skip(f"the Meloland records are not in {script.DATA}")
+    motion = script.free_field(script.DATA, start=3.0, seconds=3.0, scale=10.0)
+    assert motion.ag.shape == (300, 2) and motion.dt == 0.01
+    shutil.copy(folder / "isolated-frame.toml", tmp_path)
+    case = load_case(tmp_path / "isolated-frame.toml")
+    truth = json.loads((folder / "truth.json").read_text())
+    virtual_experiment(case, truth, tmp_path / "data-synth", motion=motion, snr=0.0,
+                       offset=0.0, drift=0.0)
+    problem = TrialProblem(case, load_experiment(case))
+    assert problem.phi(truth) < 1e-12
+    assert problem.phi({**truth, "alpha": 0.2}) > 1e-3
