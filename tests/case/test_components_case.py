@@ -353,3 +353,21 @@ def test_example_isolated_frame_under_the_recorded_components(tmp_path):
     problem = TrialProblem(case, load_experiment(case))
     assert problem.phi(truth) < 1e-12
     assert problem.phi({**truth, "alpha": 0.2}) > 1e-3
+
+
+def test_trials_give_their_own_components_in_the_same_directions():
+    trials = ('\n[[trials]]\nname = "first"\n[[trials]]\nname = "second"\n'
+              '[[trials.components]]\ndirection = "x"\nfile = "b2.csv"\ncolumn = "ax"\n'
+              '[[trials.components]]\ndirection = "y"\nfile = "b2.csv"\ncolumn = "ay"\n')
+    case = parse_case(tomllib.loads(_text() + trials))
+    second = case.trial_specs()[1].data
+    assert [c.file for c in second.components] == ["b2.csv", "b2.csv"]
+    assert second.input is None and second.base_directions == ("x", "y")
+    swapped = trials.replace('"x"', '"t"').replace('"y"', '"x"').replace('"t"', '"y"')
+    with pytest.raises(ConfigError, match=r"trials\[1\]\.components: the base motion's "
+                                          r"directions \['y', 'x'\] differ"):
+        parse_case(tomllib.loads(_text() + swapped))
+    one = ('\n[[trials]]\nname = "first"\n[[trials]]\nname = "second"\n'
+           '[trials.input]\nfile = "b2.csv"\ncolumn = "a"\n')
+    with pytest.raises(ConfigError, match=r"trials\[1\]\.components: .* differ"):
+        parse_case(tomllib.loads(_text() + one))
