@@ -371,3 +371,32 @@ def test_trials_give_their_own_components_in_the_same_directions():
            '[trials.input]\nfile = "b2.csv"\ncolumn = "a"\n')
     with pytest.raises(ConfigError, match=r"trials\[1\]\.components: .* differ"):
         parse_case(tomllib.loads(_text() + one))
+
+
+@pytest.mark.parametrize("kind", ["bouc_wen", "frictions"])
+@pytest.mark.parametrize("method", ["nonlinear", "implicit"])
+def test_one_component_is_the_one_record_case_on_nonlinear_models(kind, method):
+    """The components reach the nonlinear integrators as nodal forces: x alone equals the
+    one-record case along x (its ``-p a_g`` load) to rounding, for Bouc–Wen and friction."""
+    feet = LINKED
+    if kind == "frictions":  # elasto-slip links in place of the Bouc–Wen ones
+        feet = LINKED.replace("bouc_wen = [", "frictions = [").replace(
+            'k = "k", alpha = 0.1, beta = 375.0, gamma = 125.0', 'k_r = "k", f_u = 4e4')
+    sim = f'\n[simulation]\nmethod = "{method}"\n[preprocess]\nsubsteps = ' + (
+        "50" if method == "nonlinear" else "4")
+
+    def case(inputs: str):
+        return parse_case(tomllib.loads(FRAME.format(
+            beams=BEAMS, feet=feet, extra=ECCENTRIC, parameters=K_PARAMETER, inputs=inputs,
+            simulation=sim)))
+
+    values = {"E": 2.1e11, "k": 2e7}
+    ax = 4.0 * _record(200, seed=4)
+    two = CaseModel(case(COMPONENTS)).simulate(values, np.column_stack([ax, 0 * ax]), DT)
+    one = CaseModel(case('[data.input]\nfile = "base.csv"\ncolumn = "a"')).simulate(
+        values, ax, DT)
+    scale = np.abs(one.displacement).max()
+    assert scale > 1e-4
+    np.testing.assert_allclose(two.displacement, one.displacement, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(two.acceleration, one.acceleration, rtol=0,
+                               atol=1e-10 * np.abs(one.acceleration).max())
