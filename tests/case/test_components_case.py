@@ -400,3 +400,36 @@ def test_one_component_is_the_one_record_case_on_nonlinear_models(kind, method):
     np.testing.assert_allclose(two.displacement, one.displacement, rtol=0, atol=1e-10 * scale)
     np.testing.assert_allclose(two.acceleration, one.acceleration, rtol=0,
                                atol=1e-10 * np.abs(one.acceleration).max())
+
+
+def test_implicit_method_in_an_ordinary_case(tmp_path):
+    """``[simulation] method = "implicit"`` on a planar Bouc–Wen building: evaluated step by
+    step (the compiled evaluator has no implicit scheme), φ = 0 at the truth of its records
+    and the same φ elsewhere as central differences at a fine step."""
+    from femupdate.problem.update import TrialProblem
+    from femupdate.trials.experiment import load_experiment
+    from femupdate.trials.virtual import virtual_experiment
+    from two_storey_case import DATA, MODEL
+
+    law = "[model.shear_building.bouc_wen]\nk = 3000.0\nalpha = 0.1\nbeta = 150.0\ngamma = 50.0\n"
+    params = "".join(f'[[parameters]]\nname = "{n}"\nlower = 1000.0\nupper = 10000.0\n'
+                     for n in ("k1", "k2")) + "".join(
+        f'[[parameters]]\nname = "{n}"\nlower = 0.0\nupper = 5.0\n' for n in ("c1", "c2"))
+    truth = {"k1": 4000.0, "k2": 2500.0, "c1": 1.2, "c2": 0.6}
+    problems = {}
+    for method, substeps in (("implicit", 4), ("nonlinear", 40)):
+        folder = tmp_path / method
+        folder.mkdir()
+        (folder / "case.toml").write_text(
+            MODEL + law + params + DATA + f'\n[simulation]\nmethod = "{method}"\n'
+            f"[preprocess]\nsubsteps = {substeps}\n")
+        case = load_case(folder / "case.toml")
+        virtual_experiment(case, truth, folder / "data", seed=2, duration=2.0, rate=200.0,
+                           snr=0.0, offset=0.0, drift=0.0, length_scale=1.0)
+        problems[method] = TrialProblem(case, load_experiment(case))
+    implicit = problems["implicit"]
+    assert not implicit.compiled and implicit.model.method == "implicit"
+    assert implicit.phi(truth) < 1e-12
+    other = {**truth, "k1": 5000.0}
+    a, b = implicit.phi(other), problems["nonlinear"].phi(other)
+    assert b > 1e-3 and abs(a - b) < 0.02 * b
