@@ -433,3 +433,27 @@ def test_implicit_method_in_an_ordinary_case(tmp_path):
     other = {**truth, "k1": 5000.0}
     a, b = implicit.phi(other), problems["nonlinear"].phi(other)
     assert b > 1e-3 and abs(a - b) < 0.02 * b
+
+
+def test_cli_synth_then_run_a_case_with_components(tmp_path):
+    """``femupdate synth`` writes both components; ``femupdate run`` fits the case on them."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from femupdate.cli.commands import app
+
+    path = tmp_path / "case.toml"
+    path.write_text(_text().replace("[data]\n", '[data]\ndirectory = "records"\n')
+                    + "\n[search]\nruns = 1\nseed = 1\nmax_evals = 40\n")
+    runner = CliRunner()
+    made = runner.invoke(app, ["synth", str(path), "--truth", json.dumps(VALUES), "--out",
+                               str(tmp_path / "records"), "--snr", "0", "--duration", "2",
+                               "--rate", "100", "--length-scale", "1"])
+    assert made.exit_code == 0, made.output
+    assert (tmp_path / "records" / "base.csv").read_text().splitlines()[1] == "t,ax,ay"
+    run = runner.invoke(app, ["run", str(path), "--out", str(tmp_path / "res")])
+    assert run.exit_code == 0, run.output
+    best = json.loads((tmp_path / "res" / "summary.json").read_text())["best"]
+    assert best["params"]["E"] == pytest.approx(VALUES["E"], rel=1e-4)
+    assert best["phi"] < 1e-6  # noise-free records of the case's own model
