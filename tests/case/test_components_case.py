@@ -457,3 +457,11 @@ def test_cli_synth_then_run_a_case_with_components(tmp_path):
     best = json.loads((tmp_path / "res" / "summary.json").read_text())["best"]
     assert best["params"]["E"] == pytest.approx(VALUES["E"], rel=1e-4)
     assert best["phi"] < 1e-6  # noise-free records of the case's own model
+
+
+@pytest.mark.parametrize("inputs", [COMPONENTS, ANGLE.format(angle=30)])
+def test_a_saved_case_with_components_reads_back_as_itself(inputs):
+    case = _case(inputs)
+    again = parse_case(case.to_dict())
+    assert again.fingerprint() == case.fingerprint()
+    assert again.data.base_directions == ("x", "y") and again.data.angle == case.data.angle
