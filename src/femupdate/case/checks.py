@@ -294,11 +294,13 @@ def case_issues(case: Case) -> list[Issue]:
                        f"external ([model.{kind}]): it computes its own response, femupdate "
                        "integrates nothing", "no simulation.method with an external model"))
     elif case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear",
-                                                                      "reduced"):
+                                                                      "implicit", "reduced"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
                        "has friction or Bouc–Wen elements",
-                       "'nonlinear' (or leave it out), or 'reduced' for a large model"))
-    if case.model.support_groups and case.simulation.method in ("nonlinear", "reduced"):
+                       "'nonlinear' (or leave it out), 'implicit' for stiff elements, or "
+                       "'reduced' for a large model"))
+    if case.model.support_groups and case.simulation.method in ("nonlinear", "implicit",
+                                                                 "reduced"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} with "
                        "[[model.support_groups]]", "'exact' (or leave it out), "
                        "'central_difference' or 'newmark': multi-support excitation runs on "
@@ -332,6 +334,12 @@ def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
                     where = join_path(path, *[p for p in err["loc"] if p != "data"], rel)
                     issues.append((where, what, allowed))
     issues += output_issues(case.model, data, path) + input_issues(case.model, data, path)
+    if path != "data" and case.data is not None and (
+            data.base_directions != case.data.base_directions):
+        issues.append((f"{path}.components", f"the base motion's directions "
+                       f"{list(data.base_directions) or 'one record'} differ from [data]'s "
+                       f"{list(case.data.base_directions) or 'one record'}",
+                       "every trial with the components of [data], in the same order"))
     rate = case.preprocess.resample_hz or data.rate
     for name in ("highpass_hz", "lowpass_hz"):
         cutoff = getattr(case.preprocess, name)
@@ -398,7 +406,7 @@ def input_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
     """The input channels against the support groups: one table record without groups, one
     record per group with them; ``relative_to`` naming a group."""
     groups = [g.name for g in model.support_groups]
-    issues: list[Issue] = []
+    issues: list[Issue] = component_issues(model, data, where)
     if not groups:
         if data.inputs is not None:
             issues.append((f"{where}.inputs", "given without [[model.support_groups]]",
@@ -434,6 +442,40 @@ def input_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
                            f"support group{did_you_mean(out.relative_to, groups)}",
                            f"a group of [[model.support_groups]]: {listed}, or leave it out "
                            "(an absolute record)"))
+    return issues
+
+
+def component_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
+    """A base motion with several components (``[[data.components]]``, or an input with an
+    ``angle``): femupdate's own model, uniform excitation, a translation DOF of the model's
+    nodes along each direction."""
+    directions = data.base_directions
+    if not directions:
+        return []
+    key = (f"{where}.components" if data.components is not None else f"{where}.input.angle")
+    if model.external is not None:
+        return [(key, "given with an external model ([model.python] or [model.opensees]), "
+                 "which takes one base record", "one [data.input] without angle")]
+    if model.support_groups:
+        return [(key, "given with [[model.support_groups]]", "support groups (one record per "
+                 "group) or a uniform base motion with components, not both")]
+    issues: list[Issue] = []
+    if model.direction is not None:
+        issues.append(("model.direction", f"got {model.direction!r}, but {key} gives the "
+                       "directions of the base motion", "leave it out"))
+    allowed = [d for d in model.dof_names() if d in ("ux", "uy", "uz")]
+    for i, direction in enumerate(directions):
+        if f"u{direction}" not in allowed:
+            field = (f"{where}.components[{i}].direction" if data.components is not None
+                     else key)
+            issues.append((field, f"moves the base along {direction}, but the model's nodes "
+                           f"have no u{direction} DOF", "directions among "
+                           + ", ".join(repr(d[1:]) for d in allowed)))
+    for i, out in enumerate(data.outputs):
+        if out.delay == "auto" and data.components is not None:
+            issues.append((f"{where}.outputs[{i}].delay", "\"auto\" with [[data.components]]: "
+                           "the components differ, none is the base to estimate a delay "
+                           "against", "the delay as a number of seconds (0: none)"))
     return issues
 
 

@@ -20,12 +20,18 @@ A TOML file of its own (docs/frames-3d.md gives an example)::
     scale = 9.81                   # to m/s²
     dofs = ["A.uz", "B.uz"]        # the support DOFs that follow it
 
+In place of ``dofs``, ``direction = "x"`` moves every support along x with the record (a
+component of a uniform base motion: two records along ``"x"`` and ``"y"`` are an earthquake's
+two horizontal components), and ``angle = 30`` moves every support along that direction of
+the horizontal plane (degrees from x towards y): ``a cos θ`` along x, ``a sin θ`` along y.
+
 Every record must share length and ``dt`` (one-line ``DataError`` otherwise); a support DOF
 takes at most one record; support DOFs without a record stay still.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
 from pathlib import Path
@@ -136,7 +142,39 @@ class GroundMotion(Section):
     dt: number_field("s", gt=0.0, le=10.0)
     column: integer_field(ge=0, le=10_000) = 0
     scale: number_field(gt=0.0, le=1e6) = 1.0
-    dofs: Annotated[list[text_field(200, 3)], Field(min_length=1, max_length=100_000)]
+    dofs: Annotated[list[text_field(200, 3)], Field(min_length=1, max_length=100_000)] | None = (
+        None)
+    # uniform: every support along a direction, or along an angle in the horizontal plane
+    direction: Literal["x", "y", "z"] | None = None
+    angle: number_field("deg", ge=0.0, lt=360.0) | None = None
+
+    def targets(self, support_labels: tuple[str, ...], where: str
+                ) -> list[tuple[list[str], float]]:
+        """(support DOFs, factor on the record) of each group this record drives: its
+        ``dofs``; every support's DOF along ``direction``; or along x and y by cos θ, sin θ
+        for an ``angle``."""
+        given = [k for k in ("dofs", "direction", "angle") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ConfigError(f"{where}: {' and '.join(given) or 'none'} of dofs, direction, "
+                              "angle given (allowed: exactly one: the support DOFs that follow "
+                              "the record, or a direction or an angle that every support "
+                              "follows)")
+        if self.dofs is not None:
+            return [(list(self.dofs), 1.0)]
+        if self.direction is not None:
+            parts = [(self.direction, 1.0)]
+        else:
+            theta = math.radians(float(self.angle))
+            parts = [("x", math.cos(theta)), ("y", math.sin(theta))]
+        out = []
+        for direction, factor in parts:
+            dofs = [lab for lab in support_labels if lab.endswith(f".u{direction}")]
+            if not dofs:
+                key = "direction" if self.direction is not None else "angle"
+                raise ConfigError(f"{where}.{key}: no support DOF along {direction} (allowed: "
+                                  "a direction the supports are fixed along)")
+            out.append((dofs, factor))
+        return out
 
 
 class Frame3DCase(Section):
@@ -248,17 +286,22 @@ def load_frame3d_case(path: str | os.PathLike[str]
     seen: dict[str, int] = {}
     for i, gm in enumerate(case.ground_motion):
         where = f"{path}: ground_motion[{i}]"
-        for lab in gm.dofs:
-            if lab not in model.support_labels:
-                raise ConfigError(f"{where}.dofs: {lab!r} is not a support DOF (allowed: "
-                                  f"{', '.join(model.support_labels)})")
-            if lab in seen:
-                raise ConfigError(f"{where}.dofs: {lab!r} already follows ground_motion"
-                                  f"[{seen[lab]}]; a support DOF takes one record")
-            seen[lab] = i
-        records[f"ground_motion[{i}] ({gm.file})"] = (
-            gm.scale * _read_record(path.parent / gm.file, gm.column, where), gm.dt)
-        groups.append(list(gm.dofs))
+        key = "dofs" if gm.dofs is not None else "direction" if gm.direction else "angle"
+        targets = gm.targets(model.support_labels, where)
+        for dofs, _ in targets:
+            for lab in dofs:
+                if lab not in model.support_labels:
+                    raise ConfigError(f"{where}.dofs: {lab!r} is not a support DOF (allowed: "
+                                      f"{', '.join(model.support_labels)})")
+                if lab in seen:
+                    raise ConfigError(f"{where}.{key}: {lab!r} already follows ground_motion"
+                                      f"[{seen[lab]}]; a support DOF takes one record")
+                seen[lab] = i
+        record = gm.scale * _read_record(path.parent / gm.file, gm.column, where)
+        for j, (dofs, factor) in enumerate(targets):
+            part = f" {'xy'[j]}" if gm.angle is not None else ""
+            records[f"ground_motion[{i}]{part} ({gm.file})"] = (factor * record, gm.dt)
+            groups.append(list(dofs))
     try:
         acc, dt = check_records(records)
     except DataError as exc:

@@ -153,6 +153,9 @@ class CaseModel:
         self._label = case.label
         self.reduced: ReducedPath | None = None
         self.groups: tuple[str, ...] = ()  # an external model takes one table record
+        #: The directions of a base motion with several components (``[[data.components]]``
+        #: or an input's ``angle``), the columns of its input; empty: one record.
+        self.components: tuple[str, ...] = ()
         self.reference = np.zeros((len(channels), 0))
         self.external = external_model(case, channels)
         if self.external is not None:
@@ -161,7 +164,9 @@ class CaseModel:
             self.outputs = np.arange(len(channels), dtype=np.int64)
             return
         self.structure = build_structure(case.model)
-        self.direction = case.model.excitation_direction
+        self.components = case.data.base_directions if case.data is not None else ()
+        self.direction = (self.components[0] if self.components
+                          else case.model.excitation_direction)
         model = case.model
         self.groups = tuple(g.name for g in model.support_groups)
         #: The support DOFs (node, dof) the groups move, and each group's labels of them.
@@ -181,10 +186,15 @@ class CaseModel:
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
+        #: (n_outputs, k): each component's rigid translation at the outputs.
+        self.component_influence = np.column_stack(
+            [self.structure.influence_vector(d)[self.outputs] for d in self.components]
+        ) if self.components else np.zeros((self.outputs.size, 0))
         if self.groups:
             self.influence = np.zeros_like(self.influence)
         else:  # multi-support cases move their supports, group by group
-            check_base_motion_moves_mass(self.structure, case, self.direction)
+            for direction in self.components or (self.direction,):
+                check_base_motion_moves_mass(self.structure, case, direction)
         if case.model.dofs_per_node == 6:
             from femupdate.case.model3d import check_not_mechanism
 
@@ -224,7 +234,35 @@ class CaseModel:
         """
         if self.groups:
             return self.support_response(values, ag, dt)
+        if self.components:
+            return self.components_response(values, ag, dt)
         return self.simulator(values, dt).run(ag)
+
+    def components_response(self, values: Mapping[str, float], ag: np.ndarray,
+                            dt: float) -> Response:
+        """Response at the output DOFs to a uniform base motion with several components,
+        ``ag`` (n_samples, k) a column per direction of ``components``
+        (:mod:`femupdate.simulate.components`): relative displacement and velocity, absolute
+        acceleration, on the case's integrator."""
+        from femupdate.simulate.components import components_response
+
+        structure = self._builtin("a base motion with several components")
+        sparse = self.reduced is not None
+        loads = np.column_stack([np.asarray(structure.assemble(
+            values, direction=d, sparse=sparse).seismic_load, dtype=float)
+            for d in self.components])
+        return components_response(self.simulator(values, dt), ag, loads,
+                                   self.component_influence)
+
+    def base_share(self, ag: np.ndarray) -> np.ndarray:
+        """The base motion's share of each output's absolute acceleration as recorded,
+        (n_samples, n_outputs): ``r a_g`` at the outputs for one record, ``Σ_c r_c a_c`` for
+        several components, a support group's motion for ``relative_to`` channels."""
+        if self.groups:
+            return np.asarray(self.recorded_share(ag))
+        if self.components:
+            return np.asarray(ag, dtype=float) @ self.component_influence.T
+        return np.outer(ag, self.influence)
 
     def recorded_share(self, ag: np.ndarray, dt: float | None = None) -> np.ndarray | float:
         """What the support groups' accelerations ``ag`` (n_samples, n_groups) add to each

@@ -108,7 +108,8 @@ class TrialProblem:
         self.derived_fields = tuple(derive.expressions) if derive is not None else ()
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None and not self.model.groups)
+                         and self.model.reduced is None and not self.model.groups
+                         and not self.model.components and self.model.method != "implicit")
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -310,8 +311,7 @@ class TrialProblem:
     def base_share(self, ag: np.ndarray) -> np.ndarray:
         """The base motion's share of each channel's acceleration as recorded: the table's
         (influence vector), or a support group's (:meth:`CaseModel.recorded_share`)."""
-        model = self.model
-        return model.recorded_share(ag) if model.groups else np.outer(ag, model.influence)
+        return self.model.base_share(ag)
 
     def prediction_driven_by(self, values: Mapping[str, float], ag: np.ndarray
                              ) -> np.ndarray:

@@ -80,6 +80,17 @@ def _data_items(ctx: Context) -> list[tuple[str, str]]:
     return items
 
 
+def _excitation_text(case: Case) -> str:
+    """The base motion's directions: the model's one, an input's angle, or the components."""
+    data = case.data
+    if data is not None and data.angle is not None:
+        return f"base motion at {format_value(data.angle)}° from x (its x and y components)"
+    if data is not None and data.components is not None:
+        return ("uniform base motion with components along "
+                + " and ".join(c.direction for c in data.components) + ", a record each")
+    return f"base motion in {case.model.excitation_direction}"
+
+
 def section_case(ctx: Context) -> str:
     """The model, the parameters (with the truth), the data, the processing and the search."""
     res = ctx.res
@@ -87,7 +98,7 @@ def section_case(ctx: Context) -> str:
     model = case.model
     out = [f"<p>{esc(case.case.description)}</p>" if case.case.description else ""]
     items = [("model", esc(_model_text(ctx))),
-             ("excitation", esc(f"base motion in {model.excitation_direction}")),
+             ("excitation", esc(_excitation_text(case))),
              ("simulation", esc(case.simulation_method))]
     if model.rayleigh is not None:
         items.append(("Rayleigh damping C += α M + β K",

@@ -124,9 +124,9 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
     """The checks of the channels on one time base (``"input"`` and the outputs, m/s²), and the
     record with its spikes interpolated when ``repair_defects`` holds ``"spike"``.
 
-    Several ``inputs`` (support groups) have no one table to compare the outputs with: the
-    alignment and unit-gain checks against the input are left out, each input's peak is
-    checked alone."""
+    Several ``inputs`` (support groups, components of a base motion) have no one table to
+    compare the outputs with: the alignment and unit-gain checks against the input are left
+    out, each input's peak is checked alone."""
     n, rate = merged.n_samples, merged.rate
     found = defects.check_length_and_rate(n, rate, f1, files[inputs[0]], time_unit=time_unit)
     clean = dict(merged.channels)
