@@ -37,7 +37,7 @@ import pytest
 
 from femupdate.case import parse_case
 from femupdate.errors import ModelError
-from femupdate.evaluation.assembly import LINKS_IN_ASSEMBLY, assemble
+from femupdate.evaluation.assembly import assemble
 from femupdate.paper.problems import bridge
 from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiment
@@ -402,15 +402,16 @@ def test_shear_building_with_mass_and_rayleigh_parameters(shear_spec: dict[str, 
 
 
 def test_shear_building_with_friction_under_rayleigh_beta(shear_spec: dict[str, Any]) -> None:
-    # Rayleigh's β (a parameter) on the friction elements' stuck stiffness too (the default):
-    # the compiled assembly adds β k_r to C as Structure.assemble does
+    # Rayleigh's β (a parameter) never multiplies the friction sliders' stuck stiffness k_r
+    # (a penalty of the stick-slip model): C = α M + β K of the storey springs, the same
+    # bit for bit in the compiled assembly and Structure.assemble
     def edit(spec: dict[str, Any]) -> None:
         spec["model"]["shear_building"]["frictions"] = {"k_r": [800.0, 0.0, 500.0],
                                                         "f_u": 0.5}
         spec["preprocess"]["substeps"] = 4
 
     problem = _problem(shear_spec, edit)
-    assert problem.evaluator.plan.rayleigh_links == LINKS_IN_ASSEMBLY
+    assert not problem.evaluator.plan.rayleigh_links
     X = _points(problem)
     assert _max_relative_difference(problem, X) <= RTOL
     ev = problem.evaluator
@@ -419,6 +420,8 @@ def test_shear_building_with_friction_under_rayleigh_beta(shear_spec: dict[str, 
     values = dict(zip(problem.case.parameter_names, m.p, strict=True))
     system = problem.trials[0].structure.assemble(values)
     np.testing.assert_array_equal(m.C, system.C)  # the same sums, bit for bit
+    np.testing.assert_allclose(system.C, values["alpha"] * system.M + values["beta"] * system.K,
+                               rtol=1e-14, atol=0)
 
 
 FRAME = {

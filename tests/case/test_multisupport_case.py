@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.case import CaseModel, load_case, parse_case
+from femupdate.case import load_case, parse_case
 from femupdate.errors import ConfigError, ModelError
 from femupdate.model.structure import Structure
 from femupdate.paper.bench.frame3d_check import support_records
 from femupdate.paper.bench.multisupport_check import TRUTH, run_check, two_span_case
+from femupdate.problem.case_model import CaseModel
 from femupdate.simulate.multisupport import integrate_record
 
 DT = 0.01

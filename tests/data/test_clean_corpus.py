@@ -56,15 +56,15 @@ def shear_spec(directory: Path, masses: list[float], stiffness: float, floors: l
     table.csv and floors.csv at ``floors``."""
     n = len(masses)
     model: dict[str, Any] = {"masses": masses, "stiffnesses": ["k"] * n}
+    rayleigh: dict[str, Any] = {"alpha": damping[0], "beta": damping[1]}
     if bouc_wen:
         model["bouc_wen"] = bouc_wen
+        # β K of the storey springs only (bouc_wen = false): the Bouc–Wen records keep the
+        # yield drifts test_the_hysteretic_record_yields_far states
+        rayleigh["bouc_wen"] = False
     return {
         "case": {"name": f"shear-{n}"},
-        # β K of the storey springs only (hysteretic = false): the Bouc–Wen records keep the
-        # yield drifts test_the_hysteretic_record_yields_far states
-        "model": {"shear_building": model, "rayleigh": {"alpha": damping[0],
-                                                        "beta": damping[1],
-                                                        "hysteretic": False}},
+        "model": {"shear_building": model, "rayleigh": rayleigh},
         "parameters": [{"name": "k", "lower": 0.5 * stiffness, "upper": 2.0 * stiffness,
                         "scale": "log", "nominal": stiffness}],
         "data": {"format": "csv", "directory": str(directory), "time_column": "t",
@@ -233,7 +233,7 @@ def frame_with_links(directory: Path) -> dict[str, Any]:
     spec.pop("simulation", None)
     spec["data"]["directory"] = str(directory)
     shape = 0.5 * FRAME_LINK_YIELD ** -8.0
-    spec["model"]["rayleigh"]["hysteretic"] = False  # β K of the frame only, as above
+    spec["model"]["rayleigh"]["bouc_wen"] = False  # β K of the frame only, as above
     spec["model"]["bouc_wen"] = [{"node": n, "dof": "ux", "k": 2e7, "alpha": 0.05,
                                   "beta": shape, "gamma": shape, "n": 8.0}
                                  for n in ("A1", "B1", "C1", "D1")]
@@ -408,7 +408,7 @@ def test_the_corpus_holds_every_kind_of_test() -> None:
 def test_the_hysteretic_record_yields_far() -> None:
     """The Bouc–Wen building and the 3-D frame with Bouc–Wen links of the corpus are driven
     well into their hysteresis: 7 to 9 times their yield deformation."""
-    from femupdate.case import CaseModel
+    from femupdate.problem.case_model import CaseModel
 
     spec = shear_spec(Path("."), [1.0] * 3, 200.0, [1, 2, 3], bouc_wen=BOUC_WEN)
     case = parse_case(spec, source=Path("case.toml"))

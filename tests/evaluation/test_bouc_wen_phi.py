@@ -115,13 +115,13 @@ def test_non_proportional_damping_runs_the_physical_kernel(tmp_path: Path) -> No
     np.testing.assert_allclose(evaluator.batch(X), reference, rtol=1e-10, atol=0)
 
 
-@pytest.mark.parametrize("hysteretic", [True, False])
-def test_rayleigh_beta_on_the_links_compiled(tmp_path: Path, hysteretic: bool) -> None:
-    """β K₀ with the friction and Bouc–Wen elements' initial stiffness (the default) in the
-    compiled assembly as in Structure.assemble: φ to rounding on every point, compiled (the
-    damping couples the modes: the physical kernel); and without the links
-    (hysteretic = false) another φ."""
-    links = "" if hysteretic else "\nhysteretic = false"
+@pytest.mark.parametrize("bouc_wen", [True, False])
+def test_rayleigh_beta_on_the_links_compiled(tmp_path: Path, bouc_wen: bool) -> None:
+    """β K₀ with the Bouc–Wen elements' initial stiffness (the default) in the compiled
+    assembly as in Structure.assemble: φ to rounding on every point, compiled (the damping
+    couples the modes: the physical kernel); and without the links (bouc_wen = false)
+    another φ."""
+    links = "" if bouc_wen else "\nbouc_wen = false"
     problem = _problem(tmp_path, "acceleration",
                        "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3" + links)
     trial = problem.trials[0]
@@ -135,4 +135,4 @@ def test_rayleigh_beta_on_the_links_compiled(tmp_path: Path, hysteretic: bool) -
     np.testing.assert_allclose(phi, reference, rtol=1e-10, atol=0)
     system = trial.structure.assemble(TRUTH)
     links = system.C - 0.6 * system.M - 1e-3 * system.K
-    assert (np.abs(links).max() > 1.0) == hysteretic  # β k₀ of the links, or nothing
+    assert (np.abs(links).max() > 1.0) == bouc_wen  # β k₀ of the links, or nothing

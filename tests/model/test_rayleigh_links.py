@@ -1,7 +1,7 @@
-"""Rayleigh damping on the friction and Bouc–Wen elements' initial stiffness (``β K₀``, as
-OpenSees's ``rayleigh`` with ``betaKinit``): the closed-form decay of a mass on one Bouc–Wen
-link, the same damping matrix in the explicit and implicit integrators, and the switch that
-leaves the links out."""
+"""Rayleigh damping on the Bouc–Wen elements' initial stiffness (``β K₀``, as OpenSees's
+``rayleigh`` with ``betaKinit``): the closed-form decay of a mass on one Bouc–Wen link, the same
+damping matrix in the explicit and implicit integrators, the switch that leaves the links out,
+and friction sliders, which never enter ``β K₀``."""
 
 from __future__ import annotations
 
@@ -21,9 +21,9 @@ OMEGA = np.sqrt(K0 / MASS)
 BETA = 1e-3  # Rayleigh β (s): ζ = β ω / 2 = 4.6 %
 
 
-def _sdof(hysteretic: bool = True) -> Structure:
+def _sdof(bouc_wen: bool = True) -> Structure:
     s = shear_building([MASS], [0.0], bouc_wen=[LINK])
-    s.set_rayleigh(beta=BETA, hysteretic=hysteretic)
+    s.set_rayleigh(beta=BETA, bouc_wen=bouc_wen)
     return s
 
 
@@ -37,10 +37,33 @@ def _decay_ratio(x: np.ndarray, dt: float) -> float:
 def test_damping_matrix_is_beta_times_the_initial_stiffness() -> None:
     system = _sdof().assemble()
     np.testing.assert_allclose(system.C, [[BETA * K0]], rtol=1e-15)
-    assert _sdof(hysteretic=False).assemble().C[0, 0] == 0.0
+    assert _sdof(bouc_wen=False).assemble().C[0, 0] == 0.0
     # sparse assembly (the reduced path) adds the same
     np.testing.assert_allclose(_sdof().assemble(sparse=True).C.toarray(), [[BETA * K0]],
                                rtol=1e-15)
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_friction_sliders_are_never_in_beta_k(sparse: bool) -> None:
+    """A slider's stuck stiffness k_r is a penalty of the stick-slip model: β multiplies the
+    storey spring and the Bouc–Wen link's k₀, not k_r (dense and sparse alike)."""
+    k_spring, k_r = 3000.0, 2e6
+    s = Structure(dofs_per_node=1)
+    for i in (1, 2):
+        s.add_node(f"F{i}", x=0.0, y=float(i))
+        s.add_mass(f"F{i}", m=MASS)
+    s.add_spring("F1", "ux", k_spring)
+    s.add_friction("F1", "ux", k_r, 1.0)  # slider F1 to the ground
+    s.add_bouc_wen("F2", "ux", node2="F1", **LINK)
+    s.set_rayleigh(beta=BETA)
+    c = s.assemble(sparse=sparse).C
+    c = c.toarray() if sparse else c
+    expected = BETA * np.array([[k_spring + K0, -K0], [-K0, K0]])
+    np.testing.assert_allclose(c, expected, rtol=1e-14)
+    s.set_rayleigh(beta=BETA, bouc_wen=False)
+    c = s.assemble(sparse=sparse).C
+    c = c.toarray() if sparse else c
+    np.testing.assert_allclose(c, BETA * np.array([[k_spring, 0.0], [0.0, 0.0]]), rtol=1e-14)
 
 
 @pytest.mark.parametrize("method", ["nonlinear", "implicit"])
@@ -54,7 +77,7 @@ def test_small_free_decay_has_zeta_beta_omega_over_two(method: str) -> None:
     x = simulate(_sdof().assemble(), dt, ag=ag, method=method, substeps=20,
                  v0=np.array([1e-5 * OMEGA])).displacement[:, 0]
     assert _decay_ratio(x, dt) == pytest.approx(BETA * OMEGA / 2.0, rel=2e-4)
-    still = simulate(_sdof(hysteretic=False).assemble(), dt, ag=ag, method=method,
+    still = simulate(_sdof(bouc_wen=False).assemble(), dt, ag=ag, method=method,
                      substeps=20, v0=np.array([1e-5 * OMEGA])).displacement[:, 0]
     assert abs(_decay_ratio(still, dt)) < 1e-4
 

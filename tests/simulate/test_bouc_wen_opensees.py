@@ -120,7 +120,7 @@ def test_rayleigh_beta_on_the_links_is_opensees_betakinit() -> None:
     """Rayleigh's β on the links' initial stiffness (the default) is OpenSees's ``rayleigh``
     with ``betaKinit`` on zeroLength elements with ``-doRayleigh 1``: the implicit paths agree
     as closely as without β (measured NMSE 8.3e-6, 2.1e-6, 5.4e-7 at 5, 10, 20 substeps),
-    and leaving the links out of β K (hysteretic=False) differs by an NMSE of 0.34."""
+    and leaving the links out of β K (bouc_wen=False) differs by an NMSE of 0.34."""
     from femupdate.paper.bench.opensees import import_opensees
 
     try:
@@ -130,9 +130,9 @@ def test_rayleigh_beta_on_the_links_is_opensees_betakinit() -> None:
     beta = 2e-3  # s: ζ = β ω / 2 of 5.5 % and 15 % on the two initial modes
     ag = _record()
 
-    def ours(count: int, hysteretic: bool = True) -> np.ndarray:
+    def ours(count: int, bouc_wen: bool = True) -> np.ndarray:
         s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=LAWS)
-        s.set_rayleigh(alpha=RAYLEIGH_ALPHA, beta=beta, hysteretic=hysteretic)
+        s.set_rayleigh(alpha=RAYLEIGH_ALPHA, beta=beta, bouc_wen=bouc_wen)
         return simulate(s.assemble(), DT, ag=ag, method="implicit",
                         substeps=count).displacement
 
@@ -145,4 +145,4 @@ def test_rayleigh_beta_on_the_links_is_opensees_betakinit() -> None:
         gaps.append(nmse(ours(count), theirs))
     assert gaps[-1] < gaps[0], gaps
     assert gaps[-1] < 1e-4, gaps
-    assert nmse(ours(20, hysteretic=False), theirs) > 100 * gaps[-1]
+    assert nmse(ours(20, bouc_wen=False), theirs) > 100 * gaps[-1]

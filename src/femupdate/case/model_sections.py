@@ -251,12 +251,13 @@ class SupportGroup(Section):
 
 
 class Rayleigh(Section):
-    """``[model.rayleigh]``: damping ``C += alpha M + beta K₀``, ``K₀`` with the friction and
-    Bouc–Wen elements' initial stiffness unless ``hysteretic = false``."""
+    """``[model.rayleigh]``: damping ``C += alpha M + beta K₀``, ``K₀`` with the Bouc–Wen
+    elements' initial stiffness unless ``bouc_wen = false``; friction sliders are never in it
+    (their stuck stiffness is the stick-slip model's penalty, not a structural stiffness)."""
 
     alpha: RayleighAlpha = 0.0
     beta: RayleighBeta = 0.0
-    hysteretic: bool = True
+    bouc_wen: bool = True
 
 
 def _per_storey(value: typing.Any) -> typing.Any:
@@ -437,6 +438,12 @@ class Model(Section):
     def has_friction(self) -> bool:
         return bool(self.frictions) or (self.shear_building is not None
                                         and self.shear_building.frictions is not None)
+
+    @property
+    def has_bouc_wen(self) -> bool:
+        """Bouc–Wen elements, given one by one or per storey."""
+        return bool(self.bouc_wen) or (self.shear_building is not None
+                                       and self.shear_building.bouc_wen is not None)
 
     @property
     def has_nonlinear(self) -> bool:

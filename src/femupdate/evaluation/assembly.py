@@ -40,9 +40,6 @@ __all__ = [
 BEAM_PROPS = ("E", "A", "I", "rho", "G", "nu", "kappa", "mass_per_length")
 _E, _A, _I, _RHO, _G, _NU, _KAPPA, _MPL = range(8)
 
-#: Where Rayleigh's β on the links' initial stiffness is added (``AssemblyPlan.rayleigh_links``).
-LINKS_NONE, LINKS_IN_ASSEMBLY, LINKS_IN_HYSTERESIS = 0, 1, 2
-
 #: Status codes of :func:`assemble`.
 ASSEMBLY_OK = 0
 OUT_OF_RANGE = 1
@@ -93,11 +90,8 @@ class AssemblyPlan(NamedTuple):
     rayleigh_pidx: np.ndarray
     friction_const: np.ndarray  # (2, n_friction): k_r, f_u
     friction_pidx: np.ndarray
-    friction_i: np.ndarray  # the friction elements' end DOFs (-1: ground)
-    friction_j: np.ndarray
-    # Rayleigh's β on the links' initial stiffness: LINKS_NONE, LINKS_IN_ASSEMBLY (friction
-    # only: assemble adds it) or LINKS_IN_HYSTERESIS (the Bouc–Wen batch adds it, friction too)
-    rayleigh_links: int
+    # Rayleigh's β on the Bouc–Wen elements' initial stiffness (the Bouc–Wen batch adds it)
+    rayleigh_links: bool
     nonneg_spec: np.ndarray  # (3,) the range of springs, dampers, masses, Rayleigh, friction
     r: np.ndarray  # influence vector
     fixed_mass: bool  # no parameter changes M: M and M⁻¹ below are used as they are
@@ -108,7 +102,7 @@ class AssemblyPlan(NamedTuple):
 
 def _prop_arrays(props: Sequence, params: Sequence[str], names: Sequence[str]
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(const, pidx in the search vector, spec rows) of the Structure's ``_Prop`` objects."""
+    """(const, pidx in the search vector, spec rows) of the Structure's ``Prop`` objects."""
     count = len(props[0].const) if props else 0
     const = np.zeros((len(props), count))
     pidx = np.full((len(props), count), -1, dtype=np.int64)
@@ -196,9 +190,7 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
         mass_J_owner=topo.mass_J_owner.astype(np.int64),
         rayleigh_const=rayleigh_const, rayleigh_pidx=rayleigh_pidx,
         friction_const=friction_const, friction_pidx=friction_pidx,
-        friction_i=topo.friction_i.astype(np.int64), friction_j=topo.friction_j.astype(np.int64),
-        rayleigh_links=(LINKS_NONE if not rayleigh_on_links(structure) else
-                        LINKS_IN_HYSTERESIS if topo.bouc_wen_i.size else LINKS_IN_ASSEMBLY),
+        rayleigh_links=rayleigh_on_links(structure),
         nonneg_spec=np.array([spec.low, spec.high, float(spec.low_open)]),
         r=system.r.astype(float), fixed_mass=fixed_mass, M=np.ascontiguousarray(system.M),
         minv=np.ascontiguousarray(minv), beam_mass_flat=beam_mass_flat,
@@ -207,13 +199,12 @@ def plan_assembly(structure: Structure, names: Sequence[str], log_scale: Sequenc
 
 def rayleigh_on_links(structure: Structure) -> bool:
     """Whether Rayleigh's ``β`` (a parameter, or a number other than 0) multiplies the
-    initial stiffness of friction or Bouc–Wen elements (``Structure.set_rayleigh(...,
-    hysteretic=True)``): then the step-by-step assembly (``Structure.assemble``) and the
-    compiled one (:func:`add_link_damping`) add ``β`` times that stiffness to ``C``."""
+    initial stiffness of Bouc–Wen elements (``Structure.set_rayleigh(..., bouc_wen=True)``,
+    the default): then the step-by-step assembly (``Structure.assemble``) and the compiled
+    Bouc–Wen batch (:func:`add_link_damping`) add ``β`` times that stiffness to ``C``.
+    Friction sliders never enter it."""
     topo = structure._topo()
-    if topo.rayleigh is None or not topo.rayleigh_hysteretic:
-        return False
-    if not (topo.friction_i.size or topo.bouc_wen_i.size):
+    if topo.rayleigh is None or not topo.rayleigh_bouc_wen or not topo.bouc_wen_i.size:
         return False
     beta = topo.rayleigh[1]
     return not beta.is_const or bool(beta.const[0] != 0.0)
@@ -238,7 +229,7 @@ def _in_range(v: float, spec: np.ndarray) -> bool:
 @njit(cache=True)
 def _values(const: np.ndarray, pidx: np.ndarray, spec: np.ndarray, p: np.ndarray,
             out: np.ndarray) -> bool:
-    """Property values per element (``_Prop.evaluate``); False if a parameter is out of range."""
+    """Property values per element (``Prop.evaluate``); False if a parameter is out of range."""
     for e in range(const.shape[0]):
         if pidx[e] < 0:
             out[e] = const[e]
@@ -458,7 +449,6 @@ def assemble(plan: AssemblyPlan, x: np.ndarray, p: np.ndarray, M: np.ndarray, mi
     _scatter_add(plan.spring_target, plan.spring_keep, _link_flat(ks), Kf)
     Cf[:] = 0.0
     _scatter_add(plan.damper_target, plan.damper_keep, _link_flat(cs), Cf)
-    beta = 0.0
     if plan.rayleigh_const.shape[1]:
         ab = np.empty(1)
         if not _values(plan.rayleigh_const[0], plan.rayleigh_pidx[0], spec, p, ab):
@@ -480,8 +470,6 @@ def assemble(plan: AssemblyPlan, x: np.ndarray, p: np.ndarray, M: np.ndarray, mi
     if not (_values(plan.friction_const[0], plan.friction_pidx[0], spec, p, kr)
             and _values(plan.friction_const[1], plan.friction_pidx[1], spec, p, fu)):
         return OUT_OF_RANGE
-    if plan.rayleigh_links == LINKS_IN_ASSEMBLY and beta != 0.0:
-        add_link_damping(C, beta, plan.friction_i, plan.friction_j, kr)
     return ASSEMBLY_OK
 
 

@@ -26,7 +26,6 @@ from numba import njit
 from femupdate.evaluation import central
 from femupdate.evaluation.assembly import (
     ASSEMBLY_OK,
-    LINKS_IN_HYSTERESIS,
     AssemblyPlan,
     add_link_damping,
     assemble,
@@ -146,17 +145,15 @@ def _table(bw: BoucWenPlan, p: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def _link_damping(plan: AssemblyPlan, p: np.ndarray, C: np.ndarray, kr: np.ndarray,
-                  bw: BoucWenPlan) -> None:
-    """``C += β K_links``: Rayleigh's β on the friction (``k_r``) and Bouc–Wen
-    (``k (α + (1 − α) A)``) elements' initial stiffness, as ``Structure.assemble`` adds it."""
+def _link_damping(plan: AssemblyPlan, p: np.ndarray, C: np.ndarray, bw: BoucWenPlan) -> None:
+    """``C += β K_links``: Rayleigh's β on the Bouc–Wen elements' initial stiffness
+    ``k (α + (1 − α) A)``, as ``Structure.assemble`` adds it (friction sliders never)."""
     beta = rayleigh_beta(plan, p)
     if beta == 0.0:
         return
     t = bw.table
     k0 = t[:, 0] * (t[:, 1] + (1.0 - t[:, 1]) * t[:, 2])
-    add_link_damping(C, beta, np.concatenate((plan.friction_i, bw.dof_i)),
-                     np.concatenate((plan.friction_j, bw.dof_j)), np.concatenate((kr, k0)))
+    add_link_damping(C, beta, bw.dof_i, bw.dof_j, k0)
 
 
 @njit(cache=True)
@@ -395,8 +392,8 @@ def bouc_wen_batch(X: np.ndarray, plan: AssemblyPlan, p: np.ndarray, M: np.ndarr
             continue
         if not _table(bw, p):
             continue
-        if plan.rayleigh_links == LINKS_IN_HYSTERESIS:
-            _link_damping(plan, p, C, kr, bw)
+        if plan.rayleigh_links:
+            _link_damping(plan, p, C, bw)
         code, active = central.prepare_central(M, K, C, load, minv, kr, fu, fi, fj, outputs,
                                                h, ag[0], work)
         if code == central.UNSTABLE:

@@ -6,10 +6,11 @@ criterion, completes its share at once), so it advances with every chunk, and th
 estimated from the pace of this session. Beside it: runs finished out of the total, the best φ so
 far over all runs, the evaluations done, the time elapsed and left (fitting 80 columns). Without a
 budget it counts finished runs and shows the evaluations per second. The log (``log_json``) gets
-one JSON object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run finished),
-``end``; each with ``time`` (Unix seconds) and ``elapsed`` (seconds since start), and where it
-applies ``run``, ``nfev``, ``best_phi`` (null when not finite) and ``status``. The file is
-appended to, so a resumed set continues the same log.
+one JSON object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run
+finished), ``not_needed`` (the first runs agreed: ``runs_needed`` of ``runs``), ``end``; each
+with ``time`` (Unix seconds) and ``elapsed`` (seconds since start), and where it applies
+``run``, ``nfev``, ``best_phi`` (null when not finite) and ``status``. The file is appended to,
+so a resumed set continues the same log.
 """
 
 from __future__ import annotations
@@ -80,6 +81,7 @@ class RunProgress:
         self._bar: Progress | None = None
         self._task: TaskID | None = None
         self._stages: dict[int, tuple[float, float]] = {}  # run → (last stage, acceptance)
+        self.needed: int | None = None  # runs needed, once the first ones agreed
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -196,6 +198,20 @@ class RunProgress:
                     status=status)
         self._refresh()
 
+    def not_needed(self, needed: int, agreeing: int) -> None:
+        """Only runs 0 … ``needed`` − 1 are needed: ``agreeing`` of them ended at the same best
+        φ (``[search] agree``). The bar completes, a line says so, and the log gets a
+        ``not_needed`` event."""
+        self.needed = needed
+        self._write("not_needed", runs_needed=needed, runs=self.total_runs,
+                    agreeing=agreeing)
+        if self._bar is not None:
+            who = "they" if agreeing == needed else f"{agreeing} of them"
+            self._bar.console.print(Text(
+                f"{needed} of {self.total_runs} runs were needed: {who} ended at the same "
+                f"best φ; the others are not run"))
+        self._refresh()
+
     # -- internals ---------------------------------------------------------------------------
 
     def rate(self) -> float:
@@ -205,6 +221,9 @@ class RunProgress:
 
     def _extent(self) -> tuple[int, int]:
         """(total, completed) of the bar: evaluations of the budget, or runs."""
+        if self.needed is not None:  # the rest is not needed: the bar is full
+            done = self.budget_done if self.max_evals is not None else self.needed
+            return max(done, 1), max(done, 1)
         if self.max_evals is None:
             return self.total_runs, self.runs_done
         return self.total_runs * self.max_evals, self.budget_done
@@ -212,7 +231,8 @@ class RunProgress:
     def _fields(self) -> dict[str, str]:
         best = "–" if not math.isfinite(self.best_phi) else f"{self.best_phi:.3e}"
         return {"best": best, "evals": f"{self.evals:,}", "rate": f"{self.rate():,.0f}",
-                "runs": f"{self.runs_done}/{self.total_runs}"}
+                "runs": (f"{self.runs_done}/{self.total_runs}" if self.needed is None else
+                         f"{self.needed} of {self.total_runs}")}
 
     def _refresh(self) -> None:
         if self._bar is not None and self._task is not None:

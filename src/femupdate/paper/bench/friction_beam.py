@@ -30,8 +30,7 @@ def friction_beam_case(directory: Path, method: str, substeps: int = 200) -> Any
 name = "friction-beam"
 [model]
 dofs_per_node = 2
-# beta on the beams and springs only: damping the modes diagonalise (the modal kernels)
-rayleigh = {{ alpha = 0.2, beta = 1e-5, hysteretic = false }}
+rayleigh = {{ alpha = 0.2, beta = 1e-5 }}
 nodes = [{nodes}]
 springs = [{{ node = "N0", dof = "uy", k = 1e8 }}, {{ node = "N{ELEMENTS}", dof = "uy", k = 1e8 }},
            {{ node = "N{ELEMENTS // 3}", dof = "uy", k = "k_pier" }}]
