@@ -9,7 +9,8 @@ laid out by job:
 - ``checks`` and ``issues``: what one field cannot check alone, and its wording;
 - ``load``: ``load_case`` (TOML) and ``parse_case`` (a mapping), with messages that name file,
   field and allowed values;
-- ``build``: the one adapter from a case to its structure, output DOFs and prepared simulator.
+- ``build``: the one adapter from a case to its structure, output DOFs and prepared simulator;
+  ``released``: a multi-support model's structure with its moving supports released.
 
 ``docs/case-files.md`` documents every field. Numbers of the model may name a parameter declared
 in ``[[parameters]]`` (``k = "kp2"``); the built structure substitutes them at every evaluation.
@@ -33,6 +34,7 @@ from femupdate.case.model_sections import (
     Support,
     SupportGroup,
 )
+from femupdate.case.released import released_structure
 from femupdate.case.schema import (
     Case,
     CaseInfo,
@@ -83,4 +85,5 @@ __all__ = [
     "format_value",
     "load_case",
     "parse_case",
+    "released_structure",
 ]

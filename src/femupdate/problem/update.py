@@ -16,12 +16,13 @@ import os
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from femupdate._parallel import thread_pool
-from femupdate.case import Case, CaseModel
+from femupdate.case import Case, CaseModel, released_structure
 from femupdate.data import signal
 from femupdate.errors import ConfigError, SimulationError
 from femupdate.external.protocol import Evaluation
@@ -71,6 +72,7 @@ class TrialProblem:
                     specs[0] if len(specs) == 1 else None)
         channels = spec.data.outputs if spec is not None else None
         self.model = CaseModel(case, channels)
+        self.released = partial(released_structure, case.model)  # evaluation.supports builds it
         external = self.model.external
         gives_acceleration = external is None or external.quantity == "acceleration"
         if external is not None:
@@ -91,12 +93,11 @@ class TrialProblem:
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         # The compiled evaluator covers femupdate's planar models on the full path (a score
-        # window too); a 3-D frame (6 DOFs per node, femupdate.case.model3d: its compiled
-        # assembly would be planar) and the reduced path (sparse, few modes) are evaluated
-        # step by step.
+        # window, support groups too); a 3-D frame (6 DOFs per node: its assembly would be
+        # planar) and the reduced path (sparse, few modes) are evaluated step by step.
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None and not self.model.groups)
+                         and self.model.reduced is None)
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
