@@ -1,0 +1,114 @@
+"""The compiled φ of multi-support cases (femupdate.evaluation.supports) against the
+step-by-step path (CaseModel.support_response through TrialProblem.phi_reference).
+
+The two-span beam of femupdate.paper.bench.multisupport_check (three supports, each its own
+record; consistent beam mass and Rayleigh damping with α ≠ 0, so that the supports load the
+deck through mass, damping and stiffness), with noisy records: at seeded points of the box
+the compiled outputs, φ and residual vectors equal the reference's to 1e-10 (NMSE of the
+outputs, relative φ), for absolute accelerations, accelerations relative to a group,
+displacements integrated from them, and displacements taken as they are.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from femupdate.case import CaseModel, parse_case, released_structure
+from femupdate.evaluation.supports import SupportEvaluator
+from femupdate.paper.bench.multisupport_check import TRUTH, two_span_case
+from femupdate.problem.update import TrialProblem
+from femupdate.trials.experiment import load_experiment
+from femupdate.trials.virtual import virtual_experiment
+
+OPTIONS: dict[str, dict[str, Any]] = {
+    "acceleration": {"objective": {"quantity": "acceleration"}},
+    "acceleration-relative": {"objective": {"quantity": "acceleration"}, "relative": True},
+    "displacement-integrated": {"relative": True},
+    "displacement": {"objective": {"integrate_prediction": False}},
+}
+
+
+def _case(tmp_path: Path, option: str, method: str = "exact") -> Any:
+    data = copy.deepcopy(two_span_case(method).to_dict())
+    data["data"]["directory"] = str(tmp_path)
+    extra = dict(OPTIONS[option])
+    if extra.pop("relative", False):
+        data["data"]["outputs"][1]["relative_to"] = "pier"
+    data.update(extra)
+    return parse_case({k: v for k, v in data.items() if k != "posterior"}, source="c.toml")
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    out = {}
+    for option in OPTIONS:
+        path = tmp_path_factory.mktemp(option)
+        virtual_experiment(_case(path, option), dict(TRUTH), path, seed=7, duration=1.5,
+                           rate=200.0, snr=0.02)
+        out[option] = path
+    return out
+
+
+def _points(case: Any, k: int = 6) -> np.ndarray:
+    lo, hi = np.array(case.bounds).T
+    return lo + (hi - lo) * np.random.default_rng(35).random((k, lo.size))
+
+
+def _nmse(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.sum((a - b) ** 2, axis=-1) / np.sum(b**2, axis=-1)))
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_compiled_phi_and_residuals_equal_the_step_by_step_path(records, option):
+    case = _case(records[option], option)
+    trial = TrialProblem(case, load_experiment(case))
+    assert trial.compiled and isinstance(trial.evaluator, SupportEvaluator)
+    for x in _points(case):
+        reference = trial.phi_reference(x)
+        assert trial.evaluator(x) == pytest.approx(reference, rel=1e-10, abs=0.0)
+        r_fast = trial.evaluator.residuals(x)
+        r_ref = trial.residuals(case.to_physical(x))
+        assert _nmse(r_fast, r_ref) <= 1e-10
+
+
+@pytest.mark.parametrize("option", ["acceleration", "acceleration-relative", "displacement"])
+def test_compiled_outputs_equal_the_step_by_step_prediction(records, option):
+    """The raw outputs are the prediction when nothing integrates or filters them."""
+    case = _case(records[option], option)
+    trial = TrialProblem(case, load_experiment(case))
+    for x in _points(case, 3):
+        y, _ = trial.evaluator.simulated(x)
+        reference = trial.prediction(trial.simulate(case.to_physical(x)))
+        assert _nmse(y, reference.T) <= 1e-10
+
+
+def test_released_structure_has_the_coupling_blocks_of_support_coupling():
+    case = two_span_case("exact")
+    model = CaseModel(case)
+    twin, supports = released_structure(case.model)
+    assert supports == [("A", "uy"), ("B", "uy"), ("C", "uy")]
+    system = twin.assemble(TRUTH, sparse=True)
+    index = {label: i for i, label in enumerate(system.dof_labels)}
+    free = [index[label] for label in model.structure.dof_labels]
+    cols = [index[f"{n}.{d}"] for n, d in supports]
+    blocks = model.structure.support_coupling(TRUTH, supports)
+    for released, own in zip((system.K, system.M, system.C), blocks, strict=True):
+        dense = released.toarray()
+        np.testing.assert_allclose(dense[np.ix_(free, cols)], own, rtol=1e-12,
+                                   atol=1e-12 * np.abs(own).max())
+    own = model.system(TRUTH)
+    np.testing.assert_allclose(system.K.toarray()[np.ix_(free, free)], own.K, rtol=1e-12,
+                               atol=1e-12 * np.abs(own.K).max())
+
+
+def test_other_integrators_are_evaluated_step_by_step(records):
+    case = _case(records["acceleration"], "acceleration", method="newmark")
+    trial = TrialProblem(case, load_experiment(case))
+    x = _points(case, 1)[0]
+    assert not trial.evaluator.supported
+    assert trial.evaluator(x) == trial.phi_reference(x)
