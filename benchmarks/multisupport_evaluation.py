@@ -1,6 +1,7 @@
 """φ of a multi-support case per evaluation: step by step against compiled, in one run.
 
     python benchmarks/multisupport_evaluation.py [--data DIR] [--repeat N] [--points K]
+    python benchmarks/multisupport_evaluation.py --quick   # 3 points once (CI)
 
 The case is ``examples/meloland/multisupport.toml``: the Meloland Road Overcrossing's deck
 (10 free DOFs) driven by three support records (footing, two embankments) of the 2010 event,
@@ -24,6 +25,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 import time
 import warnings
 from collections.abc import Callable
@@ -58,7 +60,10 @@ def main() -> int:
     parser.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data")
     parser.add_argument("--repeat", type=int, default=10)
     parser.add_argument("--points", type=int, default=8)
+    parser.add_argument("--quick", action="store_true", help="3 points, once")
     args = parser.parse_args()
+    if args.quick:
+        args.repeat, args.points = 1, 3
     from femupdate.case import load_case
     from femupdate.problem.update import TrialProblem
     from femupdate.trials.experiment import load_experiment
@@ -68,9 +73,10 @@ def main() -> int:
         return 0
     text = CASE.read_text().replace('directory = "../../../shared/data/cesmd_meloland"',
                                     f'directory = "{args.data / "cesmd_meloland"}"')
-    work = Path(os.environ.get("TMPDIR", "/tmp")) / "multisupport_evaluation.toml"
-    work.write_text(text)
-    case = load_case(work)
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder) / "multisupport.toml"
+        work.write_text(text)
+        case = load_case(work)
     fitted = case.trial_specs()[0]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the records' warnings are the example's, not timed

@@ -79,6 +79,7 @@ QUICK = {
     "large_case.py": ("ms per evaluation at the margin", lambda: None),
     "model_classes.py": ("β = 1 reached", _shared_data_missing),
     "multistart_budget.py": ("by phase: pool", lambda: None),
+    "multisupport_evaluation.py": ("speed-up:", _meloland_missing),
     "multisupport_opensees.py": ("(target 1e-8)", _opensees_missing),
     "optimizer_overhead.py": ("scipy-lsq", lambda: None),
     "posterior.py": ("evaluations per effective sample, emcee / TMCMC",
