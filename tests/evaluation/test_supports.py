@@ -6,7 +6,9 @@ record; consistent beam mass and Rayleigh damping with α ≠ 0, so that the sup
 deck through mass, damping and stiffness), with noisy records: at seeded points of the box
 the compiled outputs, φ and residual vectors equal the reference's to 1e-10 (NMSE of the
 outputs, relative φ), for absolute accelerations, accelerations relative to a group,
-displacements integrated from them, and displacements taken as they are.
+displacements integrated from them, displacements taken as they are, and a prediction
+high-passed as the data were; score windows of one record simulated once give the values of
+the windows evaluated one by one.
 """
 
 from __future__ import annotations
@@ -21,8 +23,8 @@ import pytest
 from femupdate.case import CaseModel, parse_case, released_structure
 from femupdate.evaluation.supports import SupportEvaluator
 from femupdate.paper.bench.multisupport_check import TRUTH, two_span_case
-from femupdate.problem.update import TrialProblem
-from femupdate.trials.experiment import load_experiment
+from femupdate.problem.update import TrialProblem, UpdateProblem
+from femupdate.trials.experiment import load_experiment, load_experiments
 from femupdate.trials.virtual import virtual_experiment
 
 OPTIONS: dict[str, dict[str, Any]] = {
@@ -30,6 +32,7 @@ OPTIONS: dict[str, dict[str, Any]] = {
     "acceleration-relative": {"objective": {"quantity": "acceleration"}, "relative": True},
     "displacement-integrated": {"relative": True},
     "displacement": {"objective": {"integrate_prediction": False}},
+    "filtered-prediction": {"preprocess": {"highpass_hz": 1.0, "filter_prediction": True}},
 }
 
 
@@ -112,3 +115,23 @@ def test_other_integrators_are_evaluated_step_by_step(records):
     x = _points(case, 1)[0]
     assert not trial.evaluator.supported
     assert trial.evaluator(x) == trial.phi_reference(x)
+
+
+def test_windows_of_one_record_are_simulated_once(records):
+    """Two fitted score windows of one record share its simulation
+    (femupdate.evaluation.shared): the values of the two evaluated one by one, and of the
+    step-by-step path to 1e-10."""
+    base = _case(records["acceleration"], "acceleration").to_dict()
+    base.pop("posterior", None)
+    base["trials"] = [{"name": "early", "score_window": [0.0, 0.8]},
+                      {"name": "late", "score_window": [0.7, 1.45]}]
+    case = parse_case(base, source="c.toml")
+    shared = UpdateProblem(case, load_experiments(case))
+    assert shared.shared_records == [[0, 1]]
+    alone = [TrialProblem(case, e) for e in load_experiments(case)]
+    X = _points(case, 3)
+    phis = shared._trial_phis(X)
+    for t, trial in enumerate(alone):
+        for i, x in enumerate(X):
+            assert phis[t, i] == trial.evaluator(x)
+            assert phis[t, i] == pytest.approx(trial.phi_reference(x), rel=1e-10, abs=0.0)
