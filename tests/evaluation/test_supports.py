@@ -135,3 +135,14 @@ def test_windows_of_one_record_are_simulated_once(records):
         for i, x in enumerate(X):
             assert phis[t, i] == trial.evaluator(x)
             assert phis[t, i] == pytest.approx(trial.phi_reference(x), rel=1e-10, abs=0.0)
+
+
+def test_threads_share_a_batch(records):
+    """A batch split over two threads (each with its own evaluator; the compiled simulation
+    releases the GIL) gives the single calls' values."""
+    case = _case(records["acceleration"], "acceleration")
+    problem = UpdateProblem(case, load_experiments(case))
+    assert problem.parallel_batches
+    X = _points(case, 6)
+    np.testing.assert_array_equal(problem.evaluate_batch(X, threads=2),
+                                  [problem(x) for x in X])

@@ -78,7 +78,7 @@ def _blocks(Mt: np.ndarray, Ct: np.ndarray, Kt: np.ndarray, free: np.ndarray,
                     kfs[i, g] += e[s, g] * Kt[free[i], sup[s]]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # threads of a process share a batch (runs.executors)
 def support_outputs(x: np.ndarray, plan: AssemblyPlan, p: np.ndarray, Mt: np.ndarray,
                     minv_t: np.ndarray, Ct: np.ndarray, Kt: np.ndarray, load_t: np.ndarray,
                     kr: np.ndarray, fu: np.ndarray, free: np.ndarray, sup: np.ndarray,
