@@ -72,8 +72,8 @@ def test_multisupport_case_drives_each_support_by_its_ground_record() -> None:
     for data in specs.values():
         assert {c.label for c in data.outputs} == CHANNELS
     # the same deck: with every support moved alike it has the uniform model's modes
-    from femupdate.problem.case_model import CaseModel
     from femupdate.model.modes import natural_frequencies
+    from femupdate.problem.case_model import CaseModel
 
     nominal = case.nominal()
     f_multi = natural_frequencies(CaseModel(case).system(nominal)).freqs_hz
