@@ -113,7 +113,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=300)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="CI: 20 points, one pass")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.points, args.repeat = 20, 1
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         case = load_case(_write(folder, '"0.5 * beta"'))

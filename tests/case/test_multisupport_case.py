@@ -280,9 +280,13 @@ def test_noise_free_records_fit_the_truth_only(tmp_path, quantity):
     experiment = load_experiment(case)
     assert experiment.ag.shape == (experiment.t.size, 3)
     problem = TrialProblem(case, experiment)
-    assert not problem.compiled
+    assert problem.compiled  # femupdate.evaluation.supports
     assert problem.phi(TRUTH) < 1e-20
     assert problem.phi({**TRUTH, "E": 1.05 * TRUTH["E"]}) > 1e-4
+    x = case.to_search(TRUTH)
+    assert problem.phi_at(x) < 1e-20  # compiled
+    assert problem.phi_at(x * 1.001) == pytest.approx(problem.phi_reference(x * 1.001),
+                                                      rel=1e-10)
 
 
 def test_a_3d_case_with_vertical_groups_is_the_frame3d_solution():

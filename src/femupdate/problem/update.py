@@ -20,6 +20,7 @@ import os
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -36,6 +37,7 @@ from femupdate.model.modes import natural_frequencies
 from femupdate.model.system import System
 from femupdate.problem.case_model import CaseModel
 from femupdate.problem.objective import ErrorFunction
+from femupdate.problem.released import released_structure
 from femupdate.simulate.response import Response
 from femupdate.trials.experiment import Experiment
 
@@ -78,6 +80,7 @@ class TrialProblem:
                     specs[0] if len(specs) == 1 else None)
         channels = spec.data.outputs if spec is not None else None
         self.model = CaseModel(case, channels)
+        self.released = partial(released_structure, case.model)  # evaluation.supports builds it
         external = self.model.external
         gives_acceleration = external is None or external.quantity == "acceleration"
         if external is not None:
@@ -98,9 +101,10 @@ class TrialProblem:
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         # The compiled evaluator covers femupdate's planar models on the full path (a score
-        # window too); a 3-D frame (its compiled assembly would be planar), the reduced path
-        # (sparse, few modes) are evaluated step by step. [[constraints]]: a point where one
-        # fails is a failed evaluation.
+        # window, support groups too); a 3-D frame (6 DOFs per node: its assembly would be
+        # planar), the reduced path (sparse, few modes), several base-motion components and
+        # the implicit integrator are evaluated step by step. [[constraints]]: a point where
+        # one fails is a failed evaluation.
         self.constraints = constraints_of(case)
         derive = self.model.structure.derive if self._runner is None else None
         #: The model's fields that are expressions, appended (as physical values) to the
@@ -108,8 +112,10 @@ class TrialProblem:
         self.derived_fields = tuple(derive.expressions) if derive is not None else ()
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None and not self.model.groups
-                         and not self.model.components and self.model.method != "implicit")
+                         and self.model.reduced is None
+                         and not self.model.components and self.model.method != "implicit"
+                         # the support groups' evaluator takes no derived fields
+                         and not (self.model.groups and self.derived_fields))
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
