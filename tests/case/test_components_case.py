@@ -82,7 +82,7 @@ LINKED = ("supports = [\n" + ",\n".join(
     + "bouc_wen = [\n" + ",\n".join(
         f'    {{ node = "{a}", dof = "{d}", k = "k", alpha = 0.1, beta = 375.0, '
         f'gamma = 125.0 }}' for a, _ in COLUMNS for d in ("ux", "uy")) + ",\n]\n"
-    # a soft spring beside each link: the mechanism check counts no hysteretic stiffness
+    # a soft spring beside each link (1e3 N/m, negligible beside the links' k)
     + "springs = [\n" + ",\n".join(
         f'    {{ node = "{a}", dof = "{d}", k = 1e3 }}' for a, _ in COLUMNS
         for d in ("ux", "uy")) + ",\n]")

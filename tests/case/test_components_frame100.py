@@ -3,8 +3,8 @@ free-field components of a recorded earthquake (Meloland 1979, read by the netwo
 the implicit and explicit integrators of the case path agree.
 
 The frame is benchmarks/hysteretic_frame.py's (5 × 5 columns, two storeys, rigid floors, each
-column foot on four links: ux, uy, rx, ry), written as a case file, with a soft spring beside
-each link (the case's mechanism check counts no hysteretic stiffness)."""
+column foot on four links: ux, uy, rx, ry), written as a case file, with a soft spring
+(1e3 N/m) beside each link."""
 
 from __future__ import annotations
 
