@@ -125,7 +125,8 @@ def many_runs_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("many-runs")
     case = two_storey_case(root / "data")
     spec = case.to_dict()
-    spec["search"] = {"method": "multistart-lm", "runs": 25, "seed": 4, "max_evals": 300}
+    spec["search"] = {"method": "multistart-lm", "runs": 25, "seed": 4, "max_evals": 300,
+                      "agree": 0}  # every run: the report of many runs
     return _run(root, parse_case(spec, source=case.source), TRUTH, duration=3.0, rate=200.0,
                 snr=0.01)
 
