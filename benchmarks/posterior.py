@@ -445,7 +445,8 @@ def inside(marginals: dict[str, Any], names: tuple[str, ...], truth: np.ndarray
 
 def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
                       fit_runs: int, recentre: int, error_model: str | None = None,
-                      truth: dict[str, float] | None = None) -> dict[str, Any]:
+                      truth: dict[str, float] | None = None, model: str = "viscous"
+                      ) -> dict[str, Any]:
     """One calibration replicate through ``femupdate posterior`` itself (``run_posterior``):
     the truth and noise of :func:`replicate`, the case's search (multistart-lm, ``fit_runs``
     runs of ``fit_evals`` evaluations, seeded from the replicate), the default
@@ -454,18 +455,19 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     runs twice on one results directory: without re-centring (``tmcmc`` KIND), then,
     resuming both stores, with ``recentre`` (``tmcmc`` KIND-recentred: the same samples
     unless the sampler found a better fit than the search's). With ``truth`` (physical values
-    by name) every replicate has that truth and only its noise is fresh."""
+    by name) every replicate has that truth and only its noise is fresh. ``model``: the
+    bridge's ``"viscous"`` or ``"friction"`` model class."""
     from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
 
     rng = np.random.default_rng(child)
     work = root / f"replicate-{i}"
-    spec = bridge.bridge_case("viscous", "narrow", directory=str(work))
-    prior = Prior.from_case(parse_case(spec, source=work / "viscous.toml"))
+    spec = bridge.bridge_case(model, "narrow", directory=str(work))
+    prior = Prior.from_case(parse_case(spec, source=work / f"{model}.toml"))
     drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
     truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
     truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
-    bridge_problem("viscous", truth, work, int(rng.integers(2 ** 31)))
+    bridge_problem(model, truth, work, int(rng.integers(2 ** 31)))
     search_seed, posterior_seed = (int(v) for v in np.random.SeedSequence(
         child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2))
     spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
@@ -473,7 +475,7 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     spec["posterior"] = {"seed": posterior_seed} | (
         {} if error_model is None else {"error_model": error_model})
     sampled = error_model or DEFAULT_KIND
-    case = parse_case(spec, source=work / "viscous.toml")
+    case = parse_case(spec, source=work / f"{model}.toml")
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
                            "tmcmc_unsettled": {}, "mode_evals": {}}
     for kind, passes, resume in ((sampled, 0, False), (f"{sampled}-recentred", recentre, True)):
@@ -592,18 +594,22 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                 tmcmc_from_prior: bool = False, lowpass_hz: float | None = None,
                 fit_evals: int = FIT_EVALS, tmcmc_runs: int = 1, product: bool = False,
                 fit_runs: int = 1, recentre: int = 2,
-                truth: dict[str, float] | None = None) -> dict[str, Any]:
+                truth: dict[str, float] | None = None, model: str = "viscous"
+                ) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
     (resume, or several processes on one file), and the table is of every replicate the
     file holds below ``replicates``. With ``product`` each replicate runs ``femupdate
-    posterior`` itself (:func:`product_replicate`) instead of the other options' pieces."""
+    posterior`` itself (:func:`product_replicate`, of the bridge's ``model`` class) instead of
+    the other options' pieces."""
     kinds = list(kinds or KINDS)
     tmcmc_kinds = list(tmcmc_kinds or [])
-    names = Prior.from_case(parse_case(bridge.bridge_case("viscous", "narrow",
+    if model != "viscous" and not product:
+        raise SystemExit("--bridge-model friction needs --product")
+    names = Prior.from_case(parse_case(bridge.bridge_case(model, "narrow",
                                                           directory=str(root)),
-                                       source=root / "viscous.toml")).names
+                                       source=root / f"{model}.toml")).names
     children = np.random.SeedSequence(SEED).spawn(replicates)
     done: dict[int, dict[str, Any]] = {}
     if hits_file is not None and hits_file.exists():
@@ -614,7 +620,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     if product:
         drawn = "from the prior" if truth is None else "fixed: " + ", ".join(
             f"{k} = {v:g}" for k, v in truth.items())
-        print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth "
+        print(f"\n## Calibration: {model} bridge, 2 % noise, {replicates} replicates (truth "
               f"{drawn}, fresh noise), through femupdate posterior: the case's search "
               f"({fit_runs} run(s) of multistart-lm, {fit_evals:,} evaluations each), then "
               f"the default [posterior], without re-centring and with recentre = {recentre}")
@@ -633,7 +639,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
         if i < first or i in done:
             continue
         row = (product_replicate(i, child, root, fit_evals, fit_runs, recentre,
-                                 (tmcmc_kinds or [None])[0], truth) if product
+                                 (tmcmc_kinds or [None])[0], truth, model) if product
                else replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population,
                               coarse_only, clean_input, ar_max_order, search_fit,
                               tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs))
@@ -1147,6 +1153,10 @@ def main() -> None:
                         help="with --product: a JSON file of the truth (by parameter name) "
                         "every replicate has (only the noise fresh), e.g. "
                         "examples/bridge/truth-viscous.json")
+    parser.add_argument("--bridge-model", choices=("viscous", "friction"), default="viscous",
+                        help="calibration with --product: the bridge's model class (with "
+                        "--truth examples/bridge/truth-friction.json for the friction bridge "
+                        "at its truth)")
     parser.add_argument("--fit-runs", type=int, default=1,
                         help="with --product: the case's [search] runs")
     parser.add_argument("--recentre", type=int, default=2,
@@ -1209,7 +1219,8 @@ def main() -> None:
                 tmcmc_from_prior=args.tmcmc_from_prior, lowpass_hz=args.lowpass_hz,
                 fit_evals=args.fit_evals, tmcmc_runs=args.tmcmc_runs, product=args.product,
                 fit_runs=args.fit_runs, recentre=args.recentre,
-                truth=None if args.truth is None else json.loads(args.truth.read_text()))
+                truth=None if args.truth is None else json.loads(args.truth.read_text()),
+                model=args.bridge_model)
         if "rayleigh" in sections:
             out["rayleigh"] = rayleigh(args.replicates, root, args.fit_evals, args.hits)
         if "real" in sections:
