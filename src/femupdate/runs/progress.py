@@ -80,6 +80,7 @@ class RunProgress:
         self._bar: Progress | None = None
         self._task: TaskID | None = None
         self._stages: dict[int, tuple[float, float]] = {}  # run → (last stage, acceptance)
+        self._beta: dict[int, float] = {}  # a sampler's runs: run → its tempering exponent
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -117,7 +118,7 @@ class RunProgress:
                                    f"{self.max_evals:,} evaluations"))
                 columns: tuple[ProgressColumn, ...] = (
                     BarColumn(bar_width=10),
-                    TextColumn("{task.fields[runs]} runs · best φ {task.fields[best]} · "
+                    TextColumn("{task.fields[runs]} runs · {task.fields[state]} · "
                                "{task.fields[evals]} evals"),
                     TimeElapsedColumn(),
                     TimeRemainingColumn(),
@@ -128,7 +129,7 @@ class RunProgress:
                     TextColumn("{task.description}"),
                     BarColumn(),
                     MofNCompleteColumn(),
-                    TextColumn("runs · best φ {task.fields[best]} · {task.fields[evals]} evals "
+                    TextColumn("runs · {task.fields[state]} · {task.fields[evals]} evals "
                                "· {task.fields[rate]} evals/s"),
                     TimeElapsedColumn(),
                 )
@@ -179,12 +180,12 @@ class RunProgress:
                 self._write("stage", run=run, stage=int(k), beta=beta, weights_ess=ess,
                             acceptance=_finite_or_none(previous_acceptance))
                 if self._bar is not None and k > 0:
-                    acc = ("" if not math.isfinite(previous_acceptance) else
-                           f", acceptance of the moves before {previous_acceptance:.2f}")
-                    self._bar.console.print(Text(f"run {run}: stage {int(k)}, β = {beta:.4g}"
-                                                 f", ESS of the weights {ess:,.0f}{acc}"))
+                    self._bar.console.print(Text(stage_line(run, int(k), beta, ess,
+                                                            previous_acceptance)))
             seen = (k, float(trace["acceptance"][i]))
         self._stages[run] = seen
+        self._beta[run] = float(trace["beta"][-1])
+        self._refresh()
 
     def run_done(self, run: int, nfev: int, best_phi: float, status: str) -> None:
         """Run ``run`` finished (after its last :meth:`chunk`)."""
@@ -211,7 +212,11 @@ class RunProgress:
 
     def _fields(self) -> dict[str, str]:
         best = "–" if not math.isfinite(self.best_phi) else f"{self.best_phi:.3e}"
-        return {"best": best, "evals": f"{self.evals:,}", "rate": f"{self.rate():,.0f}",
+        # a sampler's bar shows its own state, the tempering of its runs, not a φ
+        state = (f"lowest β {min(self._beta.values()):.4g}" if self._beta
+                 else f"best φ {best}")
+        return {"best": best, "state": state, "evals": f"{self.evals:,}",
+                "rate": f"{self.rate():,.0f}",
                 "runs": f"{self.runs_done}/{self.total_runs}"}
 
     def _refresh(self) -> None:
@@ -226,3 +231,11 @@ class RunProgress:
                 "elapsed": time.perf_counter() - self._t0, **fields}
         self._log.write(json.dumps(line, allow_nan=False) + "\n")
         self._log.flush()
+
+
+def stage_line(run: int, stage: int, beta: float, ess: float, acceptance: float) -> str:
+    """A sampler's line as its run ``run`` begins stage ``stage`` (under 80 columns): the
+    tempering exponent, the effective samples of the stage's weights and the acceptance of
+    the previous stage's moves (left out when there were none)."""
+    acc = "" if not math.isfinite(acceptance) else f", previous acceptance {acceptance:.2f}"
+    return f"run {run}: stage {stage}, β = {beta:.4g}, weights' ESS {ess:,.0f}{acc}"
