@@ -1,16 +1,25 @@
 """``femupdate posterior`` on the bridge with 2 % noise (viscous, or friction with --model):
 what it says of each parameter, beside the Laplace approximation at the best fit, with its
-evaluations and wall time.
+evaluations and wall time, and beside emcee on the same likelihood.
 
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples N]
         [--runs R] [--max-runs M] [--recentre K] [--error-model KIND] [--workers W]
-        [--seed 1] [--out DIR] [--quick]
+        [--seed 1] [--out DIR] [--emcee-steps 3000] [--quick]
 
-``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` default to
-``[posterior]``'s defaults (1,000 samples per run, 4 independent runs, up to 12 while a
-parameter is unsettled, 2 re-centrings, ``neff``); ``--workers`` (default 1) is the case's
-``[search] workers``, which the sampler uses too. ``--quick`` (a smoke run for CI): 300
-samples per run after a search of 2 runs of 600 evaluations.
+Without ``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` the
+case has no ``[posterior]`` section: the product's default path (``run_posterior`` with no
+option set by hand; its seed is the search's, ``--seed``). ``--workers`` (default 1) is the
+case's ``[search] workers``, which the sampler uses too. ``--quick`` (a smoke run for CI): 300
+samples per run after a search of 2 runs of 600 evaluations, and 200 emcee steps.
+
+**emcee, the peer.** In the same run, emcee's affine-invariant ensemble (4n walkers, started
+from n·4 of the posterior's own samples, jittered) samples the same posterior density: the
+error model the posterior measured at its (last) best fit, the same prior, on the same unit
+cube, each step's walkers one ``residuals_batch``. Its effective samples are ArviZ's bulk ESS
+of each parameter over the steps after the first third (the burn-in, whose evaluations count
+all the same). Printed for both: evaluations, least ESS, evaluations per effective sample, the
+ratio; and each parameter's mean and sd beside emcee's (Δ mean in emcee's sds, sd ratio): the
+two samplers must agree on the posterior before their costs are compared.
 
 The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
 case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
@@ -28,38 +37,45 @@ import argparse
 import os
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
-from femupdate.case import parse_case
-from femupdate.case.posterior_section import DEFAULT_POSTERIOR
+import numpy as np
+
+from femupdate.case import Case, parse_case
+from femupdate.inference.best_fit import case_priors
 from femupdate.paper.problems.bridge import bridge_case, ensure_records, truth
-from femupdate.pipeline.posterior.run import run_posterior
+from femupdate.pipeline.posterior.run import PosteriorResult, run_posterior
 from femupdate.runs import Execution
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", choices=("viscous", "friction"), default="viscous")
-    parser.add_argument("--samples", type=int, default=DEFAULT_POSTERIOR.samples)
-    parser.add_argument("--runs", type=int, default=DEFAULT_POSTERIOR.runs)
-    parser.add_argument("--max-runs", type=int, default=DEFAULT_POSTERIOR.max_runs)
-    parser.add_argument("--recentre", type=int, default=DEFAULT_POSTERIOR.recentre)
-    parser.add_argument("--error-model", default=DEFAULT_POSTERIOR.error_model)
+    parser.add_argument("--samples", type=int, default=None)
+    parser.add_argument("--runs", type=int, default=None)
+    parser.add_argument("--max-runs", type=int, default=None)
+    parser.add_argument("--recentre", type=int, default=None)
+    parser.add_argument("--error-model", default=None)
+    parser.add_argument("--emcee-steps", type=int, default=3000)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--quick", action="store_true", help="300 samples, a short search (CI)")
     args = parser.parse_args(argv)
     if args.quick:
-        args.samples = 300
+        args.samples, args.emcee_steps = 300, 200
     out = args.out or Path(tempfile.mkdtemp(prefix="femupdate-bridge-posterior-"))
     data = (out / "data").resolve()
     spec = bridge_case(args.model, "narrow", directory=str(data))
-    spec["search"].update(runs=2, f_target=None, max_evals=600 if args.quick else 3000, seed=1,
+    spec["search"].update(runs=2, f_target=None, max_evals=600 if args.quick else 3000,
+                          seed=args.seed,
                           workers=args.workers)
-    spec["posterior"] = {"samples": args.samples, "runs": args.runs, "seed": args.seed,
-                         "max_runs": args.max_runs, "recentre": args.recentre,
-                         "error_model": args.error_model, "modes_samples": 100}
+    chosen = {k: v for k, v in (("samples", args.samples), ("runs", args.runs),
+                                ("max_runs", args.max_runs), ("recentre", args.recentre),
+                                ("error_model", args.error_model)) if v is not None}
+    if chosen:  # else the product's defaults: no [posterior] section
+        spec["posterior"] = {**chosen, "seed": args.seed}
     case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
     truth_values = truth(args.model)
     ensure_records(case, truth_values, data, seed=0, snr=0.02)
@@ -91,8 +107,77 @@ def main(argv: list[str] | None = None) -> int:
     for b in result.bands:
         print(f"predictive bands, {b.trial}: " + ", ".join(
             f"{c} {100 * v:.1f} %" for c, v in zip(b.channels, b.coverage, strict=True)))
+    peer = emcee_peer(result, case, args.emcee_steps, args.seed)
+    compare(rec.nfev, rec.ess, result, peer)
     print(f"results in {out / 'results'}")
     return 0
+
+
+@dataclass
+class Peer:
+    """emcee's run: its evaluations, per-parameter ESS (ArviZ) and kept samples (unit cube)."""
+
+    evaluations: int
+    ess: np.ndarray
+    samples: np.ndarray
+    wall_s: float
+
+
+def emcee_peer(result: PosteriorResult, case: Case, steps: int, seed: int) -> Peer:
+    """emcee on the posterior density of ``result`` (its error model and prior), its walkers
+    started from the posterior's samples; every step's walkers one batch of the problem."""
+    import arviz as az
+    import emcee
+
+    problem = result.search.problem
+    prior = case_priors(case)
+    model = result.error_model
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
+    n = prior.dim
+    walkers = 4 * n
+    unit = prior.to_unit(prior.physical_to_search(result.samples))
+    start = unit[rng.choice(unit.shape[0], walkers, replace=False)]
+    start = np.clip(start + 1e-4 * rng.standard_normal(start.shape), 1e-9, 1 - 1e-9)
+
+    def log_density(xi: np.ndarray) -> np.ndarray:
+        inside = np.all((xi >= 0) & (xi <= 1), axis=1)
+        out = np.full(xi.shape[0], -np.inf)
+        if inside.any():
+            rows = problem.residuals_batch(prior.to_search(xi[inside]))
+            out[inside] = model.loglike_rows(rows) + prior.logpdf_unit(xi[inside])
+        return np.where(np.isfinite(out), out, -np.inf)
+
+    sampler = emcee.EnsembleSampler(walkers, n, log_density, vectorize=True)
+    # emcee draws from a RandomState of its own: seeded from the Generator, for repeatability
+    sampler._random = np.random.RandomState(int(rng.integers(2**31)))
+    began = time.perf_counter()
+    sampler.run_mcmc(start, steps, progress=False)
+    wall = time.perf_counter() - began
+    chain = sampler.get_chain()[steps // 3:]  # (steps, walkers, n)
+    ess = np.array([float(az.ess(np.ascontiguousarray(chain[:, :, j].T))) for j in range(n)])
+    return Peer(walkers * steps, ess, chain.reshape(-1, n), wall)
+
+
+def compare(nfev: int, least_ess: float, result: PosteriorResult, peer: Peer) -> None:
+    """Both samplers' costs per effective sample and their marginals side by side (search
+    space: log10 on a log scale)."""
+    prior = case_priors(result.search.problem.case)
+    ours = prior.physical_to_search(result.samples)
+    theirs = prior.to_search(peer.samples)
+    ours_rate = nfev / least_ess
+    theirs_rate = peer.evaluations / float(np.min(peer.ess))
+    print(f"\nthe default sampler: {nfev:,} evaluations, least ESS {least_ess:,.0f}, "
+          f"{ours_rate:.1f} evaluations per effective sample")
+    print(f"emcee ({peer.samples.shape[0]:,} samples kept): {peer.evaluations:,} evaluations "
+          f"in {peer.wall_s:.1f} s, least ESS {np.min(peer.ess):,.0f} (ArviZ), "
+          f"{theirs_rate:.1f} evaluations per effective sample")
+    print(f"emcee's evaluations per effective sample over the default's: "
+          f"{theirs_rate / ours_rate:.2f}")
+    print("parameter: Δ mean (emcee sds), sd ratio (default/emcee), emcee's ESS")
+    sd = theirs.std(axis=0)
+    for j, name in enumerate(prior.names):
+        print(f"  {name:>6}: {(ours[:, j].mean() - theirs[:, j].mean()) / sd[j]:+.2f}, "
+              f"{ours[:, j].std() / sd[j]:.2f}, {peer.ess[j]:,.0f}")
 
 
 if __name__ == "__main__":

@@ -44,7 +44,7 @@ def test_defensive_mixture_of_a_population_keeps_its_centre_and_widens_it() -> N
     mix = defensive_mixture(x, 4, 1.2, np.random.default_rng(2), safe_cholesky)
     assert np.allclose(mix.means[-1], x.mean(axis=0))  # the whole population's t, last
     assert np.allclose(mix.chols[-1] @ mix.chols[-1].T, 1.5 ** 2 * np.cov(x.T))
-    assert np.exp(mix.log_weights[-1]) == pytest.approx(0.2)
+    assert np.exp(mix.log_weights[-1]) == pytest.approx(0.3)
     assert np.all(np.isfinite(mix.logpdf(x)))
 
 

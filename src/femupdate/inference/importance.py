@@ -31,13 +31,13 @@ from scipy.special import gammaln, logsumexp
 from femupdate.inference.proposals import fit_mixture
 
 #: The share of the defensive component (a Student-t of the whole population).
-DEFENSIVE_SHARE = 0.2
+DEFENSIVE_SHARE = 0.3
 #: Its scale: the population's standard deviations times this.
 DEFENSIVE_WIDTH = 1.5
 #: Its degrees of freedom. The likelihood of ``neff`` integrates each channel's variance out:
 #: it falls as ‖r‖^(−N_c), a power of the distance with N_c of the order of ten on the bridge,
 #: so the posterior's tails are a power law too, and a Gaussian proposal's are lighter.
-DEFENSIVE_DOF = 3.0
+DEFENSIVE_DOF = 4.0
 
 
 @dataclass(frozen=True)

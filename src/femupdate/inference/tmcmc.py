@@ -76,11 +76,11 @@ FINALS = ("importance", "moves")
 MAX_BATCHES = 50
 #: Importance batches at β = 1 that only adapt the proposal (each refits it to all the weighted
 #: draws so far) before the batches that count, drawn from the last proposal
-ADAPT_BATCHES = 2
+ADAPT_BATCHES = 4
 TARGET_ACCEPTANCE = 0.25
 FINAL_STEPS = 12  # default moves at β = 1: they decorrelate the final resampled copies
 #: The widening of the importance proposal's clusters at β = 1 (module importance)
-FINAL_INFLATE = 1.2
+FINAL_INFLATE = 1.3
 #: The mixture proposal's k-means clusters: on the viscous bridge 16 mixed better per
 #: evaluation than 8 or 32 (docs/posterior.md, "Effective samples, measured across seeds")
 COMPONENTS = 16
