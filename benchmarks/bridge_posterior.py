@@ -4,7 +4,7 @@ evaluations and wall time, and beside emcee on the same likelihood.
 
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples N]
         [--runs R] [--max-runs M] [--recentre K] [--error-model KIND] [--workers W]
-        [--seed 1] [--out DIR] [--emcee-steps 3000] [--quick]
+        [--seed 1] [--noise-seed 0] [--out DIR] [--emcee-steps 3000] [--quick]
 
 Without ``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` the
 case has no ``[posterior]`` section: the product's default path (``run_posterior`` with no
@@ -21,7 +21,8 @@ all the same). Printed for both: evaluations, least ESS, evaluations per effecti
 ratio; and each parameter's mean and sd beside emcee's (Δ mean in emcee's sds, sd ratio): the
 two samplers must agree on the posterior before their costs are compared.
 
-The virtual experiment of ``femupdate bench bridge --model MODEL`` (seed 0, 2 % noise), the
+The virtual experiment of ``femupdate bench bridge --model MODEL`` (2 % noise, drawn from
+``--noise-seed``), the
 case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
 evaluations each, no target: the records are noisy), then TMCMC. Prints the sampler's
 evaluations, wall time, effective sample size, stages and log-evidence, the runs' verdict
@@ -58,6 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--recentre", type=int, default=None)
     parser.add_argument("--error-model", default=None)
     parser.add_argument("--emcee-steps", type=int, default=3000)
+    parser.add_argument("--noise-seed", type=int, default=0, help="the record's noise")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
@@ -78,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
         spec["posterior"] = {**chosen, "seed": args.seed}
     case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
     truth_values = truth(args.model)
-    ensure_records(case, truth_values, data, seed=0, snr=0.02)
+    ensure_records(case, truth_values, data, seed=args.noise_seed, snr=0.02)
     start = time.perf_counter()
     result = run_posterior(case, out / "results", restart=True,
                            execution=Execution(label="bridge posterior"))
