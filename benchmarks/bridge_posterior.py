@@ -5,6 +5,7 @@ evaluations and wall time, and beside emcee on the same likelihood.
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples N]
         [--runs R] [--max-runs M] [--recentre K] [--error-model KIND] [--workers W]
         [--seed 1] [--noise-seed 0] [--out DIR] [--emcee-steps 3000] [--quick]
+        [--case CASE.toml [--from RESULTS]]
 
 Without ``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` the
 case has no ``[posterior]`` section: the product's default path (``run_posterior`` with no
@@ -22,7 +23,9 @@ ratio; and each parameter's mean and sd beside emcee's (Δ mean in emcee's sds, 
 two samplers must agree on the posterior before their costs are compared.
 
 The virtual experiment of ``femupdate bench bridge --model MODEL`` (2 % noise, drawn from
-``--noise-seed``), the
+``--noise-seed``), or with ``--case`` a case of the bridge and its records as they are (the
+record of ``femupdate synth --seed 777``, say; ``--from`` the results of ``femupdate run`` on
+it, whose search is then not run again), the
 case of ``examples/bridge/MODEL-narrow.toml`` with a short search (2 runs of multistart-lm, 3,000
 evaluations each, no target: the records are noisy), then TMCMC. Prints the sampler's
 evaluations, wall time, effective sample size, stages and log-evidence, the runs' verdict
@@ -43,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import Case, parse_case
+from femupdate.case import Case, load_case, parse_case
 from femupdate.inference.best_fit import case_priors
 from femupdate.paper.problems.bridge import bridge_case, ensure_records, truth
 from femupdate.pipeline.posterior.run import PosteriorResult, run_posterior
@@ -60,6 +63,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--error-model", default=None)
     parser.add_argument("--emcee-steps", type=int, default=3000)
     parser.add_argument("--noise-seed", type=int, default=0, help="the record's noise")
+    parser.add_argument("--case", type=Path, default=None,
+                        help="a case file of the bridge with its records, taken as it is")
+    parser.add_argument("--from", dest="search_from", type=Path, default=None,
+                        help="with --case: the results of `femupdate run` on it")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
@@ -78,11 +85,14 @@ def main(argv: list[str] | None = None) -> int:
                                 ("error_model", args.error_model)) if v is not None}
     if chosen:  # else the product's defaults: no [posterior] section
         spec["posterior"] = {**chosen, "seed": args.seed}
-    case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
     truth_values = truth(args.model)
-    ensure_records(case, truth_values, data, seed=args.noise_seed, snr=0.02)
+    if args.case is not None:  # the user's records of the bridge, its case as it is
+        case = load_case(args.case)
+    else:
+        case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
+        ensure_records(case, truth_values, data, seed=args.noise_seed, snr=0.02)
     start = time.perf_counter()
-    result = run_posterior(case, out / "results", restart=True,
+    result = run_posterior(case, out / "results", restart=True, search_from=args.search_from,
                            execution=Execution(label="bridge posterior"))
     wall = time.perf_counter() - start
     rec = result.record
