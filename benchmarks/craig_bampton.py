@@ -28,8 +28,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from femupdate.case.reduced_path import trial_truncation
 from femupdate.paper.bench.friction_beam import TRUTH, friction_beam_case
+from femupdate.problem.reduced_path import trial_truncation
 from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiment
 from femupdate.trials.virtual import virtual_experiment

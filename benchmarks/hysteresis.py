@@ -49,10 +49,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from threadpoolctl import threadpool_limits
 
-from femupdate.case import build_structure, load_case, parse_case
+from femupdate.case import load_case, parse_case
 from femupdate.errors import MissingDependencyError
 from femupdate.model.hysteresis import bouc_wen_loop
 from femupdate.pipeline.run import run_case
+from femupdate.problem.case_model import build_structure
 from femupdate.simulate import prepare
 from femupdate.trials.virtual import ec8_motion, virtual_experiment
 
@@ -303,7 +304,7 @@ def identification(seeds: int, max_evals: int) -> dict[str, Any]:
             virtual_experiment(case, TRUTH, folder / "data", seed=noise_seed, motion=motion,
                                snr=0.02, offset=0.0, drift=0.0)
             if not yielded:
-                from femupdate.case import CaseModel
+                from femupdate.problem.case_model import CaseModel
 
                 response = CaseModel(case).simulate(TRUTH, motion.ag, motion.dt)
                 structure = build_structure(case.model)

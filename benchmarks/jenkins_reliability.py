@@ -48,8 +48,9 @@ def main(argv: list[str] | None = None) -> int:
         args.runs, args.max_evals, args.workers = 2, 600, 1
     data = study.find_data(args.data if args.data is not None
                            else os.environ.get(study.DATA_ENV) or ROOT.parent / "shared" / "data")
+    # agree = 0: the study is how reliably every run finds the best, so none stops early
     search = {"runs": args.runs, "max_evals": args.max_evals, "seed": args.seed,
-              "method": args.method}
+              "method": args.method, "agree": 0}
     if args.options:
         search["options"] = json.loads(args.options)
     case = study.study_case("jenkins", args.fit_set, data, search=search)

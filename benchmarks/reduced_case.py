@@ -12,7 +12,7 @@ to 2 × 50 Hz: 25 of them). φ through ``UpdateProblem`` as ``femupdate run`` ev
 
 Prints the median time of each (one BLAS thread, the load average beside: wall times on a
 shared machine are upper bounds), their ratio, and the truncation error the run would report.
-``REDUCED_MIN_DOF`` in femupdate/case/reduced_path.py is the size from which ``reduced`` wins.
+``REDUCED_MIN_DOF`` in femupdate/case/simulation_path.py is the size from which ``reduced`` wins.
 
 Run from the repository root: ``python benchmarks/reduced_case.py`` (``--quick``: 50 and
 200 DOFs, 1,000 samples).
@@ -33,8 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from femupdate.case import parse_case
-from femupdate.case.reduced_path import REDUCED_MIN_DOF, simulation_record
+from femupdate.case.simulation_path import REDUCED_MIN_DOF
 from femupdate.paper.bench import large_building as MAKE
+from femupdate.problem.reduced_path import simulation_record
 from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiments
 from femupdate.trials.virtual import virtual_experiment

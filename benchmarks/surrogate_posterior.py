@@ -33,8 +33,9 @@ from femupdate.case import parse_case
 from femupdate.inference.best_fit import case_priors
 from femupdate.inference.error_models import problem_error_model
 from femupdate.inference.likelihood import ErrorModel
-from femupdate.inference.surrogate import problem_evaluator, surrogate_posterior
+from femupdate.inference.surrogate import surrogate_posterior
 from femupdate.inference.tmcmc import run_tmcmc
+from femupdate.pipeline.posterior.surrogate import problem_evaluator
 from femupdate.problem.update import UpdateProblem
 from femupdate.runs.executors import open_executor
 from femupdate.trials.experiment import Experiment
@@ -75,6 +76,20 @@ def frame_problem(duration: float, rate: float, noise: float, seed: int) -> Upda
                      quantity="acceleration", channels=CHANNELS, weights=np.ones(2),
                      name="frame-opensees")
     return UpdateProblem(case, exp)
+
+
+class Timed:
+    """An evaluate function that sums the wall time spent in it (the model's batches)."""
+
+    def __init__(self, evaluate: Any) -> None:
+        self.evaluate, self.seconds = evaluate, 0.0
+
+    def __call__(self, X: np.ndarray) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return self.evaluate(X)
+        finally:
+            self.seconds += time.perf_counter() - t0
 
 
 class Rows:
@@ -131,18 +146,25 @@ def main() -> None:
     result = None
     with open_executor(args.workers) as ex:
         if not args.no_surrogate:
+            timed = Timed(problem_evaluator(problem, ex))
             t0 = time.perf_counter()
             result = surrogate_posterior(
-                problem_evaluator(problem, ex), prior, fixed,
+                timed, prior, fixed,
                 rng=np.random.default_rng(seeds[0]), max_runs=args.max_runs,
                 progress=lambda line: print(f"  {line}", flush=True))
             wall = time.perf_counter() - t0
             print(f"surrogate: {result.message}")
+            print("surrogate: final check, each sd reweighted over unweighted: " + ", ".join(
+                f"{n} {r:.3f}" for n, r in zip(names, result.check.sd_ratios, strict=True)))
             print(f"surrogate: {result.model_runs} model runs, {wall:.1f} s wall "
-                  f"({args.workers} workers)", flush=True)
+                  f"({args.workers} workers): {timed.seconds:.1f} s in the model's batches, "
+                  f"{wall - timed.seconds:.1f} s the surrogate's own work", flush=True)
             rows["surrogate"] = {"model_runs": result.model_runs, "wall_s": wall,
+                                 "model_batches_s": timed.seconds,
                                  "reached": result.reached, "accuracy": result.accuracy,
                                  "check_error": result.check_error,
+                                 "check_ess": result.check.ess,
+                                 "check_shifts_sd": result.check.shifts.tolist(),
                                  "means": result.means().tolist(),
                                  "sds": result.sds().tolist()}
         if not args.no_direct:
@@ -152,6 +174,9 @@ def main() -> None:
                                 population=args.population)
             wall = time.perf_counter() - t0
             direct = prior.to_physical(post.samples)
+            if post.ess_params is not None:
+                print("direct TMCMC: effective samples " + ", ".join(
+                    f"{n} {e:.0f}" for n, e in zip(names, post.ess_params, strict=True)))
             print(f"direct TMCMC: {post.evaluations:,} model runs, {wall:.1f} s wall "
                   f"({args.workers} workers), {len(post.stages)} stages", flush=True)
             rows["direct"] = {"model_runs": post.evaluations, "wall_s": wall,

@@ -7,13 +7,18 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "femupdate"
 
-#: The layers, bottom up: a module may import its own top-level package and the layers below.
+#: The layers, bottom up: a module may import the layers below and its own package's modules
+#: of its layer. A dotted name places one module of a package in a layer of its own: the
+#: case's model (``problem.case_model``, ``problem.reduced_path``: a case built and simulated)
+#: sits below the trials, which simulate it for virtual experiments, and the rest of
+#: ``problem`` (the error function over the trials) above them.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors", "units"),
     ("_optional", "_parallel", "console"),
     ("data", "model", "optimize", "external"),
     ("simulate", "runs"),
     ("case", "evaluation"),
+    ("problem.case_model", "problem.reduced_path"),
     ("trials",),
     ("problem",),
     ("inference",),
@@ -29,13 +34,32 @@ MAX_LINES = 600
 REASON = "Why this file is long"
 
 
+#: What ``femupdate.case`` (schema and validation) may import besides itself: no simulation, no
+#: model building for a run (``problem``), nothing above it.
+CASE_MAY_IMPORT = {"errors", "units", "data", "model", "optimize"}
+
+
+def _layer(parts: list[str]) -> str:
+    """The layer name of a module given by its parts below ``femupdate``: its package, or
+    ``package.module`` where LAYERS names that module."""
+    top = parts[0].removesuffix(".py")
+    if len(parts) > 1:
+        dotted = f"{top}.{parts[1].removesuffix('.py')}"
+        if dotted in RANK:
+            return dotted
+    return top
+
+
 def _top(module: Path) -> str:
-    rel = module.relative_to(PACKAGE)
-    return rel.parts[0].removesuffix(".py")
+    return _layer(list(module.relative_to(PACKAGE).parts))
+
+
+def _package(layer: str) -> str:
+    return layer.split(".")[0]
 
 
 def _imports(module: Path) -> list[tuple[int, str]]:
-    """(line, top-level femupdate package) of every import, lazy ones included."""
+    """(line, layer name) of every femupdate import, lazy ones included."""
     tree = ast.parse(module.read_text(encoding="utf-8"))
     found = []
     for node in ast.walk(tree):
@@ -50,7 +74,7 @@ def _imports(module: Path) -> list[tuple[int, str]]:
         for name in names:
             parts = name.split(".")
             if parts[0] == "femupdate" and len(parts) > 1:
-                found.append((node.lineno, parts[1]))
+                found.append((node.lineno, _layer(parts[1:])))
     return found
 
 
@@ -64,7 +88,8 @@ def test_imports_only_point_down() -> None:
     for module in sorted(PACKAGE.rglob("*.py")):
         top = _top(module)
         for line, target in _imports(module):
-            if target != top and target in RANK and RANK[target] >= RANK[top]:
+            same_layer = RANK.get(target) == RANK[top] and _package(target) == _package(top)
+            if target != top and target in RANK and RANK[target] >= RANK[top] and not same_layer:
                 upward.append(f"{module.relative_to(PACKAGE)}:{line} imports femupdate.{target} "
                               f"(layer {RANK[target]} ≥ {RANK[top]})")
     assert not upward, "imports that do not point down the layers:\n" + "\n".join(upward)
@@ -76,6 +101,33 @@ def test_the_layer_check_sees_an_upward_import(tmp_path: Path) -> None:
     module.write_text("def f():\n    from femupdate.report.figures import plot_fit\n")
     assert _imports(module) == [(2, "report")]
     assert RANK["report"] > RANK["pipeline"]
+
+
+def test_the_case_model_sits_below_the_trials_and_the_problem_above() -> None:
+    # problem.case_model is a layer of its own: importing it from the trials points down,
+    # importing the error function from it would point up.
+    assert _layer(["problem", "case_model.py"]) == "problem.case_model"
+    assert _layer(["problem", "update.py"]) == "problem"
+    assert RANK["case"] < RANK["problem.case_model"] < RANK["trials"] < RANK["problem"]
+
+
+def test_case_is_schema_and_validation_only() -> None:
+    # femupdate.case imports no simulation (simulate, evaluation, external), no model building
+    # for a run (problem) and nothing above it; lazy and type-only imports count too.
+    found = {f"{m.relative_to(PACKAGE)}:{line} imports femupdate.{target}"
+             for m in sorted((PACKAGE / "case").rglob("*.py")) for line, target in _imports(m)
+             if _package(target) not in CASE_MAY_IMPORT | {"case"}}
+    assert not found, "case imports beyond schema and validation:\n" + "\n".join(sorted(found))
+    assert not CASE_MAY_IMPORT & {"simulate", "evaluation", "external", "problem", "trials"}
+
+
+def test_the_case_check_sees_a_lazy_simulation_import(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text("def f():\n    from femupdate.simulate.exact import ExactSimulator\n"
+                      "    from femupdate.problem.case_model import CaseModel\n")
+    targets = [target for _, target in _imports(module)]
+    assert targets == ["simulate", "problem.case_model"]
+    assert not {_package(t) for t in targets} <= CASE_MAY_IMPORT
 
 
 def test_long_files_say_why() -> None:

@@ -36,7 +36,7 @@ def test_example_case_files_equal_the_embedded_cases(model: str, band: str) -> N
 def test_truth_frequencies_near_the_papers() -> None:
     for model in ("viscous", "friction"):
         case = parse_case(bridge.bridge_case(model), source="bridge.toml")
-        from femupdate.case import build_structure
+        from femupdate.problem.case_model import build_structure
 
         system = build_structure(case.model).assemble(bridge.truth(model))
         freqs = natural_frequencies(system)[0][:4]

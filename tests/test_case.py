@@ -13,8 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from femupdate.case import Case, build_structure, format_value, load_case, parse_case
+from femupdate.case import Case, format_value, load_case, parse_case
 from femupdate.errors import ConfigError
+from femupdate.problem.case_model import build_structure
 
 ROOT = Path(__file__).resolve().parents[1]
 MINISHAKE = ROOT / "examples" / "minishake-1story" / "elcentro.toml"
@@ -690,3 +691,17 @@ def test_a_case_without_a_low_pass_saves_none(tmp_path: Path) -> None:
     assert "lowpass_hz" not in plain and "lowpass_order" not in plain
     given = load_case(write(tmp_path, BASE + "\n[preprocess]\nlowpass_hz = 80.0\n"))
     assert given.to_dict()["preprocess"]["lowpass_hz"] == 80.0
+
+
+def test_agree_is_saved_when_not_the_default_and_left_out_of_the_fingerprint(
+        tmp_path: Path) -> None:
+    # [search] agree picks which runs are needed, never what a run computes: a store resumes
+    # with another agree, and the fingerprints of cases written before it existed hold
+    plain = load_case(write(tmp_path, BASE))
+    assert plain.search.agree == 2 and "agree" not in plain.to_dict()["search"]
+    every = load_case(write(tmp_path, BASE + "\n[search]\nagree = 0\n", "every.toml"))
+    assert every.search.agree == 0 and every.to_dict()["search"]["agree"] == 0
+    assert parse_case(json.loads(json.dumps(every.to_dict()))).search.agree == 0
+    assert every.fingerprint() == plain.fingerprint()
+    message = problems(tmp_path, BASE + "\n[search]\nagree = -1\n")
+    assert "search.agree" in message and "[0, 10000]" in message

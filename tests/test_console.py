@@ -89,6 +89,21 @@ def _invoke(*args: str) -> str:
     return result.output
 
 
+def test_runs_not_needed_are_said_within_80_columns(case_file: Path, tmp_path: Path) -> None:
+    # a budget for multistart-lm's patience: runs 0 and 1 end at the same φ, run 2 is not needed
+    case = case_file.parent / "agree.toml"
+    case.write_text(CASE.replace("max_evals = 200", "max_evals = 5000"))
+    result = CliRunner().invoke(app, ["run", str(case), "--out", str(tmp_path / "out")],
+                                env={"COLUMNS": str(WIDTH)})
+    assert result.exit_code == 0, result.output
+    _lines_fit(result.output)
+    said = " ".join(result.output.split())
+    assert "2 of 3 runs were needed: they ended at the same best φ; the others are not run" \
+        in said  # the progress line
+    assert "multistart-lm, 2 of 3 runs needed" in said  # the table of runs
+    assert "verdict: converged: 2 of 3 runs were needed: they ended at the same best" in said
+
+
 def test_run_modes_validate_fit_80_columns(case_file: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     text = _invoke("run", str(case_file), "--out", str(out), "--quiet")

@@ -24,6 +24,7 @@ from femupdate.cli.commands import app
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "meloland"
 CASE = EXAMPLE / "meloland.toml"
+MULTI = EXAMPLE / "multisupport.toml"
 sys.path.insert(0, str(EXAMPLE))  # the script is an example, not part of the package
 import spectral_ratio  # noqa: E402
 
@@ -49,18 +50,51 @@ def test_case_names_both_events_and_the_transverse_deck_channels() -> None:
     assert [p.name for p in case.parameters] == ["k_col", "k_abut", "alpha", "beta"]
 
 
+def test_multisupport_case_drives_each_support_by_its_ground_record() -> None:
+    """The bent's spring ends on the footing (channel 2), each abutment's on its embankment
+    (2010: channels 11 and 26; 1979: channel 11 for both, 26 being on the other recorder)."""
+    case = load_case(MULTI)
+    uniform = load_case(CASE)
+    roles = {t.name: t.role for t in case.trials}
+    assert roles == {FIT: "fit", CHECK: "validate"}
+    assert case.parameters == uniform.parameters
+    groups = {g.name: g.nodes for g in case.model.support_groups}
+    assert groups == {"south": ["G_SA"], "bent": ["G_BENT"], "north": ["G_NA"]}
+    specs = {s.name: s.data for s in case.trial_specs()}
+    columns = {name: {g: (c.file, c.column) for g, c in data.inputs.items()}
+               for name, data in specs.items()}
+    assert columns[FIT] == {"south": ("calexico2010_ce01336.zip", 11),
+                            "bent": ("calexico2010_ce01336.zip", 2),
+                            "north": ("calexico2010_ce01336.zip", 26)}
+    assert columns[CHECK] == {"south": ("imperialvalley1979_ce01336.zip", 11),
+                              "bent": ("imperialvalley1979_ce01336.zip", 2),
+                              "north": ("imperialvalley1979_ce01336.zip", 11)}
+    for data in specs.values():
+        assert {c.label for c in data.outputs} == CHANNELS
+    # the same deck: with every support moved alike it has the uniform model's modes
+    from femupdate.model.modes import natural_frequencies
+    from femupdate.problem.case_model import CaseModel
+
+    nominal = case.nominal()
+    f_multi = natural_frequencies(CaseModel(case).system(nominal)).freqs_hz
+    f_uniform = natural_frequencies(CaseModel(uniform).system(nominal)).freqs_hz
+    np.testing.assert_allclose(f_multi, f_uniform, rtol=1e-10)
+
+
 @pytest.mark.slow
-def test_fits_better_than_nominal_and_validates_on_the_other_event(tmp_path: Path) -> None:
+@pytest.mark.parametrize("path", [CASE, MULTI], ids=["uniform", "multisupport"])
+def test_fits_better_than_nominal_and_validates_on_the_other_event(tmp_path: Path,
+                                                                   path: Path) -> None:
     need("cesmd_meloland/calexico2010_ce01336.zip")
     need("cesmd_meloland/imperialvalley1979_ce01336.zip")
-    case = load_case(CASE)
+    case = load_case(path)
     nominal = {p.name: p.nominal_value for p in case.parameters}
     (tmp_path / "nominal.json").write_text(json.dumps(nominal))
-    _cli("validate", str(CASE), "--params", str(tmp_path / "nominal.json"),
+    _cli("validate", str(path), "--params", str(tmp_path / "nominal.json"),
          "--json", str(tmp_path / "nominal-out.json"))
-    _cli("run", str(CASE), "--out", str(tmp_path / "run"), "--runs", "1",
+    _cli("run", str(path), "--out", str(tmp_path / "run"), "--runs", "1",
          "--max-evals", "300")
-    _cli("validate", str(CASE), "--params", str(tmp_path / "run" / "summary.json"),
+    _cli("validate", str(path), "--params", str(tmp_path / "run" / "summary.json"),
          "--json", str(tmp_path / "best-out.json"))
     before = _trials(tmp_path / "nominal-out.json")
     after = _trials(tmp_path / "best-out.json")

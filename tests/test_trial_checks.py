@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.case import CaseModel, parse_case
+from femupdate.case import parse_case
 from femupdate.model.modes import natural_frequencies
 from femupdate.paper.bench import large_building as MAKE
+from femupdate.problem.case_model import CaseModel
 from femupdate.trials.checks import first_mode_hz
 
 

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from femupdate._parallel import single_blas_thread
-from femupdate.case import CaseModel, load_case
-from femupdate.case.reduced_path import model_dof_count
+from femupdate.case import load_case
+from femupdate.case.simulation_path import model_dof_count
 from femupdate.model.sparse import lowest_modes
+from femupdate.problem.case_model import CaseModel
 from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiment
 from femupdate.trials.virtual import virtual_experiment
@@ -88,7 +89,7 @@ def test_example_building_is_opensees_rigid_diaphragm_model() -> None:
 def test_example_building_takes_the_reduced_path_and_fits_its_truth(tmp_path: Path) -> None:
     """No [simulation] method: the reduced path (a model with DOFs without mass); φ at the
     truth is zero on its noise-free records and positive away from it; nothing truncated."""
-    from femupdate.case.reduced_path import simulation_record
+    from femupdate.problem.reduced_path import simulation_record
 
     shutil.copy(CASE, tmp_path / CASE.name)
     case = load_case(tmp_path / CASE.name)

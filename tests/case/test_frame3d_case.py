@@ -115,3 +115,49 @@ def test_cli_simulates_and_writes(folder):
     expected = multi_support_response(model, groups, acc, dt, method="newmark").total
     np.testing.assert_allclose(total[:, 1:], expected, rtol=1e-15,
                                atol=1e-15 * np.abs(expected).max())
+
+
+def test_a_property_may_be_an_expression_of_the_values(folder):
+    (folder / "case.toml").write_text(_case_text())
+    plain = load_frame3d_case(folder / "case.toml")[2]
+    text = _case_text().replace('E = 3e10\n', 'E0 = 1.5e10\n', 1).replace('E = "E"',
+                                                                           'E = "2 * E0"')
+    (folder / "case.toml").write_text(text)
+    derived = load_frame3d_case(folder / "case.toml")[2]
+    assert np.array_equal(derived.system.K, plain.system.K)
+    (folder / "case.toml").write_text(text.replace('"2 * E0"', '"2 * E1"'))
+    with pytest.raises(ConfigError, match=r"frame3d\.beams\[0\]\.E: '2 \* E1' names 'E1', "
+                       r"which has no value \(allowed: names given in \[values\]: E0\)"):
+        load_frame3d_case(folder / "case.toml")
+
+
+def test_direction_and_angle_move_every_support(folder):
+    """``direction``: every support's DOF along it follows the record; ``angle``: the record's
+    x and y components (cos θ, sin θ) move every support along x and along y."""
+    motions = ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndirection = "z"\n'
+               '[[ground_motion]]\nfile = "r1.csv"\ndt = 0.01\ncolumn = 1\nangle = 30.0\n')
+    (folder / "case.toml").write_text(_case_text(motions=motions))
+    _, _, _, groups, acc, _ = load_frame3d_case(folder / "case.toml")
+    assert groups == [["P0.uz", "P8.uz", "P16.uz"], ["P0.ux"], ["P0.uy", "P8.uy", "P16.uy"]]
+    record = support_records(120, DT)[:, 1]
+    np.testing.assert_allclose(acc[:, 1], record * np.cos(np.pi / 6), rtol=1e-15)
+    np.testing.assert_allclose(acc[:, 2], record * 0.5, rtol=1e-15)
+
+
+@pytest.mark.parametrize(("motions", "match"), [
+    ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndirection = "y"\ndofs = ["P0.uy"]\n',
+     r"ground_motion\[0\]: dofs and direction of dofs, direction, angle given"),
+    ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\nangle = 360.0\n',
+     r"ground_motion\.0\.angle"),
+    ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndirection = "y"\n'
+     '[[ground_motion]]\nfile = "r1.csv"\ndt = 0.01\ndofs = ["P8.uy"]\n',
+     r"ground_motion\[1\]\.dofs: 'P8\.uy' already follows ground_motion\[0\]"),
+    ('[[ground_motion]]\nfile = "r0.csv"\ndt = 0.01\ndirection = "y"\n'
+     '[[ground_motion]]\nfile = "r1.csv"\ndt = 0.01\nangle = 45.0\n',
+     r"ground_motion\[1\]\.angle: 'P0\.uy' already follows ground_motion\[0\]"),
+])
+def test_bad_uniform_ground_motions_are_one_line(folder, motions, match):
+    (folder / "case.toml").write_text(_case_text(motions=motions))
+    with pytest.raises(ConfigError, match=match) as err:
+        load_frame3d_case(folder / "case.toml")
+    assert len(str(err.value).splitlines()) == 1 and "case.toml" in str(err.value)

@@ -13,13 +13,14 @@ import pytest
 from typer.testing import CliRunner
 
 from femupdate._parallel import single_blas_thread
-from femupdate.case import CaseModel, load_case
+from femupdate.case import load_case
 from femupdate.case.model3d import mechanism_dofs
 from femupdate.cli.commands import app
 from femupdate.errors import ConfigError, ModelError
 from femupdate.model.frame3d import Frame3D
 from femupdate.model.modes import natural_frequencies
 from femupdate.pipeline.run import run_case
+from femupdate.problem.case_model import CaseModel
 from femupdate.problem.update import TrialProblem
 from femupdate.simulate import simulate
 from femupdate.trials.experiment import load_experiment

@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from femupdate.case import CaseModel, load_case, parse_case
+from femupdate.case import load_case, parse_case
 from femupdate.errors import ConfigError, ModelError
 from femupdate.model.structure import Structure
 from femupdate.paper.bench.frame3d_check import support_records
 from femupdate.paper.bench.multisupport_check import TRUTH, run_check, two_span_case
+from femupdate.problem.case_model import CaseModel
 from femupdate.simulate.multisupport import integrate_record
 
 DT = 0.01
@@ -279,9 +280,13 @@ def test_noise_free_records_fit_the_truth_only(tmp_path, quantity):
     experiment = load_experiment(case)
     assert experiment.ag.shape == (experiment.t.size, 3)
     problem = TrialProblem(case, experiment)
-    assert not problem.compiled
+    assert problem.compiled  # femupdate.evaluation.supports
     assert problem.phi(TRUTH) < 1e-20
     assert problem.phi({**TRUTH, "E": 1.05 * TRUTH["E"]}) > 1e-4
+    x = case.to_search(TRUTH)
+    assert problem.phi_at(x) < 1e-20  # compiled
+    assert problem.phi_at(x * 1.001) == pytest.approx(problem.phi_reference(x * 1.001),
+                                                      rel=1e-10)
 
 
 def test_a_3d_case_with_vertical_groups_is_the_frame3d_solution():

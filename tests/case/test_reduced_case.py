@@ -14,19 +14,20 @@ import numpy as np
 import pytest
 
 from femupdate._parallel import single_blas_thread
-from femupdate.case import CaseModel, load_case, parse_case
-from femupdate.case.reduced_path import (
-    REDUCED_MIN_DOF,
-    TRUNCATION_WARN,
-    describe_simulation,
-    lowest_case_modes,
-    simulation_record,
-)
+from femupdate.case import load_case, parse_case
+from femupdate.case.simulation_path import REDUCED_MIN_DOF
 from femupdate.errors import ConfigError
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.sparse import lowest_modes
 from femupdate.paper.bench import large_building as MAKE
 from femupdate.pipeline.run import run_case
+from femupdate.problem.case_model import CaseModel
+from femupdate.problem.reduced_path import (
+    TRUNCATION_WARN,
+    describe_simulation,
+    lowest_case_modes,
+    simulation_record,
+)
 from femupdate.problem.update import UpdateProblem
 from femupdate.simulate.reduced import ReducedSimulator
 from femupdate.trials.experiment import load_experiments
@@ -308,7 +309,7 @@ def test_the_report_modes_of_a_reduced_case_are_the_full_models(data_dir: Path) 
 
 def test_above_the_full_check_size_the_reference_has_four_times_the_cutoff(
         reduced: UpdateProblem, monkeypatch: pytest.MonkeyPatch) -> None:
-    import femupdate.case.reduced_path as rp
+    import femupdate.problem.reduced_path as rp
 
     monkeypatch.setattr(rp, "FULL_CHECK_MAX_DOF", STOREYS - 1)
     record = simulation_record(reduced)

@@ -8,8 +8,9 @@ import tomllib
 import numpy as np
 import pytest
 
-from femupdate.case import build_structure, parse_case
+from femupdate.case import parse_case
 from femupdate.errors import ConfigError
+from femupdate.problem.case_model import build_structure
 from femupdate.simulate import prepare
 
 PARAMETERS = """

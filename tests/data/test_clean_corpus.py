@@ -404,7 +404,7 @@ def test_the_corpus_holds_every_kind_of_test() -> None:
 def test_the_hysteretic_record_yields_far() -> None:
     """The Bouc–Wen building and the 3-D frame with Bouc–Wen links of the corpus are driven
     well into their hysteresis: 7 to 9 times their yield deformation."""
-    from femupdate.case import CaseModel
+    from femupdate.problem.case_model import CaseModel
 
     spec = shear_spec(Path("."), [1.0] * 3, 200.0, [1, 2, 3], bouc_wen=BOUC_WEN)
     case = parse_case(spec, source=Path("case.toml"))

@@ -3,6 +3,7 @@ says when it cannot reach its accuracy or the model fails at design points."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -16,15 +17,24 @@ from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
 from femupdate.inference.surrogate import (
     ChannelSurrogate,
-    centred_error,
     convex_trend,
     log_sums,
-    problem_evaluator,
     pseudo_model,
     quadratic_features,
     spread_points,
     surrogate_loglike,
     surrogate_posterior,
+)
+from femupdate.inference.surrogate_check import (
+    COVERAGE_BAND,
+    centred_error,
+    coverage_of,
+    importance_check,
+)
+from femupdate.pipeline.posterior.surrogate import (
+    DesignStore,
+    problem_evaluator,
+    surrogate_record,
     wants_surrogate,
 )
 from femupdate.problem.update import UpdateProblem
@@ -78,7 +88,8 @@ def test_matches_the_exact_posterior_in_few_runs() -> None:
     assert result.model_runs <= 80
     np.testing.assert_allclose(result.means(), means, rtol=0.005)
     np.testing.assert_allclose(result.sds(), sds, rtol=0.15)
-    assert result.check_error <= result.tolerance
+    assert result.check.passed and result.check.ess >= 0.5
+    assert np.all(result.check.coverage >= COVERAGE_BAND[0])
     assert "model runs" in result.message
 
 
@@ -90,6 +101,93 @@ def test_a_surrogate_short_of_its_budget_says_what_it_reached() -> None:
     assert result.accuracy > result.tolerance
     assert "did not reach its accuracy" in result.message
     assert f"{result.accuracy:.3g} nats against a tolerance of 1" in result.message
+    # the final check ran all the same, and says what it found
+    assert result.check.runs == 2 and "effective share" in result.message
+    record = surrogate_record(result, PRIOR, 3)
+    assert not record.reached and record.params == {} and record.nfev == 18
+    assert record.surrogate is not None and record.surrogate.check_runs == 2
+
+
+def test_the_check_weighs_true_against_surrogate_likelihood() -> None:
+    rng = np.random.default_rng(0)
+    unit = rng.random((16, 2))
+    sd = unit.std(axis=0)
+    predicted = rng.normal(size=16)
+    # a constant error in log L changes nothing: flat weights, no shift
+    same = importance_check(unit, predicted, predicted - 3.0, sd)
+    assert same.passed and same.ess == pytest.approx(1.0)
+    np.testing.assert_allclose(same.shifts, 0.0, atol=1e-12)
+    np.testing.assert_allclose(same.sd_ratios, 1.0)
+    # an error that grows along the first parameter moves its mean that way, not the other's
+    tilted = importance_check(unit, predicted, predicted + 3.0 * (unit[:, 0] - 0.5) / sd[0],
+                              sd)
+    assert not tilted.passed and tilted.shifts[0] > 0.5
+    # the narrower reweighted sd keeps it inside the surrogate's interval: the reverse
+    # coverage (the surrogate's inside the reweighted interval) is what fails
+    assert tilted.coverage[1, 0] < COVERAGE_BAND[0] < tilted.coverage[1, 1]
+    assert "largest shift of a mean" in tilted.words(["f", "d"]) and "sd (f)" in \
+        tilted.words(["f", "d"])
+    # fewer than two finite true log L: no check
+    none = importance_check(unit[:2], predicted[:2], np.array([np.nan, 1.0]), sd)
+    assert not none.passed and "fewer than two" in none.words(["f", "d"])
+
+
+def test_a_failed_check_continues_the_design(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A check that fails adds its runs to the design and the batches go on; one that never
+    passes ends at the budget and says so, with the check's figures."""
+    import femupdate.inference.surrogate as module
+
+    real, calls = module.importance_check, []
+
+    def first_fails(*args: object) -> object:
+        calls.append(args)
+        return dataclasses.replace(real(*args), passed=len(calls) > 1)
+
+    monkeypatch.setattr(module, "importance_check", first_fails)
+    settings = dict(rng=np.random.default_rng(3), max_runs=60, initial=12, batch=4, check=4,
+                    population=100, tolerance=1e6)
+    result = surrogate_posterior(evaluate, PRIOR, fixed_model, **settings)
+    assert len(calls) == 2 and result.reached, result.message
+    # 12 initial, a batch, the failed check, a batch, the check that passed
+    assert result.model_runs == 12 + 4 + 4 + 4 + 4 and result.iterations == 2
+    assert "1 earlier check(s) failed and the design went on" in result.message
+
+    def never(*args: object) -> object:
+        return dataclasses.replace(real(*args), passed=False)
+
+    monkeypatch.setattr(module, "importance_check", never)
+    settings["rng"] = np.random.default_rng(3)
+    result = surrogate_posterior(evaluate, PRIOR, fixed_model, **settings)
+    assert not result.reached and result.model_runs <= 60
+    assert result.model_runs + 4 + 4 > 60  # no room for another batch and check
+    assert f"failed its final check after {result.model_runs} model runs (max_runs 60" in \
+        result.message and "effective share" in result.message
+
+
+def test_the_coverage_of_a_90_percent_interval() -> None:
+    np.testing.assert_allclose(coverage_of(np.zeros(1), np.ones(1)), 0.90)
+    # the rule's bounds: a mean 0.55 sd away, or an sd 14 % too wide or 16 % too narrow
+    assert coverage_of(np.array([0.545]), np.ones(1))[0] == pytest.approx(0.85, abs=0.001)
+    assert coverage_of(np.zeros(1), np.array([1.143]))[0] == pytest.approx(0.85, abs=0.001)
+    assert coverage_of(np.zeros(1), np.array([0.839]))[0] == pytest.approx(0.95, abs=0.001)
+
+
+def test_a_resumed_design_replays_its_stored_runs(tmp_path: Path) -> None:
+    calls: list[int] = []
+
+    def counted(X: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
+        calls.append(len(X))
+        return evaluate(X)
+
+    X = PRIOR.to_search(np.random.default_rng(1).random((5, 2)))
+    first = DesignStore(tmp_path / "d.npz", counted, "case:3", resume=False)
+    rows, _ = first(X[:3])
+    again = DesignStore(tmp_path / "d.npz", counted, "case:3", resume=True)
+    replayed, why = again(X)
+    assert calls == [3, 2] and again.reused == 3 and why == [None] * 5
+    np.testing.assert_array_equal(replayed[:3], rows)
+    with pytest.raises(ConfigError, match="another case or seed"):
+        DesignStore(tmp_path / "d.npz", counted, "case:4", resume=True)
 
 
 def test_failing_design_points_are_reported() -> None:
@@ -266,13 +364,23 @@ seed = 3
     result = CliRunner().invoke(app, ["posterior", str(tmp_path / "case.toml"), "--out",
                                       str(tmp_path / "out"), "--quiet"])
     assert result.exit_code == 0, result.output
-    record = json.loads((tmp_path / "out" / "surrogate.json").read_text())
-    assert record["reached"], record["message"]
-    assert record["model_runs"] <= 300 and record["failures"] == []
+    record = json.loads((tmp_path / "out" / "summary.json").read_text())["posterior"]
+    assert record["method"] == "surrogate" and record["reached"], record["message"]
+    assert record["nfev"] <= 300 and record["surrogate"]["failures"] == []
+    assert record["surrogate"]["passed"]
     assert abs(record["params"]["a"]["mean"] - 2.0) < 0.05
-    assert "surrogate posterior in" in result.output
+    assert "surrogate posterior in" in record["message"]
+    assert "Gaussian-process surrogate" in result.output
     samples = np.load(tmp_path / "out" / "surrogate.npz")["samples"]
     assert samples.shape[1] == 1
+    assert np.array_equal(np.load(tmp_path / "out" / "posterior.npz")["samples"], samples)
+    # killed and resumed: the stored design points are replayed, not run again
+    resumed = CliRunner().invoke(app, ["posterior", str(tmp_path / "case.toml"), "--out",
+                                       str(tmp_path / "out"), "--quiet", "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    again = json.loads((tmp_path / "out" / "summary.json").read_text())["posterior"]
+    assert again["params"] == record["params"]
+    assert f"({record['nfev']} of them replayed" in again["message"]
 
 
 def test_the_trend_never_falls_away_from_the_data() -> None:

@@ -295,6 +295,20 @@ def test_restarts_are_shown_with_the_stop(copy_results: Callable[[], Path]) -> N
     assert 'title="max_evals = 300 (after 2 restarts)"' in text  # in full on hovering
 
 
+@pytest.mark.usefixtures("tables_only")
+def test_runs_not_needed_are_counted_with_the_planned_runs(
+        copy_results: Callable[[], Path]) -> None:
+    out = copy_results()
+    path = out / "summary.json"
+    summary = json.loads(path.read_text())
+    summary["verdict"]["planned"] = 25  # as if the first 3 runs agreed ([search] agree)
+    summary["settings"]["agree"] = 2
+    path.write_text(json.dumps(summary))
+    _, text = parse(write_report(out))
+    assert "3 of 25 runs (the others were not needed) of" in text
+    assert "3 of 25 (the others were not needed: [search] agree = 2)" in text
+
+
 def test_without_store_or_fit_the_report_says_what_it_could_not_draw(
         copy_results: Callable[[], Path]) -> None:
     out = copy_results()

@@ -92,3 +92,36 @@ def test_sigkill_midway_then_resume_equals_an_uninterrupted_set(tmp_path: Path,
             h1, h2 = got.history(run), want.history(run)
             assert h1.keys() == h2.keys()
             assert all(h1[k].tobytes() == h2[k].tobytes() for k in h1)
+
+
+# multistart-lm with its patience and the agreement stop: on these exact data runs 0 and 1 end
+# at φ ≈ 1e-31 (2,169 and 2,966 evaluations), so runs 2 and 3 are not needed.
+AGREE = dict(runs=4, seed=21, max_evals=3000, residuals=True, agree=2)
+
+
+@pytest.mark.slow
+def test_a_killed_set_with_agree_resumes_to_the_same_decision(tmp_path: Path) -> None:
+    code = CHILD.format(fun="residuals", method="multistart-lm", execution=EXECUTION,
+                        settings=AGREE)
+    exit_code = kill_midway([sys.executable, "-c", code, str(tmp_path / "killed")],
+                            tmp_path / "killed" / FILENAME, 1500, 2)
+    assert exit_code == -signal.SIGKILL, "the runs ended before they could be killed"
+    p = DynamicProblem()
+    resumed = run_all(p.residuals, p.bounds, "multistart-lm", store_dir=tmp_path / "killed",
+                      resume=True, execution=Execution(**EXECUTION), **AGREE)
+    reference = run_all(p.residuals, p.bounds, "multistart-lm", store_dir=tmp_path / "whole",
+                        execution=Execution(**EXECUTION), **AGREE)
+    assert [o.index for o in resumed] == [o.index for o in reference] == [0, 1]
+    for a, b in zip(resumed, reference, strict=True):
+        np.testing.assert_array_equal(a.x, b.x)
+        assert (a.fun, a.nfev, a.nit, a.stop) == (b.fun, b.nfev, b.nit, b.stop)
+    with ResultsStore.open(tmp_path / "killed") as got, \
+            ResultsStore.open(tmp_path / "whole") as want:
+        for run in (0, 1):  # the runs needed: the same evaluations, none twice
+            i1, x1, f1, _ = got.evaluations(run)
+            i2, x2, f2, _ = want.evaluations(run)
+            np.testing.assert_array_equal(i1, np.arange(i2.size))
+            np.testing.assert_array_equal(i1, i2)
+            assert x1.tobytes() == x2.tobytes() and f1.tobytes() == f2.tobytes()
+        # run 3 never starts: with two workers only run 2 can be in flight when 0 and 1 agree
+        assert got.runs()[3].status == want.runs()[3].status == "pending"

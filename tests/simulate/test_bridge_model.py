@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.case import Model, build_structure
+from femupdate.case import Model
 from femupdate.model.modes import initial_stiffness, natural_frequencies
 from femupdate.model.system import System
 from femupdate.paper.bench.simulate import DEFAULT_FRICTION_VALUES, viscous_values
 from femupdate.paper.problems import bridge
+from femupdate.problem.case_model import build_structure
 from femupdate.simulate import prepare
 
 DT = 1.0 / bridge.SAMPLE_RATE

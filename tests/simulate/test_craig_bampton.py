@@ -84,7 +84,7 @@ def test_a_friction_case_on_the_reduced_path(tmp_path) -> None:
     """``method = "reduced"`` with friction: Craig–Bampton with the damper's DOF kept, φ at the
     truth on the full model's records is the truncation error the summary reports, and φ
     away from the truth is far above it."""
-    from femupdate.case.reduced_path import (
+    from femupdate.problem.reduced_path import (
         describe_simulation,
         simulation_record,
         trial_truncation,
@@ -113,6 +113,6 @@ def test_a_friction_case_on_the_reduced_path(tmp_path) -> None:
 
 
 def system_dofs(case) -> int:
-    from femupdate.case import CaseModel
+    from femupdate.problem.case_model import CaseModel
 
     return CaseModel(case).structure.n_dof

@@ -14,12 +14,13 @@ import sys
 import numpy as np
 import pytest
 
-from femupdate.case import Model, build_structure
+from femupdate.case import Model
 from femupdate.errors import ConfigError, MissingDependencyError, ModelError
 from femupdate.model.modes import initial_stiffness, natural_frequencies
 from femupdate.paper.bench.opensees import OpenSeesPeer, import_opensees
 from femupdate.paper.bench.simulate import DEFAULT_FRICTION_VALUES, viscous_values
 from femupdate.paper.problems import bridge
+from femupdate.problem.case_model import build_structure
 from femupdate.simulate import prepare
 
 DT = 1.0 / bridge.SAMPLE_RATE

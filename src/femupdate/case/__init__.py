@@ -9,13 +9,16 @@ laid out by job:
 - ``checks`` and ``issues``: what one field cannot check alone, and its wording;
 - ``load``: ``load_case`` (TOML) and ``parse_case`` (a mapping), with messages that name file,
   field and allowed values;
-- ``build``: the one adapter from a case to its structure, output DOFs and prepared simulator.
+- ``simulation_path``: which simulation path the case's fields choose (no model is built);
+- ``model3d``, ``frame3d_case``, ``posterior_section``: 3-D frames and ``[posterior]``.
 
-``docs/case-files.md`` documents every field. Numbers of the model may name a parameter declared
-in ``[[parameters]]`` (``k = "kp2"``); the built structure substitutes them at every evaluation.
+Schema and validation only: building the model and simulating it is
+:mod:`femupdate.problem.case_model` (``CaseModel``, ``build_structure``), which this package
+never imports. ``docs/case-files.md`` documents every field. Numbers of the model may name a
+parameter declared in ``[[parameters]]`` (``k = "kp2"``); the built structure substitutes them
+at every evaluation.
 """
 
-from femupdate.case.build import CaseModel, build_structure
 from femupdate.case.fields import DOF_NAMES, format_value
 from femupdate.case.load import load_case, parse_case
 from femupdate.case.model_sections import (
@@ -56,7 +59,6 @@ __all__ = [
     "Beam",
     "Case",
     "CaseInfo",
-    "CaseModel",
     "Channel",
     "Damper",
     "Data",
@@ -79,7 +81,6 @@ __all__ = [
     "SupportGroup",
     "Trial",
     "TrialSpec",
-    "build_structure",
     "format_value",
     "load_case",
     "parse_case",

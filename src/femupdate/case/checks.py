@@ -3,19 +3,25 @@
 References to nodes, DOFs and parameters, duplicates, supports, bounds against the ranges of
 the properties that use them, outputs on fixed DOFs, filter and delay bands against the
 sampling rate. The sections of ``schema`` call these from their ``model_validator``.
+:func:`check_parameter_values` checks the parameter values a user passes beside a case (JSON on
+the command line, a truth file).
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 import typing
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 
 from pydantic import BaseModel, ValidationError
 
+from femupdate.case.derived import bouc_wen_bound_issues, constraint_issues, derived_issues
+from femupdate.case.expressions import ExpressionError, is_name, parse_expression
 from femupdate.case.fields import DOF_NAMES, Range, field_range, find_range, format_value
 from femupdate.case.issues import Issue, did_you_mean, duplicates, join_path
 from femupdate.case.model3d import beam_issues, node_issues
+from femupdate.errors import ConfigError
 
 if typing.TYPE_CHECKING:
     from femupdate.case.model_sections import Model
@@ -242,17 +248,32 @@ def case_issues(case: Case) -> list[Issue]:
     issues = duplicates([(f"parameters[{i}].name", p.name)
                           for i, p in enumerate(case.parameters)], "parameter name")
     declared = {p.name: (i, p) for i, p in enumerate(case.parameters)}
-    names = ", ".join(repr(n) for n in declared) or "none declared"
+    names_listed = ", ".join(repr(n) for n in declared) or "none declared"
     used: set[str] = set()
     out_of_range: set[str] = set()
+    expressions: list[tuple[str, str, Range]] = []
     for path, value, rng in quantities(case.model, "model"):
         if not isinstance(value, str):
+            continue
+        if not is_name(value):  # an expression: its names declared, its values in range
+            try:
+                names = parse_expression(value).names
+            except ExpressionError:
+                continue  # said by the field's own check
+            used.update(names)
+            unknown = [n for n in names if n not in declared]
+            for name in unknown:
+                hint = did_you_mean(name, list(declared))
+                issues.append((path, f"{value!r} names {name!r}, not declared in "
+                               f"[[parameters]]{hint}", f"declared parameters: {names_listed}"))
+            if not unknown:
+                expressions.append((path, value, rng))
             continue
         used.add(value)
         if value not in declared:
             hint = did_you_mean(value, list(declared))
             issues.append((path, f"parameter {value!r} is not declared in [[parameters]]{hint}",
-                           f"a number, or a declared parameter: {names}"))
+                           f"a number, or a declared parameter: {names_listed}"))
             continue
         i, p = declared[value]
         if not rng.contains_closed(p.lower, p.upper) and value not in out_of_range:
@@ -261,6 +282,7 @@ def case_issues(case: Case) -> list[Issue]:
             issues.append((f"parameters[{i}].{side}", f"parameter {value!r} has bounds "
                            f"[{format_value(p.lower)}, {format_value(p.upper)}] but is used "
                            f"at {path}", f"bounds {rng.interval()}"))
+    issues += constraint_issues(case) + derived_issues(case, expressions)
     for name, (i, _) in declared.items():
         if name not in used and case.model.external is None:  # an external model's own use
             issues.append((f"parameters[{i}].name", f"parameter {name!r} is declared but the "
@@ -272,11 +294,13 @@ def case_issues(case: Case) -> list[Issue]:
                        f"external ([model.{kind}]): it computes its own response, femupdate "
                        "integrates nothing", "no simulation.method with an external model"))
     elif case.model.has_nonlinear and case.simulation.method not in (None, "nonlinear",
-                                                                      "reduced"):
+                                                                      "implicit", "reduced"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} but the model "
                        "has friction or Bouc–Wen elements",
-                       "'nonlinear' (or leave it out), or 'reduced' for a large model"))
-    if case.model.support_groups and case.simulation.method in ("nonlinear", "reduced"):
+                       "'nonlinear' (or leave it out), 'implicit' for stiff elements, or "
+                       "'reduced' for a large model"))
+    if case.model.support_groups and case.simulation.method in ("nonlinear", "implicit",
+                                                                 "reduced"):
         issues.append(("simulation.method", f"got {case.simulation.method!r} with "
                        "[[model.support_groups]]", "'exact' (or leave it out), "
                        "'central_difference' or 'newmark': multi-support excitation runs on "
@@ -297,38 +321,6 @@ def case_issues(case: Case) -> list[Issue]:
     return issues
 
 
-def bouc_wen_bound_issues(case: Case) -> list[Issue]:
-    """Bouc–Wen elements whose (beta, gamma) can leave −β < γ ≤ β inside the parameters'
-    bounds: the search would reach points without hysteresis."""
-    bounds = {p.name: (p.lower, p.upper) for p in case.parameters}
-    model = case.model
-    pairs: list[tuple[str, object, object]] = [
-        (f"model.bouc_wen[{i}].gamma", bw.beta, bw.gamma) for i, bw in enumerate(model.bouc_wen)]
-    storeys = model.shear_building.bouc_wen if model.shear_building is not None else None
-    if storeys is not None:
-        n = len(model.shear_building.masses)
-        for i in range(n):
-            beta, gamma = (v[i] if isinstance(v, list) else v for v in (storeys.beta,
-                                                                        storeys.gamma))
-            pairs.append((f"model.shear_building.bouc_wen.gamma (storey {i + 1})", beta,
-                          gamma))
-    issues: list[Issue] = []
-    for path, beta, gamma in pairs:
-        if not (isinstance(beta, str) or isinstance(gamma, str)):
-            continue  # two numbers: checked with the section
-        if (isinstance(beta, str) and beta not in bounds) or (
-                isinstance(gamma, str) and gamma not in bounds):
-            continue  # an undeclared parameter: said elsewhere
-        b_low = bounds[beta][0] if isinstance(beta, str) else beta
-        g_low, g_high = bounds[gamma] if isinstance(gamma, str) else (gamma, gamma)
-        if not (-b_low < g_low and g_high <= b_low):
-            issues.append((path, f"beta = {format_value(beta)} and gamma = "
-                           f"{format_value(gamma)} can leave -beta < gamma <= beta within "
-                           "the parameters' bounds (no hysteresis there)",
-                           "bounds with -(lowest beta) < gamma <= lowest beta everywhere"))
-    return issues
-
-
 def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
     """The checks of one trial's records against the model and the processing."""
     issues: list[Issue] = []
@@ -342,6 +334,12 @@ def _data_issues(case: Case, data: Data, path: str) -> list[Issue]:
                     where = join_path(path, *[p for p in err["loc"] if p != "data"], rel)
                     issues.append((where, what, allowed))
     issues += output_issues(case.model, data, path) + input_issues(case.model, data, path)
+    if path != "data" and case.data is not None and (
+            data.base_directions != case.data.base_directions):
+        issues.append((f"{path}.components", f"the base motion's directions "
+                       f"{list(data.base_directions) or 'one record'} differ from [data]'s "
+                       f"{list(case.data.base_directions) or 'one record'}",
+                       "every trial with the components of [data], in the same order"))
     rate = case.preprocess.resample_hz or data.rate
     for name in ("highpass_hz", "lowpass_hz"):
         cutoff = getattr(case.preprocess, name)
@@ -408,7 +406,7 @@ def input_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
     """The input channels against the support groups: one table record without groups, one
     record per group with them; ``relative_to`` naming a group."""
     groups = [g.name for g in model.support_groups]
-    issues: list[Issue] = []
+    issues: list[Issue] = component_issues(model, data, where)
     if not groups:
         if data.inputs is not None:
             issues.append((f"{where}.inputs", "given without [[model.support_groups]]",
@@ -447,6 +445,40 @@ def input_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
     return issues
 
 
+def component_issues(model: Model, data: Data, where: str = "data") -> list[Issue]:
+    """A base motion with several components (``[[data.components]]``, or an input with an
+    ``angle``): femupdate's own model, uniform excitation, a translation DOF of the model's
+    nodes along each direction."""
+    directions = data.base_directions
+    if not directions:
+        return []
+    key = (f"{where}.components" if data.components is not None else f"{where}.input.angle")
+    if model.external is not None:
+        return [(key, "given with an external model ([model.python] or [model.opensees]), "
+                 "which takes one base record", "one [data.input] without angle")]
+    if model.support_groups:
+        return [(key, "given with [[model.support_groups]]", "support groups (one record per "
+                 "group) or a uniform base motion with components, not both")]
+    issues: list[Issue] = []
+    if model.direction is not None:
+        issues.append(("model.direction", f"got {model.direction!r}, but {key} gives the "
+                       "directions of the base motion", "leave it out"))
+    allowed = [d for d in model.dof_names() if d in ("ux", "uy", "uz")]
+    for i, direction in enumerate(directions):
+        if f"u{direction}" not in allowed:
+            field = (f"{where}.components[{i}].direction" if data.components is not None
+                     else key)
+            issues.append((field, f"moves the base along {direction}, but the model's nodes "
+                           f"have no u{direction} DOF", "directions among "
+                           + ", ".join(repr(d[1:]) for d in allowed)))
+    for i, out in enumerate(data.outputs):
+        if out.delay == "auto" and data.components is not None:
+            issues.append((f"{where}.outputs[{i}].delay", "\"auto\" with [[data.components]]: "
+                           "the components differ, none is the base to estimate a delay "
+                           "against", "the delay as a number of seconds (0: none)"))
+    return issues
+
+
 def _external_output_issues(model: Model, data: Data, where: str) -> list[Issue]:
     count = (len(model.opensees.outputs) if model.opensees is not None
              else len(model.python.influence) if model.python and model.python.influence
@@ -456,3 +488,31 @@ def _external_output_issues(model: Model, data: Data, where: str) -> list[Issue]
         return [(f"{where}.outputs", f"{len(data.outputs)} channels but {key} gives {count}",
                  f"one channel per output of the model, in the order of {key}")]
     return []
+
+
+def check_parameter_values(values: object, names: tuple[str, ...],
+                           what: str = "parameter values") -> dict[str, float]:
+    """``values`` as {name: float} for exactly the parameters ``names``; ConfigError otherwise.
+
+    For values a user passes (JSON on the command line, a truth file): says which names are
+    missing or unknown and which values are not finite numbers.
+    """
+    if not isinstance(values, Mapping):
+        raise ConfigError(f"{what}: expected an object of parameter values {{name: number}}, "
+                          f"got {type(values).__name__} (allowed: the parameters "
+                          f"{list(names)})")
+    missing = [n for n in names if n not in values]
+    unknown = [str(n) for n in values if n not in names]
+    if missing or unknown:
+        wrong = "; ".join(f"{word} {listed}" for word, listed in (("missing", missing),
+                                                                 ("unknown", unknown)) if listed)
+        raise ConfigError(f"{what}: {wrong} (allowed: exactly the parameters {list(names)})")
+    out = {}
+    for name in names:
+        value = values[name]
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
+                float(value)):
+            raise ConfigError(f"{what}: {name} = {value!r} is not a finite number (allowed: a "
+                              "finite number)")
+        out[name] = float(value)
+    return out

@@ -19,6 +19,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PlainValidator, WithJsonSchema
 from pydantic_core import PydanticCustomError
 
+from femupdate.case.expressions import ALLOWED, ExpressionError, parse_expression
 from femupdate.errors import ConfigError
 
 #: DOF names of a node, by ``model.dofs_per_node``.
@@ -70,7 +71,8 @@ def _fmt_bound(value: float) -> str:
 class Range:
     """The values a numeric field accepts; it is also the field's pydantic validator.
 
-    ``parameter`` fields also accept the name of a parameter declared in ``[[parameters]]``.
+    ``parameter`` fields also accept the name of a parameter declared in ``[[parameters]]``,
+    or an expression of parameters (:mod:`femupdate.case.expressions`).
     """
 
     gt: float | None = None
@@ -101,7 +103,7 @@ class Range:
         if self.unit:
             text += f" ({self.unit})"
         if self.parameter:
-            text += " or a parameter name"
+            text += " or a parameter name or expression"
         return text
 
     def contains(self, value: float) -> bool:
@@ -133,11 +135,16 @@ class Range:
                 raise PydanticCustomError(
                     "quoted_number", "got {got}: a number in quotes; remove the quotes",
                     {**allowed, "got": repr(value)})
-            raise PydanticCustomError(
-                "parameter_name",
-                "got {got}: not a valid parameter name (letters, digits and _, not starting "
-                "with a digit, at most 64 characters)",
-                {**allowed, "got": repr(value)})
+            try:  # an expression of parameters: its names are checked with [[parameters]]
+                parse_expression(value)
+            except ExpressionError as exc:
+                raise PydanticCustomError(
+                    "parameter_expression",
+                    "got {got}: not a parameter name (letters, digits and _, not starting "
+                    "with a digit) nor an expression of parameters: {why}",
+                    {"allowed": f"{self.describe()}; an expression may contain {ALLOWED}",
+                     "got": repr(value), "why": str(exc)}) from None
+            return value
         if self.integer:
             if isinstance(value, bool) or not isinstance(value, int):
                 raise PydanticCustomError(
@@ -169,7 +176,8 @@ class Range:
         if self.unit:
             schema["description"] = f"unit: {self.unit}"
         if self.parameter:
-            return {"anyOf": [schema, {"type": "string", "pattern": PARAMETER_NAME.pattern}]}
+            return {"anyOf": [schema, {"type": "string", "description": "a parameter name, or an "
+                                       "expression of parameters such as 0.5 * beta"}]}
         return schema
 
 

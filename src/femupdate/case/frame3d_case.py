@@ -20,12 +20,18 @@ A TOML file of its own (docs/frames-3d.md gives an example)::
     scale = 9.81                   # to m/s²
     dofs = ["A.uz", "B.uz"]        # the support DOFs that follow it
 
+In place of ``dofs``, ``direction = "x"`` moves every support along x with the record (a
+component of a uniform base motion: two records along ``"x"`` and ``"y"`` are an earthquake's
+two horizontal components), and ``angle = 30`` moves every support along that direction of
+the horizontal plane (degrees from x towards y): ``a cos θ`` along x, ``a sin θ`` along y.
+
 Every record must share length and ``dt`` (one-line ``DataError`` otherwise); a support DOF
 takes at most one record; support DOFs without a record stay still.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
 from pathlib import Path
@@ -56,9 +62,9 @@ from femupdate.case.fields import (
     number_field,
     text_field,
 )
+from femupdate.data.records import check_records
 from femupdate.errors import ConfigError, DataError, ModelError
 from femupdate.model.frame3d import Frame3D, Frame3DModel
-from femupdate.simulate.multisupport import check_records
 
 __all__ = ["Frame3DCase", "load_frame3d_case"]
 
@@ -136,7 +142,39 @@ class GroundMotion(Section):
     dt: number_field("s", gt=0.0, le=10.0)
     column: integer_field(ge=0, le=10_000) = 0
     scale: number_field(gt=0.0, le=1e6) = 1.0
-    dofs: Annotated[list[text_field(200, 3)], Field(min_length=1, max_length=100_000)]
+    dofs: Annotated[list[text_field(200, 3)], Field(min_length=1, max_length=100_000)] | None = (
+        None)
+    # uniform: every support along a direction, or along an angle in the horizontal plane
+    direction: Literal["x", "y", "z"] | None = None
+    angle: number_field("deg", ge=0.0, lt=360.0) | None = None
+
+    def targets(self, support_labels: tuple[str, ...], where: str
+                ) -> list[tuple[list[str], float]]:
+        """(support DOFs, factor on the record) of each group this record drives: its
+        ``dofs``; every support's DOF along ``direction``; or along x and y by cos θ, sin θ
+        for an ``angle``."""
+        given = [k for k in ("dofs", "direction", "angle") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ConfigError(f"{where}: {' and '.join(given) or 'none'} of dofs, direction, "
+                              "angle given (allowed: exactly one: the support DOFs that follow "
+                              "the record, or a direction or an angle that every support "
+                              "follows)")
+        if self.dofs is not None:
+            return [(list(self.dofs), 1.0)]
+        if self.direction is not None:
+            parts = [(self.direction, 1.0)]
+        else:
+            theta = math.radians(float(self.angle))
+            parts = [("x", math.cos(theta)), ("y", math.sin(theta))]
+        out = []
+        for direction, factor in parts:
+            dofs = [lab for lab in support_labels if lab.endswith(f".u{direction}")]
+            if not dofs:
+                key = "direction" if self.direction is not None else "angle"
+                raise ConfigError(f"{where}.{key}: no support DOF along {direction} (allowed: "
+                                  "a direction the supports are fixed along)")
+            out.append((dofs, factor))
+        return out
 
 
 class Frame3DCase(Section):
@@ -167,6 +205,31 @@ class Frame3DCase(Section):
         if s.rayleigh is not None:
             f.set_rayleigh(s.rayleigh.alpha, s.rayleigh.beta)
         return f
+
+
+def _with_derived(case: Frame3DCase, path: Path) -> dict[str, float]:
+    """``[values]`` with the value of every field that is an expression of them, keyed by its
+    text (as ``Frame3D.assemble`` looks a string field up); a value read only by expressions
+    is left out (the frame knows it under no name)."""
+    from femupdate.case.checks import quantities
+    from femupdate.case.expressions import is_name, parse_expression
+
+    derived: dict[str, float] = {}
+    plain: set[str] = set()
+    for where, text, _ in quantities(case.frame3d, "frame3d"):
+        if not isinstance(text, str) or is_name(text):
+            plain.add(str(text))
+            continue
+        expression = parse_expression(text)
+        missing = [n for n in expression.names if n not in case.values]
+        if missing:
+            raise ConfigError(f"{path}: {where}: {text!r} names {missing[0]!r}, which has no "
+                              f"value (allowed: names given in [values]: "
+                              f"{', '.join(case.values) or 'none'})")
+        derived[text] = float(expression(case.values))
+    only_in_expressions = {n for text in derived for n in parse_expression(text).names} - plain
+    return {**{k: v for k, v in case.values.items() if k not in only_in_expressions},
+            **derived}
 
 
 def _read_record(path: Path, column: int, where: str) -> np.ndarray:
@@ -215,7 +278,7 @@ def load_frame3d_case(path: str | os.PathLike[str]
         raise ConfigError("\n".join(lines)) from None
     try:
         frame = case.build()
-        model = frame.assemble(case.values)
+        model = frame.assemble(_with_derived(case, path))
     except ModelError as exc:
         raise ModelError(f"{path}: frame3d: {exc}") from None
     records: dict[str, tuple[np.ndarray, float]] = {}
@@ -223,51 +286,24 @@ def load_frame3d_case(path: str | os.PathLike[str]
     seen: dict[str, int] = {}
     for i, gm in enumerate(case.ground_motion):
         where = f"{path}: ground_motion[{i}]"
-        for lab in gm.dofs:
-            if lab not in model.support_labels:
-                raise ConfigError(f"{where}.dofs: {lab!r} is not a support DOF (allowed: "
-                                  f"{', '.join(model.support_labels)})")
-            if lab in seen:
-                raise ConfigError(f"{where}.dofs: {lab!r} already follows ground_motion"
-                                  f"[{seen[lab]}]; a support DOF takes one record")
-            seen[lab] = i
-        records[f"ground_motion[{i}] ({gm.file})"] = (
-            gm.scale * _read_record(path.parent / gm.file, gm.column, where), gm.dt)
-        groups.append(list(gm.dofs))
+        key = "dofs" if gm.dofs is not None else "direction" if gm.direction else "angle"
+        targets = gm.targets(model.support_labels, where)
+        for dofs, _ in targets:
+            for lab in dofs:
+                if lab not in model.support_labels:
+                    raise ConfigError(f"{where}.dofs: {lab!r} is not a support DOF (allowed: "
+                                      f"{', '.join(model.support_labels)})")
+                if lab in seen:
+                    raise ConfigError(f"{where}.{key}: {lab!r} already follows ground_motion"
+                                      f"[{seen[lab]}]; a support DOF takes one record")
+                seen[lab] = i
+        record = gm.scale * _read_record(path.parent / gm.file, gm.column, where)
+        for j, (dofs, factor) in enumerate(targets):
+            part = f" {'xy'[j]}" if gm.angle is not None else ""
+            records[f"ground_motion[{i}]{part} ({gm.file})"] = (factor * record, gm.dt)
+            groups.append(list(dofs))
     try:
         acc, dt = check_records(records)
     except DataError as exc:
         raise DataError(f"{path}: {exc}") from None
     return case, frame, model, groups, acc, dt
-
-
-def run_frame3d_case(path: str | os.PathLike[str], out: str | os.PathLike[str] | None = None,
-                     *, method: str = "exact") -> list[str]:
-    """Simulate a 3-D frame case; write the responses as CSV; return summary lines.
-
-    Writes ``<out>/total_displacement.csv``, ``dynamic_displacement.csv`` and
-    ``absolute_acceleration.csv`` (a column per free DOF after the time) when ``out`` is given.
-    """
-    from femupdate.simulate.multisupport import multi_support_response
-
-    _, _, model, groups, acc, dt = load_frame3d_case(path)
-    resp = multi_support_response(model, groups, acc, dt, method=method)
-    labels = model.system.dof_labels
-    lines = [f"{model.system.n_dof} free DOFs, {len(model.support_labels)} support DOFs, "
-             f"{len(groups)} record(s) of {acc.shape[0]} samples at dt = {dt:g} s ({method})"]
-    peak = np.abs(resp.total).max(axis=0)
-    j = int(np.argmax(peak))
-    lines.append(f"largest total displacement {peak[j]:.4g} at {labels[j]}; pseudo-static part "
-                 f"up to {np.abs(resp.pseudo_static).max():.4g}")
-    if out is not None:
-        folder = Path(out)
-        folder.mkdir(parents=True, exist_ok=True)
-        header = "t," + ",".join(labels)
-        for name, arr in (("total_displacement", resp.total),
-                          ("dynamic_displacement", resp.dynamic),
-                          ("absolute_acceleration", resp.acceleration)):
-            np.savetxt(folder / f"{name}.csv", np.column_stack([resp.t, arr]), delimiter=",",
-                       header=header, comments="")
-        lines.append(f"wrote total_displacement.csv, dynamic_displacement.csv, "
-                     f"absolute_acceleration.csv in {folder}")
-    return lines

@@ -50,7 +50,7 @@ from femupdate.case.model_sections import (
     Model,
 )
 from femupdate.case.posterior_section import PosteriorSection, posterior_issues
-from femupdate.case.reduced_path import reduced_by_default, simulation_issues
+from femupdate.case.simulation_path import reduced_by_default, simulation_issues
 from femupdate.data.defects import KINDS, REPAIRABLE
 from femupdate.data.network import FORMATS as NETWORK_FORMATS
 from femupdate.errors import ConfigError
@@ -119,6 +119,15 @@ class Parameter(Section):
         return self.to_physical(0.5 * (low + high))
 
 
+class ConstraintRule(Section):
+    """``[[constraints]]``: a condition between parameters, ``rule = "gamma <= beta"``
+    (:mod:`femupdate.case.expressions`); a searched point where it fails is a failed
+    evaluation, and the checks of the box leave such points out (:mod:`femupdate.case.derived`).
+    """
+
+    rule: text_field(400, 1)
+
+
 # ----------------------------------------------------------------------------- [data]
 
 
@@ -129,6 +138,21 @@ class Channel(Section):
     file: text_field(4096, 1)
     column: Column
     unit: AccelerationUnit | None = None
+
+
+class InputChannel(Channel):
+    """``[data.input]``: the base (table) acceleration channel, along the model's direction;
+    with ``angle``, along that direction of the horizontal plane (degrees from x towards y):
+    the record moves the base by ``a cos θ`` along x and ``a sin θ`` along y."""
+
+    angle: number_field("deg", ge=0.0, lt=360.0) | None = None
+
+
+class ComponentChannel(Channel):
+    """``[[data.components]]``: one component of a uniform base motion, its own record along
+    ``direction`` (every support moves with every component)."""
+
+    direction: Literal["x", "y", "z"]
 
 
 class OutputChannel(Channel):
@@ -202,18 +226,40 @@ class Data(Section):
     repair_defects: Annotated[list[RepairableKind], Field(max_length=len(REPAIRABLE))] = Field(
         default_factory=list)
     unit: AccelerationUnit = "m/s2"
-    input: Channel | None = None
+    input: InputChannel | None = None
     # multi-support excitation: one channel per [[model.support_groups]], by group name
     inputs: dict[ElementName, Channel] | None = None
+    # uniform base motion with several components: one channel per direction
+    components: Annotated[list[ComponentChannel], Field(min_length=1, max_length=3)] | None = None
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)]
 
     def input_channels(self) -> list[tuple[str, str, Channel]]:
         """(name once read, field, channel) of the input channels: ``"input"`` (the table),
-        or ``"input.<group>"`` for each support group's."""
+        ``"input.<group>"`` for each support group's, or ``"input.<direction>"`` for each
+        component of the base motion."""
         if self.inputs is not None:
             return [(f"input.{group}", f"inputs.{group}", channel)
                     for group, channel in self.inputs.items()]
+        if self.components is not None:
+            return [(f"input.{c.direction}", f"components[{i}]", c)
+                    for i, c in enumerate(self.components)]
         return [("input", "input", self.input)] if self.input is not None else []
+
+    @property
+    def base_directions(self) -> tuple[str, ...]:
+        """The directions of a base motion with several components, in the order of its
+        columns: those of ``[[data.components]]``, ("x", "y") for an input with an ``angle``;
+        () for one record along the model's direction (or support groups)."""
+        if self.components is not None:
+            return tuple(c.direction for c in self.components)
+        if self.input is not None and self.input.angle is not None:
+            return ("x", "y")
+        return ()
+
+    @property
+    def angle(self) -> float | None:
+        """The input's ``angle`` (degrees), if it has one."""
+        return self.input.angle if self.input is not None else None
 
     def _given(self, key: str) -> bool:
         """Whether ``key`` was given a value other than its default (a saved case, which
@@ -250,13 +296,25 @@ class Data(Section):
                            "nothing: network records say their units in the header, and "
                            "femupdate converts them to m/s2"))
         issues += _window_issues(self.window, "window")
-        if self.input is not None and self.inputs is not None:
-            issues.append(("inputs", "both data.input and data.inputs are given",
-                           "data.input (one table record) or data.inputs (one record per "
-                           "[[model.support_groups]]), not both"))
-        elif self.input is None and self.inputs is None:
-            issues.append(("input", "missing", "[data.input] (the table record), or "
-                           "[data.inputs.<group>] for each [[model.support_groups]]"))
+        given = [key for key in ("input", "inputs", "components")
+                 if getattr(self, key) is not None]
+        if len(given) > 1:
+            issues.append((given[1], f"both data.{given[0]} and data.{given[1]} are given",
+                           "one of data.input (one table record), data.inputs (one record per "
+                           "[[model.support_groups]]) and [[data.components]] (one record "
+                           "per direction of a uniform base motion)"))
+        elif not given:
+            issues.append(("input", "missing", "[data.input] (the table record), "
+                           "[data.inputs.<group>] for each [[model.support_groups]], or "
+                           "[[data.components]] (one record per direction)"))
+        if self.components is not None:
+            seen: dict[str, int] = {}
+            for i, c in enumerate(self.components):
+                if c.direction in seen:
+                    issues.append((f"components[{i}].direction", f"got {c.direction!r}, "
+                                   f"already the direction of components[{seen[c.direction]}]",
+                                   "each direction once: 'x', 'y', 'z'"))
+                seen.setdefault(c.direction, i)
         if self.directory is not None:
             issues += [("directory", problem, "${NAME} with NAME a variable name")
                        for problem in env_syntax(self.directory)]
@@ -304,8 +362,9 @@ class Trial(Section):
     weight: number_field(gt=0.0, le=1e6) = 1.0
     directory: text_field(4096) | None = None
     file: text_field(4096) | None = None
-    input: Channel | None = None
+    input: InputChannel | None = None
     inputs: dict[ElementName, Channel] | None = None
+    components: Annotated[list[ComponentChannel], Field(min_length=1, max_length=3)] | None = None
     outputs: Annotated[list[OutputChannel], Field(min_length=1, max_length=10_000)] | None = None
     window: Window | None = None
     score_window: Window | None = None
@@ -378,14 +437,19 @@ class ObjectiveOptions(Section):
 
 
 class Simulation(Section):
-    """``[simulation]``: the integrator (None: exact for linear models, nonlinear if friction)."""
+    """``[simulation]``: the integrator (None: exact for linear models, nonlinear if friction;
+    ``"implicit"``: Newmark with Newton iterations, for stiff nonlinear elements)."""
 
-    method: Literal["exact", "central_difference", "newmark", "nonlinear",
+    method: Literal["exact", "central_difference", "newmark", "nonlinear", "implicit",
                     "reduced"] | None = None
-    # the reduced path's (femupdate.case.reduced_path): modes kept up to cutoff_factor × the
+    # the reduced path's (femupdate.problem.reduced_path): modes kept up to cutoff_factor × the
     # fitted band, or the lowest n_modes
     cutoff_factor: number_field(ge=1.0, le=1e3) | None = None
     n_modes: integer_field(ge=1, le=10**7) | None = None
+
+
+#: ``[search] agree`` when not given (femupdate.runs.verdict.AGREE).
+AGREE_DEFAULT = 2
 
 
 class Search(Section):
@@ -399,6 +463,9 @@ class Search(Section):
     f_target: number_field(ge=0.0, le=1e6) | None = None
     sigma_min: number_field(gt=0.0, lt=SIGMA_MAX) | None = None
     f_change_min: number_field(ge=0.0, le=1e6) | None = None
+    # runs that must end at the same best φ before the others are not needed (with residuals
+    # and no f_target only: femupdate.runs.verdict.runs_needed); 0 or None: every run
+    agree: integer_field(ge=0, le=10_000) | None = AGREE_DEFAULT
     options: Options = Field(default_factory=dict)
 
     @model_validator(mode="after")
@@ -421,6 +488,7 @@ class Case(Section):
     case: CaseInfo
     model: Model
     parameters: list[Parameter] = Field(default_factory=list)
+    constraints: list[ConstraintRule] = Field(default_factory=list)
     data: Data | None = None
     trials: list[Trial] = Field(default_factory=list)
     preprocess: Preprocess = Field(default_factory=Preprocess)
@@ -502,7 +570,7 @@ class Case(Section):
     def simulation_method(self) -> str:
         """``simulation.method``, or its default: ``"nonlinear"`` with frictions, ``"reduced"``
         for a linear model of ``REDUCED_MIN_DOF`` DOFs or more
-        (:mod:`femupdate.case.reduced_path`), else exact."""
+        (:mod:`femupdate.problem.reduced_path`), else exact."""
         if self.simulation.method is not None:
             return self.simulation.method
         if self.model.support_groups:  # multi-support: the dense linear path
@@ -549,6 +617,8 @@ class Case(Section):
         Without ``[posterior]`` nothing is saved for it, nor for a low-pass not given: the
         fingerprints of cases written before they existed stay the same."""
         data = self.model_dump(mode="json")
+        if not data.get("constraints"):  # nor constraints when there are none
+            data.pop("constraints", None)
         if data.get("posterior") is None:
             data.pop("posterior", None)
         else:
@@ -565,11 +635,17 @@ class Case(Section):
             if trial.get("file") is None:
                 trial.pop("file", None)
         _drop_unused_support_fields(data)  # nor multi-support's fields, unused
+        if data["search"].get("agree") == AGREE_DEFAULT:  # nor the agreement stop's default
+            data["search"].pop("agree", None)
         return data
 
     def fingerprint(self) -> str:
-        """SHA-256 of the canonical JSON of ``to_dict()``: equal for equal cases."""
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"),
+        """SHA-256 of the canonical JSON of ``to_dict()``: equal for equal cases. Without
+        ``[search] agree``: it chooses which runs are needed, never what a run computes, so a
+        set resumes with another ``agree`` (0: the runs not needed before are run now)."""
+        data = self.to_dict()
+        data["search"].pop("agree", None)
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"),
                           ensure_ascii=False, allow_nan=False)
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
@@ -579,12 +655,14 @@ def _drop_unused_support_fields(data: dict[str, Any]) -> None:
     so that a uniform-excitation case saves as it did before they existed."""
     if not data["model"].get("support_groups"):
         data["model"].pop("support_groups", None)
-    sections = [(data["data"], ("input", "inputs"))] if data.get("data") else []
-    sections += [(trial, ("inputs",)) for trial in data.get("trials") or []]
+    sections = [(data["data"], ("input", "inputs", "components"))] if data.get("data") else []
+    sections += [(trial, ("inputs", "components")) for trial in data.get("trials") or []]
     for section, keys in sections:
         for key in keys:  # a trial's input was saved as None before: it stays
             if key in section and section[key] is None:
                 section.pop(key)
+        if isinstance(section.get("input"), dict) and section["input"].get("angle") is None:
+            section["input"].pop("angle", None)
         for out in section.get("outputs") or []:
             if out.get("relative_to") is None:
                 out.pop("relative_to", None)
@@ -593,9 +671,13 @@ def _drop_unused_support_fields(data: dict[str, Any]) -> None:
 def trial_data(data: Data, trial: Trial) -> Data:
     """``[data]`` with what ``trial`` gives instead (records, directory, window; ``file`` for
     the file of every channel)."""
-    update = {key: getattr(trial, key) for key in ("directory", "input", "inputs", "outputs",
-                                                   "window")
+    update = {key: getattr(trial, key) for key in ("directory", "input", "inputs", "components",
+                                                   "outputs", "window")
               if getattr(trial, key) is not None}
+    if trial.input is not None or trial.components is not None:
+        # a trial's base motion replaces [data]'s, one record or several components
+        update.setdefault("input", None)
+        update.setdefault("components", None)
     if trial.file is not None:
         moved = {"file": trial.file}
         single = update.get("input", data.input)
@@ -604,6 +686,9 @@ def trial_data(data: Data, trial: Trial) -> Data:
         groups = update.get("inputs", data.inputs)
         if groups:
             update["inputs"] = {name: c.model_copy(update=moved) for name, c in groups.items()}
+        parts = update.get("components", data.components)
+        if parts:
+            update["components"] = [c.model_copy(update=moved) for c in parts]
         update["outputs"] = [o.model_copy(update=moved)
                              for o in update.get("outputs", data.outputs)]
     return data.model_copy(update=update)

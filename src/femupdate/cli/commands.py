@@ -141,9 +141,9 @@ def run(
     Every evaluation and the optimizers' checkpoints go to OUT/results.sqlite as they happen,
     so an interrupted or killed run continues with --resume; --restart starts over.
     """
-    from femupdate.case.reduced_path import describe_simulation
     from femupdate.optimize.minimize import METHODS
     from femupdate.pipeline.run import run_case, with_data_directory, with_method
+    from femupdate.problem.reduced_path import describe_simulation
     from femupdate.runs import Execution
 
     if resume and restart:
@@ -242,7 +242,7 @@ def posterior(
     surrogate: Annotated[bool | None, typer.Option(
         "--surrogate/--no-surrogate", help="TMCMC on a Gaussian-process surrogate trained at "
         "300 model runs at most (default: [posterior] surrogate, else on for an external "
-        "model); results in OUT/surrogate.json and OUT/surrogate.npz.")] = None,
+        "model); results in OUT/summary.json (posterior) as TMCMC's.")] = None,
     json_path: JsonOption = None,
 ) -> None:
     """The posterior of the parameters by TMCMC, beside the best fit: intervals,
@@ -271,13 +271,16 @@ def posterior(
     from femupdate.pipeline.posterior.run import run_surrogate_posterior
 
     aided = run_surrogate_posterior(case, out, surrogate=surrogate, seed=seed, workers=workers,
-                                    execution=execution)
+                                    execution=execution, resume=resume)
     if aided is not None:
-        say(aided.message)
-        for name, mean, sd in zip(aided.names, aided.means(), aided.sds(), strict=True):
-            say(f"{name}: mean {mean:.6g}, sd {sd:.3g}")
-        say(f"results in {out.resolve()} (surrogate.json, surrogate.npz)")
-        _write_json(json_path, json.loads((out / "surrogate.json").read_text()))
+        from femupdate.pipeline.results import SUMMARY_FILE, read_summary
+
+        summary = read_summary(out / SUMMARY_FILE)
+        print_posterior(summary.posterior, console)
+        say(f"results in {out.resolve()} (femupdate report {out})")
+        _write_json(json_path, summary.model_dump())
+        if not aided.reached:  # finished, but its check or accuracy not met: scripts must tell
+            raise SystemExit(NOT_THE_RESULT)
         return
     try:
         result = run_posterior(case, out, seed=seed, samples=samples, runs=runs,
@@ -313,15 +316,15 @@ def modes(
     json_path: JsonOption = None,
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes of a case's model."""
-    from femupdate.case import CaseModel
     from femupdate.model.modes import damped_modes, natural_frequencies
+    from femupdate.problem.case_model import CaseModel
 
     case = _load(case_file)
     values = case.nominal() if params is None else _read_params("--params", params, case)
     _warn_outside_bounds("--params", case, values)
     model = CaseModel(case)
     if model.reduced is not None:  # a large model: its lowest modes, sparse (no dense n × n)
-        from femupdate.case.reduced_path import lowest_case_modes
+        from femupdate.problem.reduced_path import lowest_case_modes
 
         (freqs, shapes), damped, dof_labels = lowest_case_modes(model.reduced, values)
         title = (f"{case.label}: the lowest {freqs.size} natural frequencies of "
@@ -521,7 +524,7 @@ def frame3d(
                                              "central_difference.")] = "exact",
 ) -> None:
     """Simulate a 3-D frame under its ground motions (one record per support group)."""
-    from femupdate.case.frame3d_case import run_frame3d_case
+    from femupdate.pipeline.frame3d import run_frame3d_case
 
     if method not in FRAME3D_METHODS:  # before the case is read and assembled
         raise ConfigError(f"--method: got {method!r} (allowed: {', '.join(FRAME3D_METHODS)})")

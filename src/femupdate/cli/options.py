@@ -171,7 +171,7 @@ def _read_params(flag: str, text: str, case: Case) -> dict[str, float]:
     """Values of every parameter of ``case`` from a JSON object, a JSON file, or a
     summary.json (its best run); ConfigError naming the flag, the parameter and what is
     allowed otherwise."""
-    from femupdate.case.build import check_parameter_values
+    from femupdate.case.checks import check_parameter_values
 
     data = _json_object(flag, text)
     assert data is not None

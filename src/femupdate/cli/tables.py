@@ -165,7 +165,10 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
     restarted = any(r.restarts for r in summary.runs)
     header, meaning, rule = _success_words(summary)
     # Text, not str: the console given may interpret markup, which would eat "[search]".
-    runs = Table(title=Text(f"{summary.name}: {summary.method}, {len(summary.runs)} runs"),
+    planned = summary.verdict.planned if summary.verdict is not None else None
+    ran = (f"{len(summary.runs)} runs" if planned is None else
+           f"{len(summary.runs)} of {planned} runs needed")
+    runs = Table(title=Text(f"{summary.name}: {summary.method}, {ran}"),
                  caption=Text(meaning))
     for col in ("run", "NMSE %", "evals", "stop", header, *(["restarts"] if restarted else []),
                 "at a bound"):

@@ -99,7 +99,7 @@ class AssemblyPlan(NamedTuple):
 
 def _prop_arrays(props: Sequence, params: Sequence[str], names: Sequence[str]
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(const, pidx in the search vector, spec rows) of the Structure's ``_Prop`` objects."""
+    """(const, pidx in the search vector, spec rows) of the Structure's ``Prop`` objects."""
     count = len(props[0].const) if props else 0
     const = np.zeros((len(props), count))
     pidx = np.full((len(props), count), -1, dtype=np.int64)
@@ -209,7 +209,7 @@ def _in_range(v: float, spec: np.ndarray) -> bool:
 @njit(cache=True)
 def _values(const: np.ndarray, pidx: np.ndarray, spec: np.ndarray, p: np.ndarray,
             out: np.ndarray) -> bool:
-    """Property values per element (``_Prop.evaluate``); False if a parameter is out of range."""
+    """Property values per element (``Prop.evaluate``); False if a parameter is out of range."""
     for e in range(const.shape[0]):
         if pidx[e] < 0:
             out[e] = const[e]

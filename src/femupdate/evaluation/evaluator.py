@@ -54,8 +54,11 @@ class UpdateProblem(Protocol):
     objective: Any
     _r_out: np.ndarray
     _ag: np.ndarray
+    derived_fields: tuple[str, ...]
 
     def phi_reference(self, x: np.ndarray) -> float: ...
+
+    def compiled_rows(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 __all__ = ["Evaluator", "Matrices", "evaluator_for"]
 
@@ -200,11 +203,17 @@ class Evaluator:
         case = problem.case
         exp = problem.experiment
         structure = problem.structure
-        self._reference: Callable[[np.ndarray], float] = problem.phi_reference
+        # Fields that are expressions of parameters: their values follow the search point's
+        # (problem.compiled_rows appends them; the reference path takes the point alone).
+        derived = tuple(problem.derived_fields)
+        n_search = len(case.parameters)
+        self._reference: Callable[[np.ndarray], float] = (
+            (lambda x: problem.phi_reference(x[:n_search])) if derived
+            else problem.phi_reference)
         self.method = problem.method
-        names = case.parameter_names
-        self.plan = plan_assembly(structure, names, [p.scale == "log" for p in case.parameters],
-                                  problem.direction, case.nominal())
+        names = (*case.parameter_names, *derived)
+        self.plan = plan_assembly(structure, names, [p.scale == "log" for p in case.parameters]
+                                  + [False] * len(derived), problem.direction, case.nominal())
         n = self.plan.n
         nominal_system = structure.assemble(case.nominal(), problem.direction)
         fr = nominal_system.friction
@@ -277,7 +286,7 @@ class Evaluator:
         from femupdate.evaluation.codegen import MAX_EXACT_MODES, exact_kernel
 
         m = self.mats
-        x = problem.case.to_search(nominal)
+        x = problem.compiled_rows(problem.case.to_search(nominal))[0][0]
         status, modes = exact_setup(x, self.plan, m.p, m.M, m.minv, m.C, m.K, m.load, m.kr,
                                     m.fu, self.r_out, self.outputs, self.dt, self.quantity,
                                     self.work)

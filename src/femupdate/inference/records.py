@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["LaplaceRecord", "Marginal", "PosteriorRecord", "StageRecord", "marginals"]
+__all__ = ["LaplaceRecord", "Marginal", "PosteriorRecord", "StageRecord", "SurrogateCheckRecord",
+           "marginals"]
 
 
 class _Record(BaseModel):
@@ -72,6 +73,36 @@ class StageRecord(_Record):
     ess: float
 
 
+class SurrogateCheckRecord(_Record):
+    """How a surrogate-aided posterior (``method = "surrogate"``) got there
+    (:mod:`femupdate.inference.surrogate`): its true model runs (all included) and design
+    batches, the last batch's log-likelihood error against its tolerance (nats), and the
+    final check at ``check_runs`` of its samples run on the true model: the importance weights
+    exp(true − surrogate log L)'s effective share (``check_ess``, at least ``min_check_ess``
+    to pass), each mean's shift under them in posterior sds (``shifts_sd``), each sd's ratio,
+    the share of the reweighted posterior inside each 90 % interval (``coverage``) and of
+    the surrogate's inside the reweighted one's (``reverse_coverage``), both within
+    ``coverage_band`` to pass; ``failures``: each design point where the model failed, with
+    its message; ``history``: runs and error after each batch."""
+
+    model_runs: int
+    iterations: int
+    accuracy_nats: float
+    tolerance_nats: float
+    check_runs: int
+    check_ess: float
+    min_check_ess: float
+    shifts_sd: dict[str, float | None] = Field(default_factory=dict)
+    sd_ratios: dict[str, float | None] = Field(default_factory=dict)
+    coverage: dict[str, float | None] = Field(default_factory=dict)
+    reverse_coverage: dict[str, float | None] = Field(default_factory=dict)
+    coverage_band: list[float] = Field(default_factory=list)
+    check_error_nats: float
+    passed: bool
+    failures: list[str] = Field(default_factory=list)
+    history: list[dict[str, float]] = Field(default_factory=list)
+
+
 class PosteriorRecord(_Record):
     """The sampled posterior (``summary.json posterior``).
 
@@ -91,6 +122,9 @@ class PosteriorRecord(_Record):
     Gelman–Rubin's R̂ (None with one run); ``unsettled``: the parameters with too few
     effective samples for their intervals to be trusted, and ``agreement`` the verdict in
     words (:mod:`femupdate.pipeline.posterior.agreement`).
+
+    ``surrogate``: with ``method = "surrogate"``, its design and final check
+    (:class:`SurrogateCheckRecord`; ``nfev`` is then its true model runs).
 
     ``start_phi``: φ of the fit the error model and the first population come from (the
     search's best, or a better fit the sampler found: ``recentred`` times sampled again);
@@ -130,6 +164,7 @@ class PosteriorRecord(_Record):
     start_phi: float | None = None
     recentred: int = 0
     start_warnings: list[str] = Field(default_factory=list)
+    surrogate: SurrogateCheckRecord | None = None
 
     def evidence_spread(self) -> str:
         """" (runs: LOW to HIGH, sd S)" of the log-evidence over several runs, else ""."""

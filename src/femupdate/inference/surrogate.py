@@ -21,10 +21,15 @@ points of the largest log-likelihood variance near it (explore). Before a batch 
 surrogate's log-likelihood at its posterior points is compared with the true one: the batch's
 error is the 90th percentile of |e_i − median(e)| (a constant offset in log L does not change
 the posterior). Once it is within the tolerance, the surrogate is refitted with every point,
-TMCMC (:mod:`femupdate.inference.tmcmc`, unchanged) samples it, and a few of its samples are
-run on the true model as a final check of the same error measure. A surrogate that does not
-reach the tolerance within its budget says so and what it reached; a design point at which
-the model fails is reported with the model's own message, not silently dropped.
+TMCMC (:mod:`femupdate.inference.tmcmc`, unchanged) samples it, and random draws of its
+samples are run on the true model as the final check (:func:`importance_check`): the true
+posterior is the surrogate's reweighted by exp(true − surrogate log L), so what matters is
+how much those weights spread (their effective share) and how far they move each mean (in
+posterior sds), not the largest error at a point of little posterior mass. A check that fails
+adds its runs to the design and the batches go on while the budget lasts. A surrogate that
+does not reach its accuracy or check within its budget says so and what it reached; a design
+point at which the model fails is reported with the model's own message, not silently
+dropped.
 """
 
 from __future__ import annotations
@@ -32,17 +37,18 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from femupdate._optional import require
+from femupdate._parallel import single_blas_thread
 from femupdate.errors import ConfigError, ModelError
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
-from femupdate.inference.tmcmc import TMCMC
+from femupdate.inference.surrogate_check import Check, centred_error, importance_check
+from femupdate.inference.tmcmc import TMCMC, TMCMCPosterior
 
 #: True model runs at most, all included (design, batches, error model, final check).
 MAX_RUNS = 300
@@ -50,7 +56,10 @@ MAX_RUNS = 300
 #: 90th percentile of the centred error at a batch's posterior points).
 TOLERANCE = 1.0
 #: Posterior samples run on the true model in the final check.
-CHECK_RUNS = 8
+CHECK_RUNS = 16
+#: TMCMC's population on the surrogate while design points are chosen (the batch needs
+#: only the bulk of the posterior; the final samples take :data:`POPULATION`).
+DESIGN_POPULATION = 400
 #: TMCMC's population on the surrogate (evaluations there are cheap).
 POPULATION = 1000
 #: Design points within this log-likelihood deficit of the best (per channel, nats) are
@@ -127,10 +136,15 @@ class ChannelSurrogate:
     counts : ndarray (C,) or None
         The error model's N_c: with them, points more than :data:`NEAR_NATS` below the best
         in log L are fitted loosely and weigh less in the trend (None: all alike).
+    previous : ChannelSurrogate or None
+        The surrogate of the previous batch: its fitted kernels start the optimiser, once,
+        without random restarts (a batch moves the hyperparameters little; a cold start with
+        a restart per channel and batch was most of the surrogate's own time).
     """
 
     def __init__(self, unit: np.ndarray, targets: np.ndarray, rng: np.random.Generator,
-                 counts: np.ndarray | None = None) -> None:
+                 counts: np.ndarray | None = None,
+                 previous: ChannelSurrogate | None = None) -> None:
         gp_module = require("sklearn.gaussian_process", "posterior")
         kernels = require("sklearn.gaussian_process.kernels", "posterior")
         unit, targets = np.atleast_2d(unit), np.atleast_2d(targets)
@@ -156,11 +170,13 @@ class ChannelSurrogate:
             loose = (np.zeros_like(y) if counts is None else
                      LOOSENESS * np.maximum(excess - NEAR_NATS, 0.0) / (0.5 * counts[c]))
             alpha = (loose / max(float(remainder.std()), 1e-300)) ** 2 + 1e-10
-            kernel = (kernels.ConstantKernel(1.0, (1e-6, 1e6))
+            warm = previous is not None and len(previous.models) == channels
+            kernel = (previous.models[c].kernel_ if warm else
+                      kernels.ConstantKernel(1.0, (1e-6, 1e6))
                       * kernels.Matern(np.full(n, 0.3), (1e-3, 1e2), nu=2.5)
                       + kernels.WhiteKernel(1e-8, (1e-12, 1e-3)))
             gp = gp_module.GaussianProcessRegressor(
-                kernel, alpha=alpha, normalize_y=True, n_restarts_optimizer=1,
+                kernel, alpha=alpha, normalize_y=True, n_restarts_optimizer=0 if warm else 1,
                 random_state=int(rng.integers(2**31 - 1)))
             with warnings.catch_warnings():  # a kernel bound reached is no error here
                 warnings.simplefilter("ignore", category=Warning)
@@ -218,16 +234,6 @@ def spread_points(candidates: np.ndarray, k: int, scale: np.ndarray,
     return np.array(picks, dtype=int)
 
 
-def centred_error(predicted: np.ndarray, true: np.ndarray) -> float:
-    """The 90th percentile of |e − median(e)|, e = predicted − true log L over finite pairs
-    (inf when fewer than two)."""
-    ok = np.isfinite(predicted) & np.isfinite(true)
-    if ok.sum() < 2:
-        return math.inf
-    e = predicted[ok] - true[ok]
-    return float(np.quantile(np.abs(e - np.median(e)), 0.9))
-
-
 @dataclass
 class SurrogateResult:
     """What the surrogate-aided posterior found.
@@ -244,8 +250,14 @@ class SurrogateResult:
         The last batch's error of log L (nats, :func:`centred_error`).
     check_error : float
         The same error at the final check's posterior samples.
+    check : Check
+        The final check (the importance weights of true against surrogate likelihood).
     failures : list of str
         Each design point at which the model failed: its values and the model's message.
+    sampler : TMCMCPosterior
+        TMCMC's run on the final surrogate (its stages and effective samples).
+    design_unit, design_rows : ndarray
+        Every true run: its unit-cube row and residual row (NaN where it failed).
     """
 
     names: list[str]
@@ -261,8 +273,12 @@ class SurrogateResult:
     log_evidence: float
     wall_s: float
     message: str
+    check: Check
     failures: list[str] = field(default_factory=list)
     history: list[dict[str, float]] = field(default_factory=list)
+    sampler: TMCMCPosterior | None = None
+    design_unit: np.ndarray | None = None
+    design_rows: np.ndarray | None = None
 
     def means(self) -> np.ndarray:
         return self.samples.mean(axis=0)
@@ -315,9 +331,8 @@ def _check_settings(max_runs: int, tolerance: float, initial: int, batch: int, c
 
 
 def _sample(surrogate: ChannelSurrogate, prior: Prior, model: ErrorModel,
-            rng: np.random.Generator, population: int) -> tuple[np.ndarray, float]:
-    """TMCMC on the surrogate, driven by its ask/tell (a population is one prediction):
-    (samples in the unit cube, log-evidence)."""
+            rng: np.random.Generator, population: int) -> TMCMCPosterior:
+    """TMCMC on the surrogate, driven by its ask/tell (a population is one prediction)."""
     sampler = TMCMC(prior.dim, rng, error_model=pseudo_model(model), prior=prior,
                     population=population)
     while not sampler.stop():
@@ -328,7 +343,7 @@ def _sample(surrogate: ChannelSurrogate, prior: Prior, model: ErrorModel,
     post = sampler.posterior()
     if not post.reached:
         raise ModelError(f"surrogate: TMCMC on the surrogate stopped at β = {post.beta:.3g}")
-    return post.samples, post.log_evidence
+    return post
 
 
 def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorModelAt, *,
@@ -368,6 +383,15 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
     -------
     SurrogateResult
     """
+    with single_blas_thread():  # small dense algebra: many BLAS threads only slow it down
+        return _surrogate_posterior(evaluate, prior, error_model_at, rng, max_runs, tolerance,
+                                    initial, batch, check, population, progress)
+
+
+def _surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorModelAt,
+                         rng: np.random.Generator, max_runs: int, tolerance: float,
+                         initial: int | None, batch: int | None, check: int, population: int,
+                         progress: Callable[[str], None] | None) -> SurrogateResult:
     start = time.perf_counter()
     qmc = require("scipy.stats.qmc", "posterior")
     n = prior.dim
@@ -381,13 +405,13 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
                          f"(first: {design.failures[0]})")
     best_key: float | None = None
     model: ErrorModel | None = None
+    previous: ChannelSurrogate | None = None
     history: list[dict[str, float]] = []
-    accuracy = math.inf
-    converged = False
-    iterations = 0
+    accuracy, converged, iterations = math.inf, False, 0
+    checks: list[Check] = []
 
     def refit() -> tuple[ChannelSurrogate, ErrorModel]:
-        nonlocal best_key, model
+        nonlocal best_key, model, previous
         ok = design.ok()
         unit, rows = np.array(design.unit)[ok], np.array(design.rows)[ok]
         phi = np.einsum("ij,ij->i", rows, rows)
@@ -398,13 +422,32 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
             design.runs += extra
         targets = log_sums(model, rows)
         keep = np.all(np.isfinite(targets), axis=1)
-        return ChannelSurrogate(unit[keep], targets[keep], rng, model.counts), model
+        previous = ChannelSurrogate(unit[keep], targets[keep], rng, model.counts, previous)
+        return previous, model
 
     while True:
         surrogate, model = refit()
-        samples, _ = _sample(surrogate, prior, model, rng, population)
-        if converged or design.runs + batch + check > max_runs:
-            break
+        room = design.runs + batch + check <= max_runs  # for a batch and the check after it
+        if converged or not room:
+            # the posterior of the surrogate, then its check on the true model at random
+            # draws of it (representative of its mass, as the reweighting needs)
+            post = _sample(surrogate, prior, model, rng, population)
+            samples = post.samples
+            picks = samples[rng.choice(len(samples), size=check, replace=False)]
+            mean, var = surrogate.predict(picks)
+            predicted = surrogate_loglike(model, mean, var)
+            true = model.loglike_rows(_run(design, picks, evaluate, prior))
+            checks.append(importance_check(picks, predicted, true, samples.std(axis=0)))
+            if progress is not None:
+                progress(f"surrogate: {design.runs} model runs, final check: "
+                         f"{checks[-1].words(prior.names)}")
+            # a failed check: its runs join the design and the batches go on, budget allowing
+            if checks[-1].passed or design.runs + batch + check > max_runs:
+                break
+            converged = False
+            continue
+        samples = _sample(surrogate, prior, model, rng,
+                          min(population, DESIGN_POPULATION)).samples
         iterations += 1
         scale = np.maximum(samples.std(axis=0), 1e-6)
         # exploit: spread over the bulk of the posterior (among a few random samples, so
@@ -430,146 +473,30 @@ def surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: ErrorM
             progress(f"surrogate: {design.runs} model runs, log-likelihood error "
                      f"{accuracy:.3g} nats (tolerance {tolerance:g})")
         converged = accuracy <= tolerance
-    # the final check: posterior samples of the refitted surrogate, run on the true model
-    picks = samples[spread_points(samples, check, np.maximum(samples.std(axis=0), 1e-6))]
-    mean, var = surrogate.predict(picks)
-    predicted = surrogate_loglike(model, mean, var)
-    check_error = centred_error(predicted, model.loglike_rows(_run(design, picks, evaluate,
-                                                                   prior)))
-    _, log_z = _sample(surrogate, prior, model, np.random.default_rng(rng.integers(2**63)), 200)
-    reached = converged and check_error <= tolerance
+    final = checks[-1]
+    reached = converged and final.passed
     failed = (f"; the model failed at {len(design.failures)} of {design.runs} design points "
               f"(first: {design.failures[0]})" if design.failures else "")
+    earlier = (f"; {len(checks) - 1} earlier check(s) failed and the design went on"
+               if len(checks) > 1 else "")
     if reached:
         message = (f"surrogate posterior in {design.runs} model runs: log-likelihood error "
-                   f"{accuracy:.3g} nats at the last batch, {check_error:.3g} at the final "
-                   f"check of {check} posterior samples (tolerance {tolerance:g}){failed}")
+                   f"{accuracy:.3g} nats at the last batch (tolerance {tolerance:g}); "
+                   f"{final.words(prior.names)}{earlier}{failed}")
     elif not converged:
         message = (f"the surrogate did not reach its accuracy: log-likelihood error "
                    f"{accuracy:.3g} nats against a tolerance of {tolerance:g} after "
                    f"{design.runs} model runs (max_runs {max_runs}; raise it, or a looser "
-                   f"tolerance){failed}")
+                   f"tolerance); {final.words(prior.names)}{failed}")
     else:
-        message = (f"the surrogate failed its final check: log-likelihood error "
-                   f"{check_error:.3g} nats at {check} posterior samples against a tolerance "
-                   f"of {tolerance:g} (the last batch's: {accuracy:.3g}) after {design.runs} "
-                   f"model runs{failed}")
+        message = (f"the surrogate failed its final check after {design.runs} model runs "
+                   f"(max_runs {max_runs}; raise it): {final.words(prior.names)}; the "
+                   f"last batch's log-likelihood error {accuracy:.3g} nats{earlier}{failed}")
     return SurrogateResult(
         names=list(prior.names), reached=reached, samples_unit=samples,
         samples=prior.to_physical(samples), model_runs=design.runs, accuracy=accuracy,
-        check_error=check_error, tolerance=float(tolerance), iterations=iterations,
-        error_model=model, log_evidence=float(log_z), wall_s=time.perf_counter() - start,
-        message=message, failures=list(design.failures), history=history)
-
-
-def residual_rows(problem: Any, rows: Sequence[np.ndarray]) -> list[tuple[np.ndarray,
-                                                                          str | None]]:
-    """The residual vector of each search-space row and why it is not finite (None when it
-    is): one task of :func:`problem_evaluator`'s batches (a worker process runs it)."""
-    out = []
-    for x in rows:
-        r = np.asarray(problem.residuals(np.asarray(x, dtype=float)), dtype=float)
-        ok = bool(np.all(np.isfinite(r)))
-        out.append((r, None if ok else (problem.last_failure or "residuals not finite")))
-    return out
-
-
-def problem_evaluator(problem: Any, executor: Any = None) -> Evaluate:
-    """:data:`Evaluate` of an UpdateProblem, its batches spread over a
-    :class:`femupdate.runs.executors.RunExecutor` (local workers or Dask) when given."""
-
-    def evaluate(X: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
-        rows = [np.asarray(x, dtype=float) for x in np.atleast_2d(X)]
-        if executor is None or executor.inline or executor.capacity == 1 or len(rows) <= 1:
-            got = residual_rows(problem, rows)
-        else:
-            parts = np.array_split(np.arange(len(rows)), min(executor.capacity, len(rows)))
-            shared = executor.share(problem)
-            futures = [executor.submit(residual_rows, shared, [rows[i] for i in part])
-                       for part in parts]
-            got = [item for fut in futures for item in fut.result()]
-        out = np.array([np.where(why is None, r, np.nan) for r, why in got])
-        return out, [why for _, why in got]
-
-    return evaluate
-
-
-#: The file of the surrogate-aided posterior in a results directory: its record (JSON) and
-#: samples (NPZ).
-RECORD_FILE, SAMPLES_FILE = "surrogate.json", "surrogate.npz"
-#: The error model when ``[posterior] error_model`` names none: the posterior's default.
-SURROGATE_KIND = "neff"
-
-
-def wants_surrogate(case: Any, flag: bool | None = None) -> bool:
-    """``flag`` (``--surrogate``/``--no-surrogate``) when given, else ``[posterior]
-    surrogate`` when set, else on for an external model (``[model.python]``,
-    ``[model.opensees]``) and off for femupdate's own."""
-    if flag is not None:
-        return bool(flag)
-    section = getattr(case, "posterior", None)
-    if section is not None and section.surrogate is not None:
-        return bool(section.surrogate)
-    return case.model.python is not None or case.model.opensees is not None
-
-
-def case_error_model_at(problem: Any, kind: str) -> ErrorModelAt:
-    """:data:`ErrorModelAt` of an UpdateProblem: ``kind`` fixed at a run's residuals (the
-    product's kinds need no Jacobian: no model runs beyond the run's own)."""
-    from femupdate.inference.error_models import problem_error_model
-
-    def at(x: np.ndarray, r: np.ndarray) -> tuple[ErrorModel, int]:
-        return problem_error_model(problem, r, kind, point=x), 0
-
-    return at
-
-
-def run_case_surrogate(case: Any, out_dir: Any, *, seed: int | None = None,
-                       workers: int = 1, scheduler: str | None = None,
-                       progress: Callable[[str], None] | None = None) -> SurrogateResult:
-    """The surrogate-aided posterior of a case, its design batches on ``workers`` local
-    processes or the Dask ``scheduler``; its record into ``out_dir/surrogate.json`` and its
-    samples into ``out_dir/surrogate.npz``.
-
-    The error model is ``[posterior] error_model`` (default :data:`SURROGATE_KIND`), the seed
-    ``seed`` or ``[posterior] seed``; ``"known"``-like kinds are not of residual sums and the
-    case schema does not offer them.
-    """
-    import json
-    from pathlib import Path
-
-    from femupdate.case.posterior_section import DEFAULT_POSTERIOR
-    from femupdate.inference.best_fit import case_priors
-    from femupdate.problem.update import UpdateProblem
-    from femupdate.runs.executors import open_executor
-    from femupdate.trials.experiment import load_experiments
-
-    settings = case.posterior if case.posterior is not None else DEFAULT_POSTERIOR
-    seed = settings.seed if seed is None else seed
-    kind = settings.error_model or SURROGATE_KIND
-    problem = UpdateProblem(case, load_experiments(case))
-    prior = case_priors(case)
-    try:
-        with open_executor(workers, scheduler) as executor:
-            result = surrogate_posterior(problem_evaluator(problem, executor), prior,
-                                         case_error_model_at(problem, kind),
-                                         rng=np.random.default_rng(seed), progress=progress)
-    finally:
-        problem.close()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    np.savez(out / SAMPLES_FILE, names=np.array(result.names), samples=result.samples)
-    record = {"reached": result.reached, "message": result.message,
-              "model_runs": result.model_runs, "accuracy_nats": result.accuracy,
-              "check_error_nats": result.check_error, "tolerance_nats": result.tolerance,
-              "error_model": result.error_model.kind, "seed": seed,
-              "log_evidence": result.log_evidence, "wall_s": result.wall_s,
-              "failures": result.failures, "history": result.history,
-              "params": {n: {"mean": float(m), "sd": float(s), "q05": float(a),
-                             "q95": float(b)}
-                         for n, m, s, a, b in zip(
-                             result.names, result.means(), result.sds(),
-                             *np.quantile(result.samples, [0.05, 0.95], axis=0),
-                             strict=True)}}
-    (out / RECORD_FILE).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
-    return result
+        check_error=final.error, tolerance=float(tolerance), iterations=iterations,
+        error_model=model, log_evidence=float(post.log_evidence),
+        wall_s=time.perf_counter() - start, message=message, check=final,
+        failures=list(design.failures), history=history, sampler=post,
+        design_unit=np.array(design.unit), design_rows=np.array(design.rows))

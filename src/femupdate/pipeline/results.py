@@ -158,6 +158,8 @@ class VerdictRecord(_Record):
     phi_range: list[float]
     fits: bool
     words: str
+    #: Runs asked for, when the agreement stop left some not needed (None: every run ran).
+    planned: int | None = None
 
 
 class DefectRecord(_Record):
@@ -211,7 +213,7 @@ class Summary(_Record):
     defects: list[DefectRecord] = Field(default_factory=list)
     laplace: LaplaceRecord | None = None
     posterior: PosteriorRecord | None = None
-    #: Which path simulated the model (``femupdate.case.reduced_path.simulation_record``): the
+    #: Which path simulated the model (``femupdate.problem.reduced_path.simulation_record``): the
     #: method and DOFs, and on the reduced path its modes, cut-off and truncation error.
     simulation: dict[str, Any] | None = None
 

@@ -22,7 +22,6 @@ import numpy as np
 from femupdate._parallel import single_blas_thread
 from femupdate.case import Case, parse_case
 from femupdate.case.overrides import check_search_override
-from femupdate.case.reduced_path import simulation_record, worst_truncation
 from femupdate.data.defects import Finding
 from femupdate.errors import ConfigError, FemupdateError, SimulationError
 from femupdate.inference.best_fit import laplace_record
@@ -39,6 +38,7 @@ from femupdate.pipeline.results import (
     save_fits,
     write_summary,
 )
+from femupdate.problem.reduced_path import simulation_record, worst_truncation
 from femupdate.problem.update import TrialProblem, UpdateProblem
 from femupdate.runs import CaseIdentity, Execution, RunOutcome, run_all
 from femupdate.runs.changes import file_hashes
@@ -98,13 +98,14 @@ def _frequencies(problem: UpdateProblem, x: np.ndarray) -> list[float]:
 
 def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: float,
               f_target: float | None, settings: dict[str, Any] | None = None,
-              sensitivities: bool = False) -> Summary:
+              sensitivities: bool = False, planned: int | None = None) -> Summary:
     """Every run, the best, the spread over successful runs, and the Laplace approximation of
     the posterior at the best run (4n + 1 more evaluations).
 
     The case is saved with its data directory made absolute, so that the results can be
     traced back to their records from anywhere. ``sensitivities``: add the identifiability
-    analysis at the best run (2 simulations per parameter).
+    analysis at the best run (2 simulations per parameter). ``planned``: the runs asked for,
+    when the agreement stop (``[search] agree``) may have left some not needed.
     """
     case = problem.case
     case_dict = case.to_dict()
@@ -113,7 +114,7 @@ def summarize(problem: UpdateProblem, outcomes: Sequence[RunOutcome], wall_s: fl
     names = problem.names
     phis = np.array([o.fun for o in outcomes])
     best = outcomes[int(np.argmin(phis))]
-    verdict = run_verdict(problem, outcomes)
+    verdict = run_verdict(problem, outcomes, planned)
     success = successes(verdict, phis, [o.success for o in outcomes]
                         if f_target is not None else None)
     rule = success_rule(f_target)
@@ -414,6 +415,7 @@ def run_case(
         execution=execution,
         keep_history=keep_history,
         residuals=residuals,
+        agree=search.agree,
     )
     _no_success(case, problem, outcomes)
     # Over every session of the store: a resumed set counts the time of its earlier ones.
@@ -421,12 +423,12 @@ def run_case(
     wall = time.perf_counter() - start if stored is None else stored
     settings = {"runs": runs, "seed": seed, "max_evals": max_evals, "f_target": search.f_target,
                 "method": search.method, "options": optimizer_options(case),
-                "workers": workers, "scheduler": execution.scheduler}
+                "workers": workers, "scheduler": execution.scheduler, "agree": search.agree}
     # small dense algebra (the Laplace's Jacobian, the modes, the fits): one BLAS thread is
     # fastest, as in the runs (a 48-DOF 3-D frame at load 10: 1.75 s, 11.8 s with all threads)
     with single_blas_thread():
         summary = summarize(problem, outcomes, wall, search.f_target, settings,
-                            sensitivities=sensitivities)
+                            sensitivities=sensitivities, planned=runs)
         summary.simulation = simulation
         fits = trial_fits(problem, summary.best.params)
     if out_dir is not None:
@@ -470,7 +472,7 @@ def validate_case(case: Case, params: dict[str, float], *,
     ConfigError
         ``params`` do not name exactly the case's parameters as finite numbers.
     """
-    from femupdate.case.build import check_parameter_values
+    from femupdate.case.checks import check_parameter_values
 
     values = check_parameter_values(params, case.parameter_names, "parameter values")
     trials = [TrialProblem(case, e) for e in (experiments or load_experiments(case))]

@@ -6,6 +6,10 @@ repeated runs in worker processes. A case of several trials shares the model and
 φ is the mean of the fitted trials' φ, weighted by their ``weight`` (Eq. 1 per trial); its
 residual vector :meth:`UpdateProblem.residuals` holds every trial's residuals, scaled so that
 φ = ‖r‖².
+
+Why this file is long (about 650 lines): a trial's φ and residuals on both paths (compiled and
+step by step, with the checks of a point before it is simulated) and the case's combination of
+its trials over batches and threads are one contract, tested as one.
 """
 
 from __future__ import annotations
@@ -16,19 +20,24 @@ import os
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from femupdate._parallel import thread_pool
-from femupdate.case import Case, CaseModel
+from femupdate.case import Case
+from femupdate.case.derived import constraints_of
+from femupdate.case.expressions import first_violation
 from femupdate.data import signal
-from femupdate.errors import ConfigError, SimulationError
+from femupdate.errors import ConfigError, ModelError, SimulationError
 from femupdate.external.protocol import Evaluation
 from femupdate.external.runner import ExternalRunner
 from femupdate.model.modes import natural_frequencies
 from femupdate.model.system import System
+from femupdate.problem.case_model import CaseModel
 from femupdate.problem.objective import ErrorFunction
+from femupdate.problem.released import released_structure
 from femupdate.simulate.response import Response
 from femupdate.trials.experiment import Experiment
 
@@ -71,6 +80,7 @@ class TrialProblem:
                     specs[0] if len(specs) == 1 else None)
         channels = spec.data.outputs if spec is not None else None
         self.model = CaseModel(case, channels)
+        self.released = partial(released_structure, case.model)  # evaluation.supports builds it
         external = self.model.external
         gives_acceleration = external is None or external.quantity == "acceleration"
         if external is not None:
@@ -91,12 +101,21 @@ class TrialProblem:
         if compiled is None:
             compiled = os.environ.get(EVALUATOR_ENV, "compiled") != "reference"
         # The compiled evaluator covers femupdate's planar models on the full path (a score
-        # window too); a 3-D frame (6 DOFs per node, femupdate.case.model3d: its compiled
-        # assembly would be planar) and the reduced path (sparse, few modes) are evaluated
-        # step by step.
+        # window, support groups too); a 3-D frame (6 DOFs per node: its assembly would be
+        # planar), the reduced path (sparse, few modes), several base-motion components and
+        # the implicit integrator are evaluated step by step. [[constraints]]: a point where
+        # one fails is a failed evaluation.
+        self.constraints = constraints_of(case)
+        derive = self.model.structure.derive if self._runner is None else None
+        #: The model's fields that are expressions, appended (as physical values) to the
+        #: points the compiled evaluator takes (:meth:`compiled_rows`).
+        self.derived_fields = tuple(derive.expressions) if derive is not None else ()
         self.compiled = (bool(compiled) and self._runner is None
                          and self.model.structure.dofs_per_node != 6
-                         and self.model.reduced is None and not self.model.groups)
+                         and self.model.reduced is None
+                         and not self.model.components and self.model.method != "implicit"
+                         # the support groups' evaluator takes no derived fields
+                         and not (self.model.groups and self.derived_fields))
         self._evaluators: dict[int, Evaluator] = {}
         score = experiment.score
         self.objective = ErrorFunction(
@@ -153,12 +172,36 @@ class TrialProblem:
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "_evaluators": {}}  # buffers: rebuilt where unpickled
 
+    def compiled_rows(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The search points ``X`` (k, n) as the compiled evaluator takes them, with the
+        derived fields' values appended, and which of them satisfy the constraints (the
+        others are failed evaluations, said step by step)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        inside = np.ones(X.shape[0], dtype=bool)
+        if not (self.derived_fields or self.constraints):
+            return X, inside
+        # physical values as Case.to_physical computes them (the step-by-step path's bits),
+        # a column per parameter
+        env: dict[str, Any] = {p.name: np.array([p.to_physical(float(v)) for v in X[:, i]])
+                               for i, p in enumerate(self.case.parameters)}
+        for constraint in self.constraints:
+            inside &= constraint.holds(env)
+        out = np.empty((X.shape[0], X.shape[1] + len(self.derived_fields)))
+        out[:, :X.shape[1]] = X
+        for j, key in enumerate(self.derived_fields, start=X.shape[1]):
+            out[:, j] = self.model.structure.derive.expressions[key](env)
+        return out, inside
+
     def phi_at(self, x: np.ndarray) -> float:
         """φ at search point ``x``: compiled when it can be; a failed evaluation is then
         repeated step by step, which says why (``last_failure``)."""
         if not self.compiled:
             return self.phi_reference(x)
-        phi = self.evaluator(x)
+        if self.derived_fields or self.constraints:
+            rows, inside = self.compiled_rows(x)
+            phi = self.evaluator(rows[0]) if inside[0] else math.inf
+        else:
+            phi = self.evaluator(x)
         if not math.isfinite(phi):
             return self.phi_reference(x)
         self.last_failure = None
@@ -168,7 +211,12 @@ class TrialProblem:
         """φ at every row of ``X``: one compiled loop, bit for bit the single calls."""
         if not self.compiled:
             return np.array([self.phi_reference(x) for x in X])
-        out = self.evaluator.batch(X)
+        if self.derived_fields or self.constraints:
+            rows, inside = self.compiled_rows(X)
+            out = np.full(rows.shape[0], math.inf)
+            out[inside] = self.evaluator.batch(rows[inside])
+        else:
+            out = self.evaluator.batch(X)
         for i in np.flatnonzero(~np.isfinite(out)):  # why they failed, step by step
             out[i] = self.phi_reference(X[i])
         return out
@@ -184,8 +232,13 @@ class TrialProblem:
         call (the compiled evaluator runs several rows per call where it can). With ``out``
         (k, m), each vector is written into its row as it comes (the list then holds the rows
         of ``out``: no k vectors held besides)."""
-        rows = (self.evaluator.residuals_batch(X) if self.compiled
-                else [None] * X.shape[0])
+        rows: Any = [None] * X.shape[0]
+        if self.compiled and (self.derived_fields or self.constraints):
+            ext, inside = self.compiled_rows(X)
+            computed = iter(self.evaluator.residuals_batch(ext[inside]))
+            rows = (next(computed) if ok else None for ok in inside)
+        elif self.compiled:
+            rows = self.evaluator.residuals_batch(X)
         result = []
         for i, (x, r) in enumerate(zip(X, rows, strict=True)):
             if r is None:  # step by step, which also says why a failed evaluation failed
@@ -264,8 +317,7 @@ class TrialProblem:
     def base_share(self, ag: np.ndarray) -> np.ndarray:
         """The base motion's share of each channel's acceleration as recorded: the table's
         (influence vector), or a support group's (:meth:`CaseModel.recorded_share`)."""
-        model = self.model
-        return model.recorded_share(ag) if model.groups else np.outer(ag, model.influence)
+        return self.model.base_share(ag)
 
     def prediction_driven_by(self, values: Mapping[str, float], ag: np.ndarray
                              ) -> np.ndarray:
@@ -294,17 +346,20 @@ class TrialProblem:
 
     def _scored_prediction(self, values: Mapping[str, float]) -> np.ndarray | None:
         """The scored prediction, or None for a failed simulation (``last_failure`` says why:
-        an unstable step, a divergence, an external model's error)."""
-        self.last_failure = None
+        an unstable step, a divergence, an external model's error, a failed constraint)."""
+        why, response = first_violation(self.constraints, values), None
         try:
-            response = self.simulate(values)
+            response = None if why else self.simulate(values)
         except SimulationError as exc:
-            self.last_failure = f"trial {self.name!r}: {exc}"
-            return None
-        if response.diverged:
-            self.last_failure = f"trial {self.name!r}: the simulation diverged"
-            return None
-        return self.scored(self.prediction(response))
+            why = str(exc)
+        except ModelError as exc:  # with derived fields: a value out of its range here
+            if not (self.derived_fields or self.constraints):
+                raise
+            why = str(exc)
+        if response is not None and response.diverged:
+            why = "the simulation diverged"
+        self.last_failure = None if why is None else f"trial {self.name!r}: {why}"
+        return None if why else self.scored(self.prediction(response))
 
     def phi(self, values: Mapping[str, float]) -> float:
         """φ of the trial at physical parameter values (inf for a failed simulation)."""
@@ -360,7 +415,9 @@ class UpdateProblem:
         #: Fitted trials (indices into ``fitted``) simulated once per point: windows of one
         #: record (:mod:`femupdate.evaluation.shared`); each other trial a group of its own.
         self.shared_records = [[i] for i in range(len(self.fitted))]
-        if sum(t.compiled for t in self.fitted) > 1:
+        first = self.fitted[0]  # derived fields and constraints: each trial on its own
+        if sum(t.compiled for t in self.fitted) > 1 and not (first.derived_fields
+                                                            or first.constraints):
             from femupdate.evaluation import shared
 
             self.shared_records = shared.shared_groups(self.fitted)

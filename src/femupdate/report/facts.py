@@ -14,13 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.case import Case, CaseModel
-from femupdate.case.build import check_parameter_values
-from femupdate.case.reduced_path import lowest_frequencies
+from femupdate.case import Case
+from femupdate.case.checks import check_parameter_values
 from femupdate.errors import FemupdateError
 from femupdate.model.modes import damped_modes, initial_stiffness, natural_frequencies
 from femupdate.model.system import System
 from femupdate.pipeline.results import Results
+from femupdate.problem.case_model import CaseModel
+from femupdate.problem.reduced_path import lowest_frequencies
 
 #: Relative size of K M⁻¹C − C M⁻¹K below which damping counts as classical (proportional).
 PROPORTIONAL_TOL = 1e-8
@@ -123,7 +124,7 @@ class Modes:
 def modes_at(model: CaseModel, values: Mapping[str, float], n: int = N_MODES) -> Modes:
     """The first ``n`` undamped and complex modes of the case's model at ``values``."""
     if model.reduced is not None:  # a large model: sparse, its lowest modes only
-        from femupdate.case.reduced_path import lowest_case_modes
+        from femupdate.problem.reduced_path import lowest_case_modes
 
         (undamped, phi), poles, _ = lowest_case_modes(model.reduced, values, n)
         f, zeta = poles.freqs_hz[:n], poles.damping_ratios[:n]

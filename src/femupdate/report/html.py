@@ -126,7 +126,10 @@ def _render(res: Results) -> str:
         missing = f'<div class="missing" id="missing"><p>Not drawn:</p><ul>{lis}</ul></div>'
     summary = res.summary
     name = res.case.case.name
-    lead = (f"{len(summary.runs)} runs of {summary.method}; best run {res.best_index}, NMSE "
+    planned = summary.verdict.planned if summary.verdict is not None else None
+    ran = (f"{len(summary.runs)} runs" if planned is None else
+           f"{len(summary.runs)} of {planned} runs (the others were not needed)")
+    lead = (f"{ran} of {summary.method}; best run {res.best_index}, NMSE "
             f"{format_number(summary.best.nmse_percent)} %."
             + (" Compared with the truth of a virtual experiment." if ctx.truth.values else ""))
     body = "\n".join(f'<section id="section-{key}"><h2>{esc(title)}</h2>\n{content}\n</section>'

@@ -9,7 +9,7 @@ import json
 import numpy as np
 
 from femupdate.case import Case
-from femupdate.pipeline.results import RunRecord
+from femupdate.pipeline.results import RunRecord, Summary
 from femupdate.report.facts import Context, case_positions, relative_error
 from femupdate.report.markup import (
     Page,
@@ -80,6 +80,17 @@ def _data_items(ctx: Context) -> list[tuple[str, str]]:
     return items
 
 
+def _excitation_text(case: Case) -> str:
+    """The base motion's directions: the model's one, an input's angle, or the components."""
+    data = case.data
+    if data is not None and data.angle is not None:
+        return f"base motion at {format_value(data.angle)}° from x (its x and y components)"
+    if data is not None and data.components is not None:
+        return ("uniform base motion with components along "
+                + " and ".join(c.direction for c in data.components) + ", a record each")
+    return f"base motion in {case.model.excitation_direction}"
+
+
 def section_case(ctx: Context) -> str:
     """The model, the parameters (with the truth), the data, the processing and the search."""
     res = ctx.res
@@ -87,7 +98,7 @@ def section_case(ctx: Context) -> str:
     model = case.model
     out = [f"<p>{esc(case.case.description)}</p>" if case.case.description else ""]
     items = [("model", esc(_model_text(ctx))),
-             ("excitation", esc(f"base motion in {model.excitation_direction}")),
+             ("excitation", esc(_excitation_text(case))),
              ("simulation", esc(case.simulation_method))]
     if model.rayleigh is not None:
         items.append(("Rayleigh damping C += α M + β K",
@@ -145,6 +156,15 @@ def section_case(ctx: Context) -> str:
     return "\n".join(out)
 
 
+def _runs_ran(summary: Summary) -> str:
+    """The runs made; "k of n, the others not needed" when the first ones agreed."""
+    planned = summary.verdict.planned if summary.verdict is not None else None
+    if planned is None:
+        return str(len(summary.runs))
+    return (f"{len(summary.runs)} of {planned} (the others were not needed: "
+            f"[search] agree = {summary.settings.get('agree', '?')})")
+
+
 def _search_items(ctx: Context) -> list[tuple[str, str]]:
     res = ctx.res
     search, summary = res.case.search, res.summary
@@ -152,7 +172,7 @@ def _search_items(ctx: Context) -> list[tuple[str, str]]:
     seed = settings.get("seed", search.seed)
     items = [
         ("method", esc(summary.method)),
-        ("runs", esc(len(summary.runs))),
+        ("runs", esc(_runs_ran(summary))),
         ("root seed", esc(seed if seed is not None else "fresh entropy")),
         ("max evaluations", num(settings.get("max_evals", search.max_evals))),
         ("f_target (φ_s)", num(settings.get("f_target", search.f_target))),

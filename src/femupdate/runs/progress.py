@@ -4,12 +4,14 @@ Given each run's budget, the bar moves with the evaluations: its length is the e
 of the set (runs × ``max_evals``; a run that ends early, at its target or by a stopping
 criterion, completes its share at once), so it advances with every chunk, and the time left is
 estimated from the pace of this session. Beside it: runs finished out of the total, the best φ so
-far over all runs, the evaluations done, the time elapsed and left (fitting 80 columns). Without a
+far over all runs (a sampler's: the lowest tempering exponent β of its runs), the evaluations
+done, the time elapsed and left (fitting 80 columns). Without a
 budget it counts finished runs and shows the evaluations per second. The log (``log_json``) gets
-one JSON object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run finished),
-``end``; each with ``time`` (Unix seconds) and ``elapsed`` (seconds since start), and where it
-applies ``run``, ``nfev``, ``best_phi`` (null when not finite) and ``status``. The file is
-appended to, so a resumed set continues the same log.
+one JSON object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run
+finished), ``not_needed`` (the first runs agreed: ``runs_needed`` of ``runs``), ``end``; each
+with ``time`` (Unix seconds) and ``elapsed`` (seconds since start), and where it applies
+``run``, ``nfev``, ``best_phi`` (null when not finite) and ``status``. The file is appended to,
+so a resumed set continues the same log.
 """
 
 from __future__ import annotations
@@ -81,6 +83,7 @@ class RunProgress:
         self._task: TaskID | None = None
         self._stages: dict[int, tuple[float, float]] = {}  # run → (last stage, acceptance)
         self._beta: dict[int, float] = {}  # a sampler's runs: run → its tempering exponent
+        self.needed: int | None = None  # runs needed, once the first ones agreed
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -197,6 +200,20 @@ class RunProgress:
                     status=status)
         self._refresh()
 
+    def not_needed(self, needed: int, agreeing: int) -> None:
+        """Only runs 0 … ``needed`` − 1 are needed: ``agreeing`` of them ended at the same best
+        φ (``[search] agree``). The bar completes, a line says so, and the log gets a
+        ``not_needed`` event."""
+        self.needed = needed
+        self._write("not_needed", runs_needed=needed, runs=self.total_runs,
+                    agreeing=agreeing)
+        if self._bar is not None:
+            who = "they" if agreeing == needed else f"{agreeing} of them"
+            self._bar.console.print(Text(
+                f"{needed} of {self.total_runs} runs were needed: {who} ended at the same "
+                f"best φ; the others are not run"))
+        self._refresh()
+
     # -- internals ---------------------------------------------------------------------------
 
     def rate(self) -> float:
@@ -206,6 +223,9 @@ class RunProgress:
 
     def _extent(self) -> tuple[int, int]:
         """(total, completed) of the bar: evaluations of the budget, or runs."""
+        if self.needed is not None:  # the rest is not needed: the bar is full
+            done = self.budget_done if self.max_evals is not None else self.needed
+            return max(done, 1), max(done, 1)
         if self.max_evals is None:
             return self.total_runs, self.runs_done
         return self.total_runs * self.max_evals, self.budget_done
@@ -217,7 +237,8 @@ class RunProgress:
                  else f"best φ {best}")
         return {"best": best, "state": state, "evals": f"{self.evals:,}",
                 "rate": f"{self.rate():,.0f}",
-                "runs": f"{self.runs_done}/{self.total_runs}"}
+                "runs": (f"{self.runs_done}/{self.total_runs}" if self.needed is None else
+                         f"{self.needed} of {self.total_runs}")}
 
     def _refresh(self) -> None:
         if self._bar is not None and self._task is not None:

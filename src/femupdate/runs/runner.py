@@ -9,6 +9,13 @@ evaluations, trace rows and the run's checkpoint to the results store
 (function, bounds, method, budget, target, options, runs, seed), where their results go (the
 store and the case they belong to, :class:`CaseIdentity`) and how they execute
 (:class:`Execution`: nothing there changes a result).
+
+With residuals and no target (where no target says when a search is done) ``agree`` stops the
+set early: once runs 0 … k − 1 have all ended and ``agree`` of them at their best φ
+(:func:`femupdate.runs.verdict.runs_needed`), no further run starts and runs k … are not
+needed. The decision takes the runs in index order, so it is the same with any number of
+workers and after a resume; the runs not needed stay in the store as they were (pending, or
+checkpointed where a worker had started one) and are left out of the outcomes.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from femupdate.runs.executors import (
 from femupdate.runs.outcome import RunOutcome, seed_from_record, seed_record
 from femupdate.runs.progress import RunProgress
 from femupdate.runs.store import FILENAME, ResultsStore, fingerprint_of
+from femupdate.runs.verdict import runs_agreeing, runs_needed
 
 __all__ = ["CHUNK_EVALS", "CHUNK_SECONDS", "CaseIdentity", "Execution", "run_all"]
 
@@ -130,6 +138,7 @@ def run_all(
     keep_history: bool = False,
     on_outcome: Callable[[RunOutcome], None] | None = None,
     residuals: bool = False,
+    agree: int | None = None,
 ) -> list[RunOutcome]:
     """Independent runs of ``minimize`` with a results store, resume, processes or Dask.
 
@@ -162,11 +171,19 @@ def run_all(
         Called with each run's outcome as it finishes in this session.
     residuals : bool
         ``fun`` returns residual vectors (``minimize``'s ``residuals=True``).
+    agree : int or None
+        With ``residuals`` and no ``f_target`` only: stop once ``agree`` runs, taken in
+        index order, have ended at their best φ (within multistart-lm's ``patience``
+        tolerance); the later runs are not needed (not started, or not continued after the
+        chunk in flight). 0 or None: every run (also the rule's answer without residuals or
+        with a target). It changes which runs are needed, never what a run computes, so a
+        store resumes with another ``agree``.
 
     Returns
     -------
     list of RunOutcome
-        By run index, including runs finished in an earlier session.
+        By run index, including runs finished in an earlier session; with ``agree``, only
+        the runs needed (fewer than ``runs`` when the first ones agreed).
 
     Raises
     ------
@@ -183,6 +200,9 @@ def run_all(
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise ConfigError(f"seed must be a non-negative integer or None, got {seed!r}")
     spec = RunSpec.make(fun, bounds, method, max_evals, f_target, options, residuals)
+    agree = check_agree(agree)
+    if not residuals or f_target is not None:
+        agree = None  # a target says when a run is done; without residuals, no patience
     names = identity.names
     if names is not None and len(names) != len(spec.bounds):
         raise ConfigError(f"names must give one name per parameter ({len(spec.bounds)}), "
@@ -206,7 +226,7 @@ def run_all(
         try:
             with single_blas_thread():
                 return _run_store(fun, spec, ex, store, root, runs, execution, names,
-                                  keep_history, on_outcome)
+                                  keep_history, on_outcome, agree)
         finally:
             store.close()
 
@@ -224,8 +244,10 @@ class _Pending:
 def _run_store(fun: Callable[[np.ndarray], float], spec: RunSpec, ex: RunExecutor,
                store: ResultsStore, root: np.random.SeedSequence, runs: int,
                execution: Execution, names: Sequence[str] | None, keep_history: bool,
-               on_outcome: Callable[[RunOutcome], None] | None) -> list[RunOutcome]:
-    """Finish every unfinished run of ``store``; the outcomes of all its runs."""
+               on_outcome: Callable[[RunOutcome], None] | None,
+               agree: int | None = None) -> list[RunOutcome]:
+    """Finish every unfinished run of ``store`` that is needed; the outcomes of the runs
+    needed (all of them without ``agree``)."""
     rows = store.runs()
     resumed = bool(rows)
     if not rows:
@@ -245,6 +267,7 @@ def _run_store(fun: Callable[[np.ndarray], float], spec: RunSpec, ex: RunExecuto
         pending.append(item)
     rows = store.runs()
     best = min((r.best_phi for r in rows if r.best_phi is not None), default=math.inf)
+    needed = _needed(outcomes, runs, agree)
     with RunProgress(runs, label=execution.label or spec.method, quiet=execution.quiet,
                      log_json=execution.log_json, max_evals=spec.max_evals) as progress:
         progress.start(runs_done=len(outcomes), evals=sum(r.nfev for r in rows),
@@ -252,13 +275,33 @@ def _run_store(fun: Callable[[np.ndarray], float], spec: RunSpec, ex: RunExecuto
                        store=None if store.path is None else str(store.path),
                        budget_done=sum(spec.max_evals if r.run in outcomes else r.nfev
                                        for r in rows))
-        if pending:
-            _advance_all(fun, spec, pending, ex, store, progress, outcomes, execution, names,
-                         on_outcome)
-    result = [outcomes[i] for i in sorted(outcomes)]
+        if pending and needed is None:
+            needed = _advance_all(fun, spec, pending, ex, store, progress, outcomes,
+                                  execution, names, on_outcome, agree, runs)
+        if needed is not None and needed < runs:
+            progress.not_needed(needed, runs_agreeing([outcomes[i].fun for i in range(needed)]))
+    result = [outcomes[i] for i in sorted(outcomes) if needed is None or i < needed]
     if keep_history:
         result = [replace(o, history=store.history(o.index)) for o in result]
     return result
+
+
+def check_agree(agree: Any) -> int | None:
+    """``agree`` checked: None for 0 or None (every run), else an integer ≥ 1 (ConfigError)."""
+    if agree is None or (isinstance(agree, int) and not isinstance(agree, bool) and agree == 0):
+        return None
+    if isinstance(agree, bool) or not isinstance(agree, int) or agree < 0:
+        raise ConfigError(f"agree must be 0 or None (every run) or an integer ≥ 1, got "
+                          f"{agree!r}")
+    return agree
+
+
+def _needed(outcomes: Mapping[int, RunOutcome], runs: int, agree: int | None) -> int | None:
+    """Runs needed so far by the agreement stop (None: not decided, or no ``agree``)."""
+    if agree is None:
+        return None
+    return runs_needed([outcomes[i].fun if i in outcomes else None for i in range(runs)],
+                       agree)
 
 
 def _positive_int(name: str, value: Any) -> int:
@@ -286,8 +329,11 @@ def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: lis
                  ex: RunExecutor, store: ResultsStore, progress: RunProgress,
                  outcomes: dict[int, RunOutcome], execution: Execution,
                  names: Sequence[str] | None,
-                 on_outcome: Callable[[RunOutcome], None] | None) -> None:
-    """Keep ``capacity`` runs in flight, one chunk each, until every run is done."""
+                 on_outcome: Callable[[RunOutcome], None] | None,
+                 agree: int | None = None, runs: int = 0) -> int | None:
+    """Keep ``capacity`` runs in flight, one chunk each, until every run is done, or (with
+    ``agree``) until the first runs agree: then no run starts and the chunks in flight end
+    (written to the store) without a successor. Returns the runs needed (None: all)."""
     if spec.method in POPULATION_METHODS and len(pending) < ex.capacity and not ex.inline:
         # Fewer runs than workers: the runs go one after the other in this process and each
         # population is spread over the workers (or, compiled, over as many threads).
@@ -308,6 +354,7 @@ def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: lis
 
     queue = deque(pending)
     inflight: dict[Future, _Pending] = {}
+    needed: int | None = None
 
     def send(item: _Pending) -> None:
         task = ChunkTask(item.run, spec, item.seed, item.state, item.wall_s,
@@ -321,7 +368,8 @@ def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: lis
                 store.mark_running(item.run)
                 send(item)
             finished, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
-            for fut in finished:
+            for fut in sorted(finished, key=lambda f: inflight[f].run):  # by index: the same
+                # runs are reported whichever of them a worker ended first
                 item = inflight.pop(fut)
                 res: ChunkResult = fut.result()
                 rec = res.record
@@ -332,15 +380,23 @@ def _advance_all(fun: Callable[[np.ndarray], float], spec: RunSpec, pending: lis
                 progress.stages(rec.run, rec.trace)  # a sampler's (TMCMC's) stages
                 if res.outcome is None:
                     item.state, item.wall_s = rec.state, rec.run_wall_s
-                    send(item)
+                    if needed is None:
+                        send(item)
                     continue
                 outcomes[item.run] = res.outcome
+                if needed is not None and item.run >= needed:
+                    continue  # ended in the chunk in flight, but not needed
                 progress.run_done(item.run, res.outcome.nfev, res.outcome.fun,
                                   res.outcome.message)
                 if on_outcome is not None:
                     on_outcome(res.outcome)
+                if needed is None:
+                    needed = _needed(outcomes, runs, agree)
+                    if needed is not None:
+                        queue.clear()  # the runs not started are not needed
     finally:
         for fut in inflight:
             fut.cancel()
+    return needed
 
 

@@ -7,6 +7,11 @@ and calls the best *converged* when at least ``MIN_AGREE`` independent runs ende
 group, or when the best run's own searches found it again (multistart-lm's ``patience``:
 that many searches of the run ended at its best φ). Otherwise the runs ended in m different
 minima, whose φ range it gives. docs/verdicts.md says what success then means.
+
+:func:`runs_needed` is the run-level stop (``[search] agree``): on such records, once
+``agree`` runs, taken in index order, have ended at their best φ (within multistart-lm's own
+``patience`` tolerance) the runs after them are not needed; the verdict then says how many of
+the planned runs were.
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from femupdate.optimize.multistart import PATIENCE_TOL
 
 #: Two runs ended at the same minimum when their φ differ by less than this fraction of the
 #: smaller (searches of one run stop 0.1–0.3 % apart along the bridge's flat kp1 valley) ...
@@ -28,6 +35,8 @@ SAME_PHI_FLOOR = 1e-12
 SAME_X = 0.05
 #: Independent runs (or searches of one run) that must end at the best minimum.
 MIN_AGREE = 2
+#: Runs that must end at the best φ before the others are not needed (``[search] agree``).
+AGREE = 2
 #: φ is an NMSE (a fraction): at 1 (100 %) the model is no better than predicting zero.
 NO_FIT = 1.0
 
@@ -54,6 +63,9 @@ class Verdict:
         The best φ is below NO_FIT (an NMSE under 100 %).
     words : str
         The verdict in one sentence.
+    planned : int or None
+        Runs the case asked for, when the agreement stop (``[search] agree``) left some of
+        them not needed; None when every planned run ran.
     """
 
     converged: bool
@@ -63,6 +75,41 @@ class Verdict:
     phi_range: tuple[float, float]
     fits: bool
     words: str
+    planned: int | None = None
+
+
+def same_phi_level(best: float) -> float:
+    """The largest φ that counts as "ended at the best φ" ``best``: within the fraction
+    PATIENCE_TOL (multistart-lm's ``patience`` tolerance), or SAME_PHI_FLOOR at φ ≈ 0."""
+    return best + max(PATIENCE_TOL * abs(best), SAME_PHI_FLOOR)
+
+
+def runs_needed(phis: Sequence[float | None], agree: int) -> int | None:
+    """How many runs are needed: the smallest k such that runs 0 … k − 1 have all ended and
+    ``agree`` of them ended at their best φ (:func:`same_phi_level`); None while no such k.
+
+    Runs are taken in index order, never in the order they happen to end, so the answer is
+    the same with any number of workers and after any interruption.
+
+    Parameters
+    ----------
+    phis : sequence of float or None
+        Each run's final φ by run index; None for a run that has not ended. A non-finite φ
+        (a run that never evaluated the model) ends but agrees with nothing.
+    agree : int
+        Runs that must agree (≥ 1).
+    """
+    best = math.inf
+    for k, phi in enumerate(phis, start=1):
+        if phi is None:
+            return None
+        if math.isfinite(phi):
+            best = min(best, phi)
+        if math.isfinite(best):
+            level = same_phi_level(best)
+            if sum(1 for p in phis[:k] if p is not None and p <= level) >= agree:
+                return k
+    return None
 
 
 def minimum_groups(phis: np.ndarray, positions: np.ndarray, same_phi: float = SAME_PHI,
@@ -101,9 +148,11 @@ def minimum_groups(phis: np.ndarray, positions: np.ndarray, same_phi: float = SA
 
 
 def verdict_of(phis: Sequence[float], positions: np.ndarray,
-               stops: Sequence[Mapping[str, object]]) -> Verdict:
+               stops: Sequence[Mapping[str, object]], planned: int | None = None) -> Verdict:
     """The verdict of runs ending at ``phis`` and ``positions`` (unit box), with their
-    ``stop`` dicts (the best run's ``patience`` counts its searches that found the best)."""
+    ``stop`` dicts (the best run's ``patience`` counts its searches that found the best).
+    ``planned``: the runs asked for, when more than ran (the others were not needed: their
+    first runs agreed, :func:`runs_needed`)."""
     phis_arr = np.asarray(phis, dtype=float)
     labels = minimum_groups(phis_arr, positions)
     finite = phis_arr[np.isfinite(phis_arr)]
@@ -120,7 +169,13 @@ def verdict_of(phis: Sequence[float], positions: np.ndarray,
     lo, hi = float(finite.min()), float(finite.max())
     fits = lo < NO_FIT
     runs = len(phis_arr)
-    if converged and len(agreeing) >= MIN_AGREE:
+    planned = planned if planned is not None and planned > runs else None
+    if converged and len(agreeing) >= MIN_AGREE and planned is not None:
+        who = "they" if len(agreeing) == runs else f"{len(agreeing)} of them"
+        words = (f"converged: {runs} of {planned} runs were needed: {who} ended at the same "
+                 f"best minimum (φ within {SAME_PHI:.0%}, parameters within {SAME_X:g} of "
+                 f"the box)")
+    elif converged and len(agreeing) >= MIN_AGREE:
         words = (f"converged: {len(agreeing)} of {runs} runs ended at the best minimum "
                  f"(φ within {SAME_PHI:.0%}, parameters within {SAME_X:g} of the box)")
     elif converged:
@@ -134,10 +189,24 @@ def verdict_of(phis: Sequence[float], positions: np.ndarray,
                  f"φ {lo:.4g} … {hi:.4g}; the best was found once")
     if converged and minima > 1 and len(agreeing) >= MIN_AGREE:
         words += f"; the {runs - len(agreeing)} others in {minima - 1} other minima"
+    if planned is not None and not (converged and len(agreeing) >= MIN_AGREE):
+        # the stop's φ-only agreement, which the verdict's grouping (φ and parameters) did
+        # not confirm
+        words += (f"; {runs} of {planned} runs were needed: {runs_agreeing(phis_arr)} ended "
+                  f"at the same best φ (within {PATIENCE_TOL:.1%})")
     if not fits:
         words += (f"; the best fit is no fit: NMSE {100 * lo:.3g} % ≥ {100 * NO_FIT:.0f} % "
                   f"(no better than predicting zero)")
-    return Verdict(converged, agreeing, confirmations, minima, (lo, hi), fits, words)
+    return Verdict(converged, agreeing, confirmations, minima, (lo, hi), fits, words, planned)
+
+
+def runs_agreeing(phis: Sequence[float]) -> int:
+    """How many of ``phis`` ended at their best φ (:func:`same_phi_level`)."""
+    finite = [p for p in phis if math.isfinite(p)]
+    if not finite:
+        return 0
+    level = same_phi_level(min(finite))
+    return sum(1 for p in finite if p <= level)
 
 
 def successes(verdict: Verdict, phis: Sequence[float], reached: Sequence[bool] | None
@@ -167,12 +236,15 @@ def success_rule(f_target: float | None) -> str:
             f"with NMSE < {100 * NO_FIT:.0f} % (no f_target given)")
 
 
-def run_verdict(problem: object, outcomes: Sequence[object]) -> Verdict:
+def run_verdict(problem: object, outcomes: Sequence[object], planned: int | None = None
+                ) -> Verdict:
     """The verdict of a case's run outcomes: their best points placed in the unit box of the
-    problem's search bounds (``problem.bounds``: (low, high) per parameter)."""
+    problem's search bounds (``problem.bounds``: (low, high) per parameter). ``planned``: the
+    runs asked for (more than the outcomes when the others were not needed)."""
     bounds = np.asarray(problem.bounds, dtype=float)  # type: ignore[attr-defined]
     low, high = bounds[:, 0], bounds[:, 1]
     xs = np.array([np.asarray(o.x, dtype=float) for o in outcomes])  # type: ignore[attr-defined]
     positions = (xs - low) / np.where(high > low, high - low, 1.0)
     return verdict_of([float(o.fun) for o in outcomes],  # type: ignore[attr-defined]
-                      positions, [dict(o.stop) for o in outcomes])  # type: ignore[attr-defined]
+                      positions, [dict(o.stop) for o in outcomes],  # type: ignore[attr-defined]
+                      planned)

@@ -14,8 +14,8 @@ Craig–Bampton reduction (Craig & Bampton 1968) keeps those DOFs, and the senso
 connect physical DOFs (now the first ones), so the reduced model is a :class:`System` that the
 nonlinear integrator takes unchanged. The boundary DOFs' displacement and acceleration are
 coordinates of it: the sensors read them directly. What is left out is the interior's dynamics
-above the cut-off; :func:`femupdate.case.reduced_path.trial_truncation` measures it against the
-full model.
+above the cut-off; :func:`femupdate.problem.reduced_path.trial_truncation` measures it against
+the full model.
 """
 
 from __future__ import annotations

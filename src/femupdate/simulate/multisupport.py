@@ -29,12 +29,13 @@ files' ``[[model.support_groups]]``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
+from femupdate.data.records import check_records
 from femupdate.errors import ConfigError, DataError
 from femupdate.model.system import System
 from femupdate.simulate import simulate
@@ -82,46 +83,6 @@ class MultiSupportResponse:
     pseudo_static: np.ndarray
     dynamic: np.ndarray
     diverged: bool = False
-
-
-def check_records(records: Mapping[str, tuple[np.ndarray, float]]) -> tuple[np.ndarray, float]:
-    """Stack acceleration records sampled alike; a one-line ``DataError`` otherwise.
-
-    Parameters
-    ----------
-    records : mapping name → (acceleration (n_samples,), dt)
-
-    Returns
-    -------
-    stack : ndarray (n_samples, n_records), dt : float
-    """
-    if not records:
-        raise DataError("support motion: no record given")
-    names = list(records)
-    lengths = {n: np.asarray(records[n][0]).shape for n in names}
-    rates = {n: float(records[n][1]) for n in names}
-    for n in names:
-        if len(lengths[n]) != 1 or lengths[n][0] < 2:
-            raise DataError(f"support record {n!r}: shape {lengths[n]}; expected (n_samples,) "
-                            "with n_samples >= 2")
-        if not (np.isfinite(rates[n]) and rates[n] > 0):
-            raise DataError(f"support record {n!r}: dt = {rates[n]!r}; it must be finite and > 0")
-    first = names[0]
-    for n in names[1:]:
-        if lengths[n] != lengths[first]:
-            raise DataError(f"support records {first!r} and {n!r} differ in length "
-                            f"({lengths[first][0]} and {lengths[n][0]} samples); they must share "
-                            "length and rate")
-        if abs(rates[n] - rates[first]) > 1e-12 * rates[first]:
-            raise DataError(f"support records {first!r} and {n!r} differ in rate (dt "
-                            f"{rates[first]!r} and {rates[n]!r} s); they must share length and "
-                            "rate")
-    stack = np.column_stack([np.asarray(records[n][0], dtype=float) for n in names])
-    bad = np.argwhere(~np.isfinite(stack))
-    if bad.size:
-        raise DataError(f"support record {names[bad[0][1]]!r} has NaN or inf at sample "
-                        f"{bad[0][0]}")
-    return stack, rates[first]
 
 
 def integrate_record(acceleration: np.ndarray, dt: float, scheme: str = "exact"

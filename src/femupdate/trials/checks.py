@@ -45,8 +45,8 @@ def first_mode_hz(case: Case) -> float | None:
     as for an external model, which is not built here: it may load a script). A model on the
     reduced path gets it from the sparse eigensolver (a dense eigenproblem of its 1,000 DOFs
     took 1.9 s of a run's fixed cost)."""
-    from femupdate.case import CaseModel
     from femupdate.model.modes import natural_frequencies
+    from femupdate.problem.case_model import CaseModel
 
     if case.model.external is not None:
         return None
@@ -124,9 +124,9 @@ def channel_findings(merged: Measurement, files: dict[str, str], units: dict[str
     """The checks of the channels on one time base (``"input"`` and the outputs, m/s²), and the
     record with its spikes interpolated when ``repair_defects`` holds ``"spike"``.
 
-    Several ``inputs`` (support groups) have no one table to compare the outputs with: the
-    alignment and unit-gain checks against the input are left out, each input's peak is
-    checked alone."""
+    Several ``inputs`` (support groups, components of a base motion) have no one table to
+    compare the outputs with: the alignment and unit-gain checks against the input are left
+    out, each input's peak is checked alone."""
     n, rate = merged.n_samples, merged.rate
     found = defects.check_length_and_rate(n, rate, f1, files[inputs[0]], time_unit=time_unit)
     clean = dict(merged.channels)

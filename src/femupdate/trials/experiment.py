@@ -55,7 +55,9 @@ class Experiment:
         Sample times from 0 (s).
     ag : ndarray (n,) or (n, g)
         Processed base (table) acceleration, m/s², the model's input; with support groups
-        (``[[model.support_groups]]``) a column per group, in the model's order.
+        (``[[model.support_groups]]``) a column per group, in the model's order; with
+        several components (``[[data.components]]``, an input's ``angle``) a column per
+        direction, in ``Data.base_directions``'s order.
     accelerations : ndarray (n, k)
         Processed accelerations of the output channels, m/s² (absolute, or as recorded with
         support groups).
@@ -150,10 +152,15 @@ def _channels(data: Data) -> list[Channel]:
 
 
 def input_names(case: Case) -> tuple[str, ...]:
-    """The names of the input channels once read, in the model's order: ``("input",)``, or
-    ``"input.<group>"`` for each of ``[[model.support_groups]]``."""
+    """The names of the input channels once read, in the model's order: ``("input",)``,
+    ``"input.<group>"`` for each of ``[[model.support_groups]]``, or ``"input.<direction>"``
+    for each of ``[[data.components]]``."""
     groups = case.model.support_groups
-    return tuple(f"input.{g.name}" for g in groups) if groups else ("input",)
+    if groups:
+        return tuple(f"input.{g.name}" for g in groups)
+    if case.data is not None and case.data.components is not None:
+        return tuple(f"input.{c.direction}" for c in case.data.components)
+    return ("input",)
 
 
 def header_recipe(case: Case) -> str | None:
@@ -247,6 +254,9 @@ def _check_motion(case: Case, data: Data, merged: io.Measurement) -> None:
         if not np.any(merged[name]):
             what = ("the table did not move: the model has no input, and every parameter value "
                     "predicts the same response (φ = 1)" if name == "input" else
+                    "this component of the base motion is 0 (allowed: a record with motion; "
+                    "leave out a direction the base did not move along)"
+                    if data.components is not None and name.startswith("input.") else
                     "this support did not move: its group has no input (allowed: a record "
                     "with motion; fix the support in no group to keep it still)"
                     if name.startswith("input.") else
@@ -439,6 +449,7 @@ def process(
     lowpass_hz: float | None = None,
     lowpass_order: int = 4,
     inputs: tuple[str, ...] = ("input",),
+    angle: float | None = None,
 ) -> Experiment:
     """Filter (high-pass, then low-pass) and (for displacements) integrate the measured
     accelerations.
@@ -448,7 +459,10 @@ def process(
     each channel; a channel across the shaking (a 3-D frame's ``uy`` under motion along ``x``)
     has 0, and its relative displacement is its own.
     ``inputs``: the input channels' names; several (support groups, ``input.<group>``) make
-    ``ag`` a column per input, and the outputs are taken as recorded (``influence`` 0).
+    ``ag`` a column per input, and the outputs are taken as recorded (``influence`` 0); the
+    components of a uniform base motion (``input.<direction>``) make ``ag`` a column per
+    direction, with ``influence`` (n_channels, k) a channel's share of each. ``angle``
+    (degrees): the one input is split into its x and y components (a column each).
     """
     rate = measurement.rate
     acc = measurement.array((*inputs, *channels))
@@ -460,9 +474,15 @@ def process(
         acc = signal.band(acc, rate, highpass_hz, lowpass_hz, highpass_order=highpass_order,
                           lowpass_order=lowpass_order, zero_phase=zero_phase)
     ag, outputs = acc[:, first], acc[:, g:]
+    if angle is not None:  # linear: split before or after the filters, the same record
+        from femupdate.simulate.components import angle_split
+
+        ag = angle_split(ag, angle)
+        ag_unfiltered = None if ag_unfiltered is None else angle_split(ag_unfiltered, angle)
     if quantity == "displacement":
         relative = (signal.relative(outputs, ag) if influence is None
-                    else outputs - np.outer(ag, influence) if ag.ndim == 1 else outputs)
+                    else outputs - np.outer(ag, influence) if ag.ndim == 1
+                    else outputs - ag @ influence.T if influence.ndim == 2 else outputs)
         target = signal.integrate_twice(relative, measurement.dt)
     else:
         target = outputs
@@ -546,7 +566,7 @@ def _processed(case: Case, spec: TrialSpec, measurement: io.Measurement) -> Expe
         quantity=case.objective.quantity, highpass_hz=pre.highpass_hz,
         highpass_order=pre.highpass_order, zero_phase=pre.zero_phase, delays=delays,
         influence=_channel_influence(case, data), lowpass_hz=pre.lowpass_hz,
-        lowpass_order=pre.lowpass_order, inputs=inputs,
+        lowpass_order=pre.lowpass_order, inputs=inputs, angle=data.angle,
     )
     # apply_delays trims samples at both ends and restarts the time at 0: the record time of
     # the first sample kept
@@ -566,6 +586,9 @@ def _channel_influence(case: Case, data: Data) -> np.ndarray | None:
         return np.zeros(len(data.outputs))
     if model.external is not None or any(c.dof is None for c in data.outputs):
         return None
+    if data.base_directions:  # (n_channels, k): a channel moves with the components along it
+        return np.array([[1.0 if c.dof == f"u{d}" else 0.0 for d in data.base_directions]
+                         for c in data.outputs])
     along = "u" + model.excitation_direction
     return np.array([1.0 if c.dof == along else 0.0 for c in data.outputs])
 
@@ -592,9 +615,9 @@ def _check_band_below_modes(case: Case, band: tuple[float, float]) -> list[str]:
     the first resonance: near a mode the structure's own phase (−90° at resonance) would be
     taken for a sensor delay of a quarter period.
     """
-    from femupdate.case import CaseModel
-    from femupdate.case.reduced_path import lowest_frequencies
     from femupdate.model.modes import natural_frequencies
+    from femupdate.problem.case_model import CaseModel
+    from femupdate.problem.reduced_path import lowest_frequencies
 
     try:
         model = CaseModel(case)

@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from femupdate.case import Case, CaseModel
+from femupdate.case import Case
 from femupdate.data import datasets, io, network, synth
 from femupdate.errors import ConfigError
+from femupdate.problem.case_model import CaseModel
 from femupdate.units import ACCELERATION_UNITS, STANDARD_GRAVITY
 
 
@@ -124,7 +125,19 @@ def simulate_truth(case: Case, truth: dict[str, float], motion: Motion) -> np.nd
                           f"{1 if motion.ag.ndim == 1 else motion.ag.shape[1]} record(s) "
                           "(allowed: one record per group; femupdate synth without --motion "
                           "makes an independent one for each)")
-    response = model.simulate(truth, motion.ag, motion.dt)
+    ag = motion.ag
+    if model.components and case.data.angle is not None:  # one record, split by its angle
+        from femupdate.simulate.components import angle_split
+
+        ag = angle_split(_one_record(case, motion), case.data.angle)
+    elif model.components and (ag.ndim != 2 or ag.shape[1] != len(model.components)):
+        raise ConfigError(f"{case.label}: the base motion has {len(model.components)} "
+                          f"components ([[data.components]] along "
+                          f"{', '.join(model.components)}) but the motion has "
+                          f"{1 if ag.ndim == 1 else ag.shape[1]} record(s) (allowed: one "
+                          "record per component; femupdate synth without --motion makes an "
+                          "independent one for each)")
+    response = model.simulate(truth, ag, motion.dt)
     if response.diverged:
         raise ConfigError("the truth model diverged under this motion: check the truth values "
                           "and [preprocess] substeps")
@@ -133,17 +146,35 @@ def simulate_truth(case: Case, truth: dict[str, float], motion: Motion) -> np.nd
     return response.acceleration
 
 
+def _one_record(case: Case, motion: Motion) -> np.ndarray:
+    if motion.ag.ndim != 1:
+        raise ConfigError(f"{case.label}: data.input.angle splits one record, but the motion "
+                          f"has {motion.ag.shape[1]} (allowed: one record)")
+    return motion.ag
+
+
 def group_motions(case: Case, rng: np.random.Generator, *, rate: float, duration: float,
                   pga_g: float, length_scale: float) -> Motion:
-    """Independent EC8 artificial accelerograms, one per support group (each from its own
-    child of ``rng``), as a multi-support motion."""
+    """Independent EC8 artificial accelerograms, one per support group or per component of
+    ``[[data.components]]`` (each from its own child of ``rng``), as a multi-support motion
+    or a base motion with several components."""
+    if not case.model.support_groups and case.data is not None and case.data.components:
+        names = [f"input.{c.direction}" for c in case.data.components]
+        return _independent(names, "components", rng, rate=rate, duration=duration,
+                            pga_g=pga_g, length_scale=length_scale)
     names = [g.name for g in case.model.support_groups]
+    return _independent(names, "support groups", rng, rate=rate, duration=duration,
+                        pga_g=pga_g, length_scale=length_scale)
+
+
+def _independent(names: list[str], what: str, rng: np.random.Generator, *, rate: float,
+                 duration: float, pga_g: float, length_scale: float) -> Motion:
     children = rng.spawn(len(names))
     motions = [ec8_motion(child, rate=rate, duration=duration, pga_g=pga_g,
                           length_scale=length_scale) for child in children]
     n = min(m.ag.size for m in motions)
     return Motion(np.column_stack([m.ag[:n] for m in motions]), motions[0].dt,
-                  f"{len(names)} independent motions (support groups {', '.join(names)}), "
+                  f"{len(names)} independent motions ({what} {', '.join(names)}), "
                   f"each {motions[0].description}")
 
 
@@ -232,16 +263,18 @@ def virtual_experiment(
     rate = rate or (case.data.rate if case.data is not None and case.data.rate else 1035.0)
     motion_ss, noise_ss = np.random.SeedSequence(seed).spawn(2)
     groups = case.model.support_groups
+    components = case.data is not None and case.data.components is not None
     if motion is None:
         check_motion_settings(duration=duration, rate=rate, pga_g=pga_g,
                               length_scale=length_scale)
         settings = dict(rate=rate, duration=duration, pga_g=pga_g, length_scale=length_scale)
         rng_motion = np.random.default_rng(motion_ss)
-        motion = (group_motions(case, rng_motion, **settings) if groups
+        motion = (group_motions(case, rng_motion, **settings) if groups or components
                   else ec8_motion(rng_motion, **settings))
     outputs = simulate_truth(case, truth, motion)
     assert case.data is not None
-    inputs = [f"input.{g.name}" for g in groups] if groups else ["input"]
+    inputs = ([f"input.{g.name}" for g in groups] if groups
+              else [name for name, _, _ in case.data.input_channels()])
     keys = inputs + [c.label for c in case.data.outputs]
     clean = np.column_stack([motion.ag, outputs])
     rng = np.random.default_rng(noise_ss)

@@ -74,6 +74,7 @@ def run_bridge_benchmark(
     # as its help says: a second seed is a second, independent benchmark. Seed 0 is unchanged.
     spec["search"]["seed"] = seed
     spec["search"].pop("f_target", None)
+    spec["search"]["agree"] = 0  # a benchmark counts every run: none stops at agreement
     if method == "cmaes":
         spec["search"]["options"] = {"popsize": 5}
     spec["search"]["options"] = {**spec["search"].get("options", {}), **(options or {})}

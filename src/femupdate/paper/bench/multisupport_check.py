@@ -23,10 +23,11 @@ from typing import Any
 
 import numpy as np
 
-from femupdate.case import Case, CaseModel, parse_case
+from femupdate.case import Case, parse_case
 from femupdate.errors import SimulationError
 from femupdate.external.openseespy import import_opensees
 from femupdate.paper.bench.frame3d_check import support_records
+from femupdate.problem.case_model import CaseModel
 from femupdate.simulate.multisupport import integrate_record
 
 __all__ = ["TRUTH", "opensees_two_span", "run_check", "two_span_case"]

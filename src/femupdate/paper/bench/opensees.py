@@ -46,7 +46,7 @@ from types import ModuleType
 
 import numpy as np
 
-from femupdate.case import Model, build_structure
+from femupdate.case import Model
 from femupdate.errors import (
     ConfigError,
     DataError,
@@ -55,6 +55,7 @@ from femupdate.errors import (
 )
 from femupdate.external.openseespy import OPENSEES_EXTRA, import_opensees
 from femupdate.model.system import System
+from femupdate.problem.case_model import build_structure
 
 __all__ = ["OPENSEES_EXTRA", "OPENSEES_METHODS", "OpenSeesPeer", "import_opensees"]
 

@@ -34,10 +34,11 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from femupdate.case import Model, build_structure
+from femupdate.case import Model
 from femupdate.errors import ConfigError, MissingDependencyError
 from femupdate.model.system import System
 from femupdate.paper.problems import bridge
+from femupdate.problem.case_model import build_structure
 from femupdate.simulate import prepare
 
 __all__ = [

@@ -83,8 +83,14 @@ def print_posterior(record: PosteriorRecord, out: Console) -> None:
     words = (f"TMCMC, {record.runs} run(s), {record.samples:,} samples in all, error model "
              f"{record.error_model!r}: {record.nfev:,} evaluations in {record.wall_s:.1f} s "
              "(the runs' times summed)")
+    message = record.message
+    if record.method == "surrogate":  # the verdict line below says its check
+        words = (f"TMCMC on a Gaussian-process surrogate, {record.samples:,} samples, error "
+                 f"model {record.error_model!r}: {record.nfev:,} model runs in "
+                 f"{record.wall_s:.1f} s")
+        message = message.split(";")[0].split(":")[0]
     if record.reached and record.log_evidence is not None and record.ess is not None:
-        words += (f"; {record.message}; log-evidence {record.log_evidence:.6g}"
+        words += (f"; {message}; log-evidence {record.log_evidence:.6g}"
                   f"{record.evidence_spread()}")
     out.print(Text(words))
     if not record.reached:

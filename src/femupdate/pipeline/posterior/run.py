@@ -561,16 +561,16 @@ def _modes_into(record: PosteriorRecord, freqs: np.ndarray, zetas: np.ndarray,
 
 def run_surrogate_posterior(case: Case, out_dir: Path, *, surrogate: bool | None = None,
                             seed: int | None = None, workers: int | None = None,
-                            execution: Execution | None = None) -> Any:
-    """The surrogate-aided posterior (:func:`femupdate.inference.surrogate.run_case_surrogate`)
+                            execution: Execution | None = None, resume: bool = False) -> Any:
+    """The surrogate-aided posterior (:mod:`femupdate.pipeline.posterior.surrogate`)
     when ``surrogate`` (else ``[posterior] surrogate``, else an external model) asks for it,
     its batches on ``workers`` (default ``[search] workers``) or the execution's scheduler;
     None when not asked (then :func:`run_posterior`)."""
-    from femupdate.inference.surrogate import run_case_surrogate, wants_surrogate
+    from femupdate.pipeline.posterior.surrogate import run_case_surrogate, wants_surrogate
 
     if not wants_surrogate(case, surrogate):
         return None
     execution = execution or Execution(label=case.label)
     return run_case_surrogate(case, out_dir, seed=seed, scheduler=execution.scheduler,
                               workers=case.search.workers if workers is None else workers,
-                              progress=None if execution.quiet else print)
+                              resume=resume, progress=None if execution.quiet else print)

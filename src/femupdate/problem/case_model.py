@@ -4,21 +4,24 @@
 knows the case's integrator, substeps, excitation direction and output DOFs; per evaluation it
 assembles the system at parameter values and simulates it under a base motion. The update
 problem, virtual experiments, ``femupdate modes`` and the report all go through it.
+
+It sits below the trials in the layers (``tests/test_architecture.py``): virtual experiments
+simulate a case's model, and the update problem above reads the trials. The case package
+(schema and validation) never imports it.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 import typing
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from femupdate.case.expressions import FieldValues
 from femupdate.case.model_sections import Model, storey_values
-from femupdate.case.reduced_path import ReducedPath
 from femupdate.case.schema import Case, OutputChannel
 from femupdate.errors import ConfigError, DataError
+from femupdate.problem.reduced_path import ReducedPath
 from femupdate.simulate.response import Response
 
 if typing.TYPE_CHECKING:
@@ -32,9 +35,10 @@ def build_structure(model: Model) -> Structure:
     """The ``femupdate.model.Structure`` described by ``[model]``.
 
     Numbers that name a parameter stay names: ``structure.assemble(values,
-    direction=model.excitation_direction)`` substitutes them. Elements without a ``name`` are
-    named by their place in the case file (``"model.springs[2]"``), so the model's own error
-    messages point into the file.
+    direction=model.excitation_direction)`` substitutes them; fields that are expressions of
+    parameters (``"0.5 * beta"``) are computed from ``values`` (``structure.derive``).
+    Elements without a ``name`` are named by their place in the case file
+    (``"model.springs[2]"``), so the model's own error messages point into the file.
 
     Parameters
     ----------
@@ -87,6 +91,9 @@ def build_structure(model: Model) -> Structure:
             structure.add_diaphragm(floor.master, floor.nodes)
     if model.rayleigh is not None:
         structure.set_rayleigh(alpha=model.rayleigh.alpha, beta=model.rayleigh.beta)
+    derived = FieldValues(structure.parameters)
+    if derived:  # fields that are expressions: assembled from the case's parameter values
+        structure.derive = derived
     structure.influence_vector(model.excitation_direction)  # builds and checks the topology
     return structure
 
@@ -146,6 +153,9 @@ class CaseModel:
         self._label = case.label
         self.reduced: ReducedPath | None = None
         self.groups: tuple[str, ...] = ()  # an external model takes one table record
+        #: The directions of a base motion with several components (``[[data.components]]``
+        #: or an input's ``angle``), the columns of its input; empty: one record.
+        self.components: tuple[str, ...] = ()
         self.reference = np.zeros((len(channels), 0))
         self.external = external_model(case, channels)
         if self.external is not None:
@@ -154,7 +164,9 @@ class CaseModel:
             self.outputs = np.arange(len(channels), dtype=np.int64)
             return
         self.structure = build_structure(case.model)
-        self.direction = case.model.excitation_direction
+        self.components = case.data.base_directions if case.data is not None else ()
+        self.direction = (self.components[0] if self.components
+                          else case.model.excitation_direction)
         model = case.model
         self.groups = tuple(g.name for g in model.support_groups)
         #: The support DOFs (node, dof) the groups move, and each group's labels of them.
@@ -174,10 +186,15 @@ class CaseModel:
         self.outputs = np.array([self.structure.dof_index(c.node, c.dof) for c in channels],
                                 dtype=np.int64)
         self.influence = self.structure.influence_vector(self.direction)[self.outputs]
+        #: (n_outputs, k): each component's rigid translation at the outputs.
+        self.component_influence = np.column_stack(
+            [self.structure.influence_vector(d)[self.outputs] for d in self.components]
+        ) if self.components else np.zeros((self.outputs.size, 0))
         if self.groups:
             self.influence = np.zeros_like(self.influence)
         else:  # multi-support cases move their supports, group by group
-            check_base_motion_moves_mass(self.structure, case, self.direction)
+            for direction in self.components or (self.direction,):
+                check_base_motion_moves_mass(self.structure, case, direction)
         if case.model.dofs_per_node == 6:
             from femupdate.case.model3d import check_not_mechanism
 
@@ -217,7 +234,35 @@ class CaseModel:
         """
         if self.groups:
             return self.support_response(values, ag, dt)
+        if self.components:
+            return self.components_response(values, ag, dt)
         return self.simulator(values, dt).run(ag)
+
+    def components_response(self, values: Mapping[str, float], ag: np.ndarray,
+                            dt: float) -> Response:
+        """Response at the output DOFs to a uniform base motion with several components,
+        ``ag`` (n_samples, k) a column per direction of ``components``
+        (:mod:`femupdate.simulate.components`): relative displacement and velocity, absolute
+        acceleration, on the case's integrator."""
+        from femupdate.simulate.components import components_response
+
+        structure = self._builtin("a base motion with several components")
+        sparse = self.reduced is not None
+        loads = np.column_stack([np.asarray(structure.assemble(
+            values, direction=d, sparse=sparse).seismic_load, dtype=float)
+            for d in self.components])
+        return components_response(self.simulator(values, dt), ag, loads,
+                                   self.component_influence)
+
+    def base_share(self, ag: np.ndarray) -> np.ndarray:
+        """The base motion's share of each output's absolute acceleration as recorded,
+        (n_samples, n_outputs): ``r a_g`` at the outputs for one record, ``Σ_c r_c a_c`` for
+        several components, a support group's motion for ``relative_to`` channels."""
+        if self.groups:
+            return np.asarray(self.recorded_share(ag))
+        if self.components:
+            return np.asarray(ag, dtype=float) @ self.component_influence.T
+        return np.outer(ag, self.influence)
 
     def recorded_share(self, ag: np.ndarray, dt: float | None = None) -> np.ndarray | float:
         """What the support groups' accelerations ``ag`` (n_samples, n_groups) add to each
@@ -267,34 +312,6 @@ class CaseModel:
                                       displacement=displacement, outputs=self.outputs)
         return Response(resp.t, resp.total, resp.total_velocity, resp.acceleration,
                         diverged=resp.diverged)
-
-
-def check_parameter_values(values: object, names: tuple[str, ...],
-                           what: str = "parameter values") -> dict[str, float]:
-    """``values`` as {name: float} for exactly the parameters ``names``; ConfigError otherwise.
-
-    For values a user passes (JSON on the command line, a truth file): says which names are
-    missing or unknown and which values are not finite numbers.
-    """
-    if not isinstance(values, Mapping):
-        raise ConfigError(f"{what}: expected an object of parameter values {{name: number}}, "
-                          f"got {type(values).__name__} (allowed: the parameters "
-                          f"{list(names)})")
-    missing = [n for n in names if n not in values]
-    unknown = [str(n) for n in values if n not in names]
-    if missing or unknown:
-        wrong = "; ".join(f"{word} {listed}" for word, listed in (("missing", missing),
-                                                                 ("unknown", unknown)) if listed)
-        raise ConfigError(f"{what}: {wrong} (allowed: exactly the parameters {list(names)})")
-    out = {}
-    for name in names:
-        value = values[name]
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
-                float(value)):
-            raise ConfigError(f"{what}: {name} = {value!r} is not a finite number (allowed: a "
-                              "finite number)")
-        out[name] = float(value)
-    return out
 
 
 def external_model(case: Case, channels: Sequence[OutputChannel]) -> ExternalModel | None:
