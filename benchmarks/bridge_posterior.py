@@ -5,7 +5,7 @@ evaluations and wall time, and beside emcee on the same likelihood.
     python benchmarks/bridge_posterior.py [--model viscous|friction] [--samples N]
         [--runs R] [--max-runs M] [--recentre K] [--error-model KIND] [--workers W]
         [--seed 1] [--noise-seed 0] [--out DIR] [--emcee-steps 3000] [--quick]
-        [--case CASE.toml [--from RESULTS]]
+        [--case CASE.toml [--from RESULTS]] [--final importance [--run-ess E]]
 
 Without ``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` the
 case has no ``[posterior]`` section: the product's default path (``run_posterior`` with no
@@ -71,6 +71,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--recentre", type=int, default=None)
     parser.add_argument("--error-model", default=None)
     parser.add_argument("--emcee-steps", type=int, default=3000)
+    parser.add_argument("--final", choices=("moves", "importance"), default=None,
+                        help="TMCMC's last stage (default: the product's)")
+    parser.add_argument("--run-ess", type=int, default=None,
+                        help="with --final importance: each run's ESS per parameter")
     parser.add_argument("--noise-seed", type=int, default=0, help="the record's noise")
     parser.add_argument("--case", type=Path, default=None,
                         help="a case file of the bridge with its records, taken as it is")
@@ -101,8 +105,9 @@ def main(argv: list[str] | None = None) -> int:
         case = parse_case(spec, source=out / f"{args.model}-narrow.toml")
         ensure_records(case, truth_values, data, seed=args.noise_seed, snr=0.02)
     start = time.perf_counter()
+    tmcmc = {k: v for k, v in (("final", args.final), ("ess", args.run_ess)) if v is not None}
     result = run_posterior(case, out / "results", restart=True, search_from=args.search_from,
-                           execution=Execution(label="bridge posterior"))
+                           execution=Execution(label="bridge posterior"), tmcmc=tmcmc)
     wall = time.perf_counter() - start
     rec = result.record
     print(f"TMCMC: {rec.message}; {rec.samples:,} samples, {rec.nfev:,} evaluations in "

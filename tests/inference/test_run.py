@@ -397,3 +397,19 @@ def test_runs_are_added_until_every_parameter_has_the_ess_asked_for(tmp_path: Pa
     assert many.record.runs == 4 and many.record.unsettled == list(many.record.names)
     with pytest.raises(ConfigError, match=r"ess: got 5 \(allowed"):
         run_posterior(case, tmp_path / "bad", ess=5)
+
+
+@pytest.mark.slow
+def test_the_importance_stage_runs_through_the_posterior(case_path: Path, tmp_path: Path
+                                                         ) -> None:
+    """TMCMC's options beyond the case's (``tmcmc=``) reach every run: with the importance
+    stage the runs hand back their weighted draws resampled (more samples than the
+    population) and the same seed gives the same samples."""
+    case = load_case(case_path)
+    got = run_posterior(case, tmp_path / "a", runs=2,
+                        tmcmc={"final": "importance", "ess": 300})
+    again = run_posterior(case, tmp_path / "b", runs=2,
+                          tmcmc={"final": "importance", "ess": 300})
+    assert got.record.reached and got.samples.shape[0] > 2 * 200
+    assert got.samples.tobytes() == again.samples.tobytes()
+    assert all(v is not None and v > 0 for v in got.record.ess_params.values())

@@ -178,6 +178,7 @@ class FitSampler:
     execution: Execution
     evaluations: int = 0
     wall_s: float = 0.0
+    tmcmc: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def sample(self, x: np.ndarray, store_dir: Path, recentre_below: float | None = None
                ) -> Sampled:
@@ -194,7 +195,8 @@ class FitSampler:
             reference, start_note = start_reference(
                 gaussian.mean_unit, gaussian.cov_unit,
                 np.random.default_rng(derived_seed(seed, x, START_KEY)))
-        options = sampler_options(model, prior, specs, self.population, reference)
+        options = sampler_options(model, prior, specs, self.population, reference,
+                                  **self.tmcmc)
         outcomes = self._runs(options, store_dir, seed)
         # runs are added, `runs` at a time, while a parameter is unsettled (module agreement);
         # not to one run, which asked for no check
@@ -271,7 +273,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   experiments: Sequence[Experiment] | None = None,
                   counts_from: ErrorModel | None = None,
                   error_model: str | None = None,
-                  search_from: Path | None = None, ess: int | None = None) -> PosteriorResult:
+                  search_from: Path | None = None, ess: int | None = None,
+                  tmcmc: dict[str, Any] | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -303,6 +306,10 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         Take the search of this results directory (``femupdate run --out``, the same case):
         its store is resumed there (a finished search is not run again) and only the
         sampler's results go into ``out_dir``. ``restart`` then discards only the sampler's.
+    tmcmc : dict or None
+        Options of :class:`~femupdate.inference.tmcmc.TMCMC` beyond the case's (e.g.
+        ``{"final": "importance", "ess": 500}``), for studies of the sampler (benchmarks);
+        stored with the runs, so a resume with other ones is refused.
     """
     settings = posterior_settings(case)
     # every override checked before any work (a bad --seed raised after the whole search)
@@ -369,7 +376,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     identity = CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
                             data=file_hashes(data_files(case)))
     sampling = FitSampler(problem, identity, settings, seed, population, counts_from, resume,
-                          dataclasses.replace(execution, workers=workers))
+                          dataclasses.replace(execution, workers=workers), tmcmc=dict(tmcmc or {}))
     x, phi = np.asarray(best.x, dtype=float), float(best.phi)
     done = sampling.sample(x, sampler_dir, phi if settings.recentre else None)
     start_words: list[str] = []
