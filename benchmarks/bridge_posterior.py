@@ -7,11 +7,12 @@ evaluations and wall time, and beside emcee on the same likelihood.
         [--seed 1] [--noise-seed 0] [--out DIR] [--emcee-steps 3000] [--quick]
         [--case CASE.toml [--from RESULTS]] [--final importance [--run-ess E]]
 
-Without ``--samples``, ``--runs``, ``--max-runs``, ``--recentre`` and ``--error-model`` the
-case has no ``[posterior]`` section: the product's default path (``run_posterior`` with no
-option set by hand; its seed is the search's, ``--seed``). ``--workers`` (default 1) is the
-case's ``[search] workers``, which the sampler uses too. ``--quick`` (a smoke run for CI): 300
-samples per run after a search of 2 runs of 600 evaluations, and 200 emcee steps.
+The case has no ``[posterior]`` section, and ``--samples``, ``--runs``, ``--max-runs``,
+``--recentre`` and ``--error-model`` are ``run_posterior``'s overrides: without them, the
+product's default path (no option set by hand; its seed is the search's, ``--seed``).
+``--workers`` (default 1) is the case's ``[search] workers``, which the sampler uses too.
+``--quick`` (a smoke run for CI): 300 samples per run after a search of 2 runs of 600
+evaluations, and 200 emcee steps.
 
 **emcee, the peer.** In the same run, emcee's affine-invariant ensemble (4n walkers, started
 from n·4 of the posterior's own samples, jittered) samples the same posterior density: the
@@ -93,11 +94,6 @@ def main(argv: list[str] | None = None) -> int:
     spec["search"].update(runs=2, f_target=None, max_evals=600 if args.quick else 3000,
                           seed=args.seed,
                           workers=args.workers)
-    chosen = {k: v for k, v in (("samples", args.samples), ("runs", args.runs),
-                                ("max_runs", args.max_runs), ("recentre", args.recentre),
-                                ("error_model", args.error_model)) if v is not None}
-    if chosen:  # else the product's defaults: no [posterior] section
-        spec["posterior"] = {**chosen, "seed": args.seed}
     truth_values = truth(args.model)
     if args.case is not None:  # the user's records of the bridge, its case as it is
         case = load_case(args.case)
@@ -106,7 +102,10 @@ def main(argv: list[str] | None = None) -> int:
         ensure_records(case, truth_values, data, seed=args.noise_seed, snr=0.02)
     start = time.perf_counter()
     tmcmc = {k: v for k, v in (("final", args.final), ("ess", args.run_ess)) if v is not None}
+    # the case has no [posterior] section: what is not given here is the product's default
     result = run_posterior(case, out / "results", restart=True, search_from=args.search_from,
+                           samples=args.samples, runs=args.runs, max_runs=args.max_runs,
+                           recentre=args.recentre, error_model=args.error_model,
                            execution=Execution(label="bridge posterior"), tmcmc=tmcmc)
     wall = time.perf_counter() - start
     rec = result.record
