@@ -44,11 +44,11 @@ def test_the_posterior_holds_the_truth_and_is_written(result: PosteriorResult,
     assert record.reached and record.log_evidence is not None and math.isfinite(
         record.log_evidence)
     assert record.error_model == "neff"  # the default
-    # four runs, and four more while a parameter was unsettled (200 samples each: a pooled
-    # ESS near the verdict's 400); in the end the runs of a well-posed posterior agree
+    # four runs (more while a parameter was unsettled), each ending with its importance
+    # stage's draws resampled: more samples than its population of 200
     runs = record.runs
-    assert runs in (4, 8, 12) and record.samples == 200 * runs
-    assert result.samples.shape == (200 * runs, 4)
+    assert runs in (4, 8, 12) and record.samples > 200 * runs
+    assert result.samples.shape == (record.samples, 4)
     assert record.unsettled == [] and record.agreement.startswith(
         f"the {runs} independent runs agree")
     assert set(record.ess_params) == set(TRUTH) and record.ess == min(record.ess_params.values())
@@ -106,7 +106,7 @@ def test_the_report_and_console_say_when_the_runs_disagree(result: PosteriorResu
 
 def test_one_run_says_it_cannot_check_itself(case_path: Path, tmp_path: Path) -> None:
     got = run_posterior(load_case(case_path), tmp_path / "one", runs=1)
-    assert got.record.runs == 1 and got.record.samples == 200
+    assert got.record.runs == 1 and got.record.samples > 200  # the importance draws
     assert all(r is None for r in got.record.rhat.values())
     assert got.record.agreement.startswith("one run: whether independent runs agree was not "
                                            "checked")
@@ -397,3 +397,19 @@ def test_runs_are_added_until_every_parameter_has_the_ess_asked_for(tmp_path: Pa
     assert many.record.runs == 4 and many.record.unsettled == list(many.record.names)
     with pytest.raises(ConfigError, match=r"ess: got 5 \(allowed"):
         run_posterior(case, tmp_path / "bad", ess=5)
+
+
+@pytest.mark.slow
+def test_the_importance_stage_runs_through_the_posterior(case_path: Path, tmp_path: Path
+                                                         ) -> None:
+    """TMCMC's options beyond the case's (``tmcmc=``) reach every run: with the importance
+    stage the runs hand back their weighted draws resampled (more samples than the
+    population) and the same seed gives the same samples."""
+    case = load_case(case_path)
+    got = run_posterior(case, tmp_path / "a", runs=2,
+                        tmcmc={"final": "importance", "ess": 300})
+    again = run_posterior(case, tmp_path / "b", runs=2,
+                          tmcmc={"final": "importance", "ess": 300})
+    assert got.record.reached and got.samples.shape[0] > 2 * 200
+    assert got.samples.tobytes() == again.samples.tobytes()
+    assert all(v is not None and v > 0 for v in got.record.ess_params.values())

@@ -157,19 +157,21 @@ def test_restart_discards_the_recentred_stores(recentred: PosteriorResult, starv
 
 @pytest.mark.slow
 def test_runs_are_added_while_a_parameter_is_unsettled(tmp_path: Path) -> None:
-    # 40 samples per run: four runs hold far fewer than 400 effective samples together
+    # 40 samples per run, each ending with moves (the importance stage would reach its ESS):
+    # four runs hold far fewer than 400 effective samples together
     case = load_case(write_case(tmp_path / "few", samples=40))
-    got = run_posterior(case, tmp_path / "out", max_runs=12)
+    moves = {"final": "moves"}
+    got = run_posterior(case, tmp_path / "out", max_runs=12, tmcmc=moves)
     record = got.record
     assert record.runs in (8, 12) and record.samples == 40 * record.runs
     assert "runs added, 4 at a time, while a parameter was unsettled: 4 → " in record.message
     if record.runs == 8:  # stopped because they settled
         assert record.unsettled == []
     assert (tmp_path / "out" / POSTERIOR_DIR / "more-1" / FILENAME).is_file()
-    again = run_posterior(case, tmp_path / "again", max_runs=12)
+    again = run_posterior(case, tmp_path / "again", max_runs=12, tmcmc=moves)
     assert again.samples.tobytes() == got.samples.tobytes()
     # the first four runs are those of a set that may not add any
-    four = run_posterior(case, tmp_path / "four", max_runs=4)
+    four = run_posterior(case, tmp_path / "four", max_runs=4, tmcmc=moves)
     assert four.record.runs == 4 and four.record.unsettled
     assert got.samples[:160].tobytes() == four.samples.tobytes()
 

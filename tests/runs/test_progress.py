@@ -63,3 +63,27 @@ def test_a_sampler_s_stages_are_logged_once_each(tmp_path: Path) -> None:
     events = [json.loads(line) for line in log.read_text().splitlines()]
     stages = [(e["stage"], e["beta"], e["acceptance"]) for e in events if e["event"] == "stage"]
     assert stages == [(0, 0.0, None), (1, 0.3, None), (2, 1.0, 0.4)]
+
+
+def test_a_samplers_lines_say_its_own_state_within_80_columns() -> None:
+    """TMCMC's stage lines fit 79 columns at their widest (two-digit runs and stages, an ESS
+    in thousands), and its bar shows the lowest β of its runs, not a φ."""
+    import numpy as np
+
+    from femupdate.runs.progress import stage_line
+
+    widest = stage_line(11, 12, 0.71523, 12_345.0, 0.31)
+    assert len(widest) <= 79 and "β = 0.7152" in widest and "previous acceptance 0.31" in widest
+    assert "acceptance" not in stage_line(0, 1, 0.4388, 500.0, math.nan)
+    out = io.StringIO()
+    console = Console(file=out, width=80, force_terminal=False, color_system=None)
+    with RunProgress(2, label="case.toml", console=console, max_evals=1_000_000) as progress:
+        progress.start()
+        progress.chunk(0, 1000, 0.5, 1000)
+        progress.stages(0, {"stage": np.array([0.0, 1.0]), "beta": np.array([0.0, 0.4388]),
+                            "acceptance": np.array([math.nan, math.nan]),
+                            "weights_ess": np.array([1000.0, 500.0])})
+    text = out.getvalue()
+    assert "run 0: stage 1, β = 0.4388, weights' ESS 500" in text
+    assert "lowest β 0.4388" in text and "best φ" not in text
+    assert all(len(line) <= 79 for line in text.splitlines() if line.startswith("run "))

@@ -1,5 +1,9 @@
 """Transitional MCMC (Ching & Chen 2007) on the ask/tell loop of the searches.
 
+Why this file is long: the sampler is one state machine (tempering stages, their moves, the
+importance-sampled last stage) whose state pickles whole for the checkpoints; its pure parts
+(proposals, importance weights) live in their own modules.
+
 The posterior p(ξ | D) ∝ π(ξ) = prior(ξ)·L(ξ) on the unit cube is reached through a sequence
 of intermediate densities
 
@@ -23,6 +27,11 @@ few stages. Each stage:
    random walk with the weighted population's covariance scaled by c (adapted from stage to
    stage toward an acceptance of 0.25).
 
+With ``final = "importance"`` the last stage draws batches from a defensive mixture (the
+clusters beside a Student-t of the whole population) and weighs them by π/q instead
+(:mod:`femupdate.inference.importance`); the weighted draws say where the moves' population
+was too narrow.
+
 Every step's candidates are one population (``ask`` → (k, n)), evaluated by the loop's
 batches, workers or Dask; proposals outside the cube are rejected without evaluation. A
 failed evaluation (non-finite residuals) has zero likelihood: never accepted, weight 0,
@@ -45,16 +54,33 @@ import numpy as np
 from scipy.special import logsumexp
 
 from femupdate.errors import ConfigError, FemupdateError
+from femupdate.inference.importance import (
+    defensive_mixture,
+    importance_ess,
+    kish_ess,
+    normalised_weights,
+    resampled_ess,
+)
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
 from femupdate.inference.proposals import GaussianMixture, fit_mixture
 from femupdate.optimize.base import StepTrace, check_option_names, int_option, real_option
 
 OPTIONS = ("population", "cov_target", "steps", "proposal", "reference", "inflate",
-           "max_stages", "final_steps", "components")
+           "max_stages", "final_steps", "components", "final", "ess", "final_inflate")
 PROPOSALS = ("rw", "independent", "mixture")
+#: What the last stage (β = 1) does: importance sampling from a defensive mixture fitted to
+#: the population (:mod:`femupdate.inference.importance`), or ``final_steps`` sweeps of moves
+FINALS = ("importance", "moves")
+#: Importance batches (of a population each) at most at β = 1, whatever ESS is reached
+MAX_BATCHES = 50
+#: Importance batches at β = 1 that only adapt the proposal (each refits it to all the weighted
+#: draws so far) before the batches that count, drawn from the last proposal
+ADAPT_BATCHES = 4
 TARGET_ACCEPTANCE = 0.25
 FINAL_STEPS = 12  # default moves at β = 1: they decorrelate the final resampled copies
+#: The widening of the importance proposal's clusters at β = 1 (module importance)
+FINAL_INFLATE = 1.3
 #: The mixture proposal's k-means clusters: on the viscous bridge 16 mixed better per
 #: evaluation than 8 or 32 (docs/posterior.md, "Effective samples, measured across seeds")
 COMPONENTS = 16
@@ -260,6 +286,17 @@ class TMCMC:
     inflate : float
         Its covariance (and the independent proposal's) is multiplied by inflate².
     max_stages : int
+    final : {"moves", "importance"}
+        The last stage (β = 1): ``final_steps`` sweeps of moves (the default), or importance
+        sampling from a defensive mixture (:mod:`femupdate.inference.importance`):
+        :data:`ADAPT_BATCHES` batches that refit the proposal to the weighted draws, then
+        batches from the last proposal until every parameter has ``ess`` effective samples
+        (at most :data:`MAX_BATCHES`), resampled into as many equally weighted samples.
+    ess : int, optional
+        With ``final = "importance"``: the effective samples per parameter to reach (default
+        the population).
+    final_inflate : float
+        With ``final = "importance"``: the widening of the proposal's clusters.
     """
 
     needs_residuals = True
@@ -270,7 +307,8 @@ class TMCMC:
                  proposal: str = "mixture",
                  reference: tuple[np.ndarray, np.ndarray] | None = None,
                  inflate: float = INFLATE, max_stages: int = 100,
-                 components: int = COMPONENTS) -> None:
+                 components: int = COMPONENTS, final: str = "moves",
+                 ess: int | None = None, final_inflate: float = FINAL_INFLATE) -> None:
         method = "tmcmc"
         if not isinstance(error_model, ErrorModel):
             raise ConfigError(f"option 'error_model' of method 'tmcmc' must be an ErrorModel, "
@@ -297,6 +335,14 @@ class TMCMC:
                                          low_open=True))
         self.max_stages = int_option(method, "max_stages", max_stages, 1, 10_000)
         self.components = int_option(method, "components", components, 1, 1000)
+        if final not in FINALS:
+            raise ConfigError(f"option 'final' of method 'tmcmc' must be one of "
+                              f"{', '.join(FINALS)}, got {final!r}")
+        self.final = final
+        self.ess_target = (self.population if ess is None
+                           else int_option(method, "ess", ess, 1, 10_000_000))
+        self.final_inflate = float(real_option(method, "final_inflate", final_inflate, 0.0,
+                                               100.0, low_open=True))
         self._trace = StepTrace()
         self.phase = "init"
         self.beta = 0.0
@@ -324,12 +370,25 @@ class TMCMC:
         self._final_copies: np.ndarray | None = None  # copies of each parent in it
         self._move: tuple[np.ndarray, np.ndarray] | None = None  # proposal mean, Cholesky
         self._eve = np.arange(self.population)  # each particle's ancestor in the first stage
+        # importance sampling at β = 1: the draws, their log-weights and log-likelihoods
+        self._draws = np.empty((0, n))
+        self._log_w = np.empty(0)
+        self._draws_ll = np.empty(0)
+        self._drawn = 0  # draws made, those outside the cube included
+        self._ess: np.ndarray | None = None  # per parameter, of the samples handed back
+        self._adapt_left = ADAPT_BATCHES
+        self._pool_x = np.empty((0, n))  # the adapting batches' draws and log-weights
+        self._pool_log_w = np.empty(0)
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # a checkpoint written before the ancestry was kept: ancestry from the resume on
         state.setdefault("_eve", np.arange(state["population"]))
         # and before the mixture proposal existed
         state.setdefault("components", COMPONENTS)
+        # and before the last stage could be importance sampling: its moves
+        state.setdefault("final", "moves")
+        state.setdefault("_ess", None)
+        state.setdefault("_adapt_left", 0)
         self.__dict__.update(state)
 
     # -- the reference density ----------------------------------------------------------------
@@ -376,6 +435,8 @@ class TMCMC:
             self._pending = (x, np.arange(self.population), np.zeros(self.population),
                              np.zeros(self.population))
             return x
+        if self.phase == "importance":
+            return self._ask_importance()
         if self.phase != "mcmc":
             raise FemupdateError(f"TMCMC: ask() after the run ended ({self.phase})")
         while self.phase == "mcmc":  # until a proposal falls inside the cube
@@ -433,6 +494,9 @@ class TMCMC:
         self.failures += failed
         self._stage_evaluations += ll.size
         self._stage_failures += failed
+        if self.phase == "importance":
+            self._tell_importance(x, ll, log_g_new)
+            return
         if self.phase not in ("init", "mcmc"):
             return  # the point asked after the run ended
         if self.phase == "init":
@@ -510,7 +574,10 @@ class TMCMC:
         self.x, self.ll, self.lp, self.lq = (self.x[idx].copy(), self.ll[idx].copy(),
                                              self.lp[idx].copy(), self.lq[idx].copy())
         self.beta = beta
-        if self.proposal == "rw":
+        if beta >= 1.0 and self.final == "importance":
+            self._move = defensive_mixture(self.x, self.components, self.final_inflate,
+                                           self.rng, safe_cholesky)
+        elif self.proposal == "rw":
             self._move = (mean, safe_cholesky(self.scale ** 2 * cov))
         elif self.proposal == "mixture":
             self._move = fit_mixture(self.x, self.components, self.inflate, self.rng,
@@ -520,10 +587,64 @@ class TMCMC:
         self.stages.append({"beta": beta, "weights_ess": ess_of_weights(w),
                             "scale": self.scale, "log_evidence": self.log_evidence,
                             "acceptance": math.nan, "evaluations": 0, "failures": 0})
-        self.phase = "mcmc"
+        self.phase = "importance" if beta >= 1.0 and self.final == "importance" else "mcmc"
         self._stage_step = 0
         self._stage_accepted = self._stage_proposed = 0
         self._stage_evaluations = self._stage_failures = 0
+
+    # -- importance sampling at β = 1 (femupdate.inference.importance) -------------------------
+
+    def _ask_importance(self) -> np.ndarray:
+        """A population drawn from the defensive mixture; draws outside the cube weigh 0
+        unevaluated (counted as draws)."""
+        mixture = self._move
+        while True:
+            proposals = mixture.sample(self.rng, self.population)
+            self._drawn += self.population
+            x = proposals[np.all((proposals >= 0) & (proposals <= 1), axis=1)]
+            if x.shape[0]:
+                self._pending = (x, np.arange(x.shape[0]), mixture.logpdf(x), np.zeros(0))
+                return x
+
+    def _tell_importance(self, x: np.ndarray, ll: np.ndarray, log_q: np.ndarray) -> None:
+        """Weigh a batch by π/q; once every parameter has ``ess`` effective samples (or after
+        :data:`MAX_BATCHES`), resample the weighted draws into as many equally weighted ones."""
+        lp = self.prior.logpdf_unit(x)
+        log_w = np.where(np.isfinite(ll), lp + ll - log_q, -np.inf)
+        if self._adapt_left > 0:  # the population was too narrow: refit to the weighted draws
+            self._adapt_left -= 1
+            self._pool_x = np.vstack([self._pool_x, x])
+            self._pool_log_w = np.append(self._pool_log_w, log_w)
+            self._trace.append(stage=float(len(self.stages)), beta=1.0, acceptance=math.nan,
+                               weights_ess=kish_ess(self._pool_log_w),
+                               log_evidence=self.log_evidence,
+                               evaluations=float(self.evaluations))
+            idx = systematic_resample(normalised_weights(self._pool_log_w), self.rng)
+            self._move = defensive_mixture(self._pool_x[idx], self.components,
+                                           self.final_inflate, self.rng, safe_cholesky)
+            self._drawn = 0
+            return
+        self._draws = np.vstack([self._draws, x])
+        self._log_w = np.append(self._log_w, log_w)
+        self._draws_ll = np.append(self._draws_ll, ll)
+        ess = importance_ess(self._draws, self._log_w)
+        batches = self._drawn // self.population
+        self._trace.append(stage=float(len(self.stages)), beta=1.0, acceptance=math.nan,
+                           weights_ess=float(np.min(ess)), log_evidence=self.log_evidence,
+                           evaluations=float(self.evaluations))
+        if np.min(ess) < self.ess_target and batches < MAX_BATCHES:
+            return
+        count = self._draws.shape[0]
+        idx = systematic_resample(normalised_weights(self._log_w), self.rng)
+        self.x, self.ll = self._draws[idx].copy(), self._draws_ll[idx].copy()
+        self.lp = self.prior.logpdf_unit(self.x)
+        self.lq = self._log_q(self.x, self.lp)
+        self._ess = resampled_ess(ess, count)
+        self.stages[-1].update(acceptance=math.nan, evaluations=self._stage_evaluations,
+                               failures=self._stage_failures, draws=float(self._drawn),
+                               efficiency=kish_ess(self._log_w) / self._drawn)
+        self.phase = "done"
+        self.stopped = {"beta_reached": 1.0}
 
     # -- the protocol's rest --------------------------------------------------------------------
 
@@ -545,8 +666,11 @@ class TMCMC:
         if self.phase != "done":
             return TMCMCPosterior(False, self.beta, None, None, math.nan, stages,
                                   evaluations=self.evaluations, failures=self.failures)
-        ess = np.minimum(ess_of_population(self._final_start, self.x, self._final_copies),
-                         ess_by_ancestry(self.x, self._eve))
+        if self._ess is not None:  # importance sampling at β = 1
+            ess = self._ess
+        else:
+            ess = np.minimum(ess_of_population(self._final_start, self.x, self._final_copies),
+                             ess_by_ancestry(self.x, self._eve))
         return TMCMCPosterior(True, 1.0, self.x.copy(), self.ll.copy(), self.log_evidence,
                               stages, ess=float(np.min(ess)), evaluations=self.evaluations,
                               failures=self.failures, ess_params=ess)

@@ -4,7 +4,8 @@ Given each run's budget, the bar moves with the evaluations: its length is the e
 of the set (runs × ``max_evals``; a run that ends early, at its target or by a stopping
 criterion, completes its share at once), so it advances with every chunk, and the time left is
 estimated from the pace of this session. Beside it: runs finished out of the total, the best φ so
-far over all runs, the evaluations done, the time elapsed and left (fitting 80 columns). Without a
+far over all runs (a sampler's: the lowest tempering exponent β of its runs), the evaluations
+done, the time elapsed and left (fitting 80 columns). Without a
 budget it counts finished runs and shows the evaluations per second. The log (``log_json``) gets
 one JSON object per line and event: ``start``, ``chunk`` (a run advanced), ``run`` (a run
 finished), ``not_needed`` (the first runs agreed: ``runs_needed`` of ``runs``), ``end``; each
@@ -81,6 +82,7 @@ class RunProgress:
         self._bar: Progress | None = None
         self._task: TaskID | None = None
         self._stages: dict[int, tuple[float, float]] = {}  # run → (last stage, acceptance)
+        self._beta: dict[int, float] = {}  # a sampler's runs: run → its tempering exponent
         self.needed: int | None = None  # runs needed, once the first ones agreed
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -119,7 +121,7 @@ class RunProgress:
                                    f"{self.max_evals:,} evaluations"))
                 columns: tuple[ProgressColumn, ...] = (
                     BarColumn(bar_width=10),
-                    TextColumn("{task.fields[runs]} runs · best φ {task.fields[best]} · "
+                    TextColumn("{task.fields[runs]} runs · {task.fields[state]} · "
                                "{task.fields[evals]} evals"),
                     TimeElapsedColumn(),
                     TimeRemainingColumn(),
@@ -130,7 +132,7 @@ class RunProgress:
                     TextColumn("{task.description}"),
                     BarColumn(),
                     MofNCompleteColumn(),
-                    TextColumn("runs · best φ {task.fields[best]} · {task.fields[evals]} evals "
+                    TextColumn("runs · {task.fields[state]} · {task.fields[evals]} evals "
                                "· {task.fields[rate]} evals/s"),
                     TimeElapsedColumn(),
                 )
@@ -181,12 +183,12 @@ class RunProgress:
                 self._write("stage", run=run, stage=int(k), beta=beta, weights_ess=ess,
                             acceptance=_finite_or_none(previous_acceptance))
                 if self._bar is not None and k > 0:
-                    acc = ("" if not math.isfinite(previous_acceptance) else
-                           f", acceptance of the moves before {previous_acceptance:.2f}")
-                    self._bar.console.print(Text(f"run {run}: stage {int(k)}, β = {beta:.4g}"
-                                                 f", ESS of the weights {ess:,.0f}{acc}"))
+                    self._bar.console.print(Text(stage_line(run, int(k), beta, ess,
+                                                            previous_acceptance)))
             seen = (k, float(trace["acceptance"][i]))
         self._stages[run] = seen
+        self._beta[run] = float(trace["beta"][-1])
+        self._refresh()
 
     def run_done(self, run: int, nfev: int, best_phi: float, status: str) -> None:
         """Run ``run`` finished (after its last :meth:`chunk`)."""
@@ -230,7 +232,11 @@ class RunProgress:
 
     def _fields(self) -> dict[str, str]:
         best = "–" if not math.isfinite(self.best_phi) else f"{self.best_phi:.3e}"
-        return {"best": best, "evals": f"{self.evals:,}", "rate": f"{self.rate():,.0f}",
+        # a sampler's bar shows its own state, the tempering of its runs, not a φ
+        state = (f"lowest β {min(self._beta.values()):.4g}" if self._beta
+                 else f"best φ {best}")
+        return {"best": best, "state": state, "evals": f"{self.evals:,}",
+                "rate": f"{self.rate():,.0f}",
                 "runs": (f"{self.runs_done}/{self.total_runs}" if self.needed is None else
                          f"{self.needed} of {self.total_runs}")}
 
@@ -246,3 +252,11 @@ class RunProgress:
                 "elapsed": time.perf_counter() - self._t0, **fields}
         self._log.write(json.dumps(line, allow_nan=False) + "\n")
         self._log.flush()
+
+
+def stage_line(run: int, stage: int, beta: float, ess: float, acceptance: float) -> str:
+    """A sampler's line as its run ``run`` begins stage ``stage`` (under 80 columns): the
+    tempering exponent, the effective samples of the stage's weights and the acceptance of
+    the previous stage's moves (left out when there were none)."""
+    acc = "" if not math.isfinite(acceptance) else f", previous acceptance {acceptance:.2f}"
+    return f"run {run}: stage {stage}, β = {beta:.4g}, weights' ESS {ess:,.0f}{acc}"

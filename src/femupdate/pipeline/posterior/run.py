@@ -82,6 +82,12 @@ POSTERIOR_DIR = "posterior"
 RECENTRED_DIR = "recentred"
 #: Inside a pass's store, the stores of the runs added while a parameter is unsettled.
 MORE_RUNS_DIR = "more"
+#: Effective samples per parameter each sampler run reaches at β = 1 (at least): TMCMC's last
+#: stage is importance sampling (:mod:`femupdate.inference.importance`) until every parameter
+#: has them. On the viscous bridge (issue 36's record) this gave the 4 runs a least ESS of
+#: 3,425 in 51,462 evaluations, where 12 sweeps of moves gave 1,780 in 56,455, with sds within
+#: 3 % of emcee's and of an importance check (benchmarks/bridge_posterior.py).
+RUN_ESS = 1000
 #: Spawn keys of the seed's children: the bands' draws (1), the start's mass estimate (2),
 #: the polish before re-centring pass k (3 + k), the added runs' root seeds (1000, batch).
 BANDS_KEY, START_KEY, POLISH_KEY, MORE_RUNS_KEY = 1, 2, 3, 1000
@@ -178,6 +184,7 @@ class FitSampler:
     execution: Execution
     evaluations: int = 0
     wall_s: float = 0.0
+    tmcmc: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def sample(self, x: np.ndarray, store_dir: Path, recentre_below: float | None = None
                ) -> Sampled:
@@ -194,7 +201,9 @@ class FitSampler:
             reference, start_note = start_reference(
                 gaussian.mean_unit, gaussian.cov_unit,
                 np.random.default_rng(derived_seed(seed, x, START_KEY)))
-        options = sampler_options(model, prior, specs, self.population, reference)
+        run_ess = max(RUN_ESS, math.ceil(2 * (settings.ess or MIN_ESS) / settings.runs))
+        options = sampler_options(model, prior, specs, self.population, reference,
+                                  **{"final": "importance", "ess": run_ess, **self.tmcmc})
         outcomes = self._runs(options, store_dir, seed)
         # runs are added, `runs` at a time, while a parameter is unsettled (module agreement);
         # not to one run, which asked for no check
@@ -271,7 +280,8 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
                   experiments: Sequence[Experiment] | None = None,
                   counts_from: ErrorModel | None = None,
                   error_model: str | None = None,
-                  search_from: Path | None = None, ess: int | None = None) -> PosteriorResult:
+                  search_from: Path | None = None, ess: int | None = None,
+                  tmcmc: dict[str, Any] | None = None) -> PosteriorResult:
     """The search's best fit, then TMCMC, then what the samples say (module docstring).
 
     Parameters
@@ -303,6 +313,10 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
         Take the search of this results directory (``femupdate run --out``, the same case):
         its store is resumed there (a finished search is not run again) and only the
         sampler's results go into ``out_dir``. ``restart`` then discards only the sampler's.
+    tmcmc : dict or None
+        Options of :class:`~femupdate.inference.tmcmc.TMCMC` beyond the case's (e.g.
+        ``{"final": "importance", "ess": 500}``), for studies of the sampler (benchmarks);
+        stored with the runs, so a resume with other ones is refused.
     """
     settings = posterior_settings(case)
     # every override checked before any work (a bad --seed raised after the whole search)
@@ -369,7 +383,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     identity = CaseIdentity(case.to_dict(), case.fingerprint(), problem.names,
                             data=file_hashes(data_files(case)))
     sampling = FitSampler(problem, identity, settings, seed, population, counts_from, resume,
-                          dataclasses.replace(execution, workers=workers))
+                          dataclasses.replace(execution, workers=workers), tmcmc=dict(tmcmc or {}))
     x, phi = np.asarray(best.x, dtype=float), float(best.phi)
     done = sampling.sample(x, sampler_dir, phi if settings.recentre else None)
     start_words: list[str] = []
