@@ -28,7 +28,7 @@ from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiments
 from femupdate.trials.virtual import virtual_experiment
 
-# The case of tests/test_derived_update.py.
+# The case of tests/test_derived_update.py too.
 #: One storey held by a Bouc–Wen element (γ = β/2 in the records' truth) and a dashpot.
 CASE = """\
 [case]
@@ -88,7 +88,8 @@ rule = "gamma <= beta"
 '''
 
 
-def _write(folder: Path, gamma: str, extra: str = "") -> Path:
+def write_case(folder: Path, gamma: str, extra: str = "") -> Path:
+    """``folder/case.toml``: :data:`CASE` with its gamma field and the extra sections."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "case.toml"
     path.write_text(CASE.replace("GAMMA", gamma).replace("EXTRA", extra), encoding="utf-8")
@@ -119,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         args.points, args.repeat = 20, 1
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        case = load_case(_write(folder, '"0.5 * beta"'))
+        case = load_case(write_case(folder, '"0.5 * beta"'))
         virtual_experiment(case, TRUTH, folder / "data", seed=2, rate=200.0, duration=2.0,
                            snr=0.0, offset=0.0, drift=0.0, pga_g=0.35)
         experiments = load_experiments(case)
@@ -129,11 +130,11 @@ def main(argv: list[str] | None = None) -> int:
         two = np.column_stack([k, beta])
         three = np.column_stack([k, beta, 0.5 * beta])  # inside the constraint
         variants = [
-            ("gamma = 150 (a number)", _write(folder / "n", "150.0"), two, None),
-            ('gamma = "0.5 * beta"', _write(folder / "d", '"0.5 * beta"'), two, None),
-            ('gamma = "0.5 * beta", step by step', _write(folder / "d", '"0.5 * beta"'), two,
+            ("gamma = 150 (a number)", write_case(folder / "n", "150.0"), two, None),
+            ('gamma = "0.5 * beta"', write_case(folder / "d", '"0.5 * beta"'), two, None),
+            ('gamma = "0.5 * beta", step by step', write_case(folder / "d", '"0.5 * beta"'), two,
              False),
-            ('gamma free, rule = "gamma <= beta"', _write(folder / "c", '"gamma"', GAMMA_FREE),
+            ('gamma free, rule = "gamma <= beta"', write_case(folder / "c", '"gamma"', GAMMA_FREE),
              three, None),
         ]
         print(f"{args.points} points, median of {args.repeat} passes; load average "

@@ -10,83 +10,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+# the case is the benchmark's (benchmarks/ is on the tests' path)
+from derived_fields import GAMMA_FREE, TRUTH, write_case
+
 from femupdate.case import load_case
 from femupdate.pipeline.run import run_case
 from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiments
 from femupdate.trials.virtual import virtual_experiment
 
-#: One storey held by a Bouc–Wen element (γ = β/2 in the records' truth) and a dashpot.
-CASE = """\
-[case]
-name = "bouc-wen oscillator"
-
-[model.shear_building]
-masses = [1.0]
-stiffnesses = [0.0]
-dampers = [0.5]
-
-[model.shear_building.bouc_wen]
-k = "k"
-alpha = 0.1
-beta = "beta"
-gamma = GAMMA
-
-[[parameters]]
-name = "k"
-lower = 2000.0
-upper = 8000.0
-scale = "log"
-
-[[parameters]]
-name = "beta"
-lower = 150.0
-upper = 450.0
-EXTRA
-[data]
-format = "csv"
-directory = "data"
-time_column = "t"
-
-[data.input]
-file = "table.csv"
-column = "table"
-
-[[data.outputs]]
-file = "floors.csv"
-column = "a1"
-node = "F1"
-dof = "ux"
-
-[search]
-runs = 2
-seed = 3
-max_evals = 400
-"""
-TRUTH = {"k": 4000.0, "beta": 300.0}
-GAMMA_FREE = '''
-[[parameters]]
-name = "gamma"
-lower = 50.0
-upper = 400.0
-
-[[constraints]]
-rule = "gamma <= beta"
-'''
-
-
-def _write(folder: Path, gamma: str, extra: str = "") -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "case.toml"
-    path.write_text(CASE.replace("GAMMA", gamma).replace("EXTRA", extra), encoding="utf-8")
-    return path
-
 
 @pytest.fixture(scope="module")
 def derived_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The derived case and its noise-free records (gamma = 0.5 * beta = 150)."""
     folder = tmp_path_factory.mktemp("derived")
-    case = load_case(_write(folder, '"0.5 * beta"'))
+    case = load_case(write_case(folder, '"0.5 * beta"'))
     virtual_experiment(case, TRUTH, folder / "data", seed=2, rate=200.0, duration=2.0, snr=0.0,
                        offset=0.0, drift=0.0, pga_g=0.35)
     return folder
@@ -94,7 +32,7 @@ def derived_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_the_records_hold_the_derived_value(derived_dir: Path) -> None:
     # the same records as a model with gamma written as the number 150
-    free = load_case(_write(derived_dir / "number", "150.0"))
+    free = load_case(write_case(derived_dir / "number", "150.0"))
     free_problem = UpdateProblem(free, load_experiments(load_case(derived_dir / "case.toml")),
                                  compiled=False)
     problem = UpdateProblem(load_case(derived_dir / "case.toml"),
@@ -134,7 +72,7 @@ def test_a_derived_case_runs_and_recovers_beta(derived_dir: Path) -> None:
 
 
 def test_a_point_outside_the_constraints_is_a_failed_evaluation(derived_dir: Path) -> None:
-    case = load_case(_write(derived_dir / "free", '"gamma"', GAMMA_FREE))
+    case = load_case(write_case(derived_dir / "free", '"gamma"', GAMMA_FREE))
     problem = UpdateProblem(case, load_experiments(load_case(derived_dir / "case.toml")))
     assert problem.compiled  # the constraints are checked before the compiled evaluator
     inside = case.to_search({"k": 4000.0, "beta": 300.0, "gamma": 150.0})
