@@ -61,7 +61,8 @@ PRIOR_FIELDS = {"uniform": (), "log-uniform": (), "normal": ("mean", "sd"),
 class PosteriorSection(Section):
     """``[posterior]``: samples, error model, seed and budget of the sampled posterior.
 
-    ``samples``: TMCMC's population, the equally weighted samples each run ends with;
+    ``samples``: TMCMC's population through the tempering stages (each run ends with its
+    importance draws at β = 1, resampled: as many as its effective samples need);
     ``ess``: the effective samples every parameter needs to be settled (runs are added until
     it has them, up to ``max_runs``; unset, 400, saved only when given);
     ``runs``: independent runs (seeds: the children of ``seed``, which unset is
