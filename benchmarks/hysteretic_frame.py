@@ -26,35 +26,19 @@ from __future__ import annotations
 import argparse
 import math
 import time
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from femupdate.data.network import read_network_records
 from femupdate.model.structure import Structure
 from femupdate.simulate import prepare
 from femupdate.simulate.implicit import explicit_stable_step
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 EVENT = "cesmd_meloland/imperialvalley1979_ce01336.zip"
-CHANNELS = ("CHAN15.V2", "CHAN24.V2")  # free field, 360° and 270°
+CHANNELS = (15, 24)  # free field, 360° and 270°
 START_S = 3.0
-
-
-def read_v2(path: Path, member: str) -> tuple[np.ndarray, float]:
-    """Acceleration (m/s²) and sample interval of one channel of a CSMIP V2 file in a zip."""
-    with zipfile.ZipFile(path) as z:
-        lines = z.read(member).decode("latin-1").splitlines()
-    head = next(i for i, line in enumerate(lines) if "POINTS OF ACCEL DATA" in line)
-    count = int(lines[head].split()[0])
-    dt = float(lines[head].split(" AT ")[1].split()[0])
-    values: list[float] = []
-    row = head + 1
-    while len(values) < count:  # 8F10.x
-        text = lines[row].rstrip()
-        values += [float(text[c:c + 10]) for c in range(0, len(text), 10)]
-        row += 1
-    return np.array(values[:count]) / 100.0, dt  # cm/s² to m/s²
 
 
 def frame(nx: int = 5, ny: int = 5, storeys: int = 2, stiff: float = 1e3) -> Structure:
@@ -104,8 +88,9 @@ def main() -> None:
     path = args.data / EVENT
     if not path.is_file():
         raise SystemExit(f"{path}: not found; give --data, the folder with cesmd_meloland/")
-    (ax, dt), (ay, dt_y) = (read_v2(path, c) for c in CHANNELS)
-    assert dt == dt_y
+    x_record, y_record = read_network_records(path, CHANNELS)
+    ax, ay, dt = x_record.acceleration, y_record.acceleration, x_record.dt
+    assert dt == y_record.dt
     k0 = round(START_S / dt)
     ns = round(seconds / dt) + 1
     structure = frame()

@@ -16,10 +16,8 @@ records.
 from __future__ import annotations
 
 import os
-import re
 import tomllib
 import warnings
-import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -347,35 +345,15 @@ def test_a_clean_record_gives_no_finding(record: Clean, folders: Path) -> None:
 # --------------------------------------------------------------------------- Meloland
 
 
-def read_v2(text: str) -> tuple[float, np.ndarray]:
-    """A CSMIP V2 file's corrected acceleration: (dt s, cm/s²): the block after the line
-    "N points of accel data equally spaced at DT sec", 8 values of 10 characters a line."""
-    lines = text.splitlines()
-    at = next(i for i, s in enumerate(lines) if re.search(r"points of accel data", s, re.I))
-    head = re.search(r"(\d+)\s+points of accel data equally spaced at\s+([0-9.]+)", lines[at],
-                     re.I)
-    assert head is not None, lines[at]
-    n, dt = int(head.group(1)), float(head.group(2))
-    values: list[float] = []
-    for s in lines[at + 1:]:
-        values += [float(s[i:i + 10]) for i in range(0, len(s.rstrip()), 10)]
-        if len(values) >= n:
-            break
-    return dt, np.array(values[:n])
-
-
 def meloland(event: str) -> dict[str, tuple[float, np.ndarray]]:
-    """Every channel of an event: (dt s, acceleration m/s²) by file name."""
+    """Every channel of an event, read by femupdate's network reader: (dt s, acceleration
+    m/s²) by source file."""
+    from femupdate.data.network import read_network_records
+
     path = MELOLAND / event
     if not path.is_file():
         pytest.skip(f"the shared Meloland records are absent ({path})")
-    channels = {}
-    with zipfile.ZipFile(path) as z:
-        for name in sorted(z.namelist()):
-            if name.upper().endswith(".V2"):
-                dt, acc = read_v2(z.read(name).decode("latin-1"))
-                channels[name] = (dt, acc / 100.0)
-    return channels
+    return {ch.source: (ch.dt, ch.acceleration) for ch in read_network_records(path)}
 
 
 @pytest.mark.parametrize("event", ["imperialvalley1979_ce01336.zip",

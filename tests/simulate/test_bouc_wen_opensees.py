@@ -19,6 +19,25 @@ DT = 0.005
 RAYLEIGH_ALPHA = 0.6
 
 
+@pytest.fixture(scope="module")
+def ops():
+    """OpenSeesPy, or a skip saying why it is not here."""
+    from femupdate.paper.bench.opensees import import_opensees
+
+    try:
+        return import_opensees()
+    except MissingDependencyError as exc:
+        pytest.skip(f"openseespy is not installed or does not import here: {exc}")
+
+
+def _system(beta: float = 0.0, bouc_wen: bool = True):
+    """The two-storey building on its Bouc–Wen elements, Rayleigh α (and β on the links'
+    initial stiffness when ``bouc_wen``)."""
+    s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=LAWS)
+    s.set_rayleigh(alpha=RAYLEIGH_ALPHA, beta=beta, bouc_wen=bouc_wen)
+    return s.assemble()
+
+
 def _record() -> np.ndarray:
     t = np.arange(400) * DT
     return 8.0 * np.sin(2.0 * np.pi * 3.0 * t) * np.sin(np.pi * t / t[-1]) ** 2
@@ -64,21 +83,13 @@ def _opensees(ops, ag: np.ndarray, substeps: int, scheme: str = "central",
     return out
 
 
-def test_building_agrees_with_opensees_at_its_first_order() -> None:
+def test_building_agrees_with_opensees_at_its_first_order(ops) -> None:
     """Same scheme, same substep; OpenSees updates z by backward Euler (first order), so the
     difference halves with the substep (measured 1.4e-3, 7.0e-4, 3.5e-4 of the peak at 10, 20,
     40 substeps), while femupdate converges to its own solution at 320 substeps at second order
     (2.8e-5, 8.0e-6, 1.9e-6)."""
-    from femupdate.paper.bench.opensees import import_opensees
-
-    try:
-        ops = import_opensees()
-    except MissingDependencyError as exc:
-        pytest.skip(f"openseespy is not installed or does not import here: {exc}")
     ag = _record()
-    s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=LAWS)
-    s.set_rayleigh(alpha=RAYLEIGH_ALPHA)
-    system = s.assemble()
+    system = _system()
     fine = simulate(system, DT, ag=ag, method="nonlinear", substeps=320).displacement
     peak = np.abs(fine).max()
     steps = [10, 20, 40]
@@ -94,19 +105,11 @@ def test_building_agrees_with_opensees_at_its_first_order() -> None:
     assert 1.8 < own_slope < 2.6, own
 
 
-def test_implicit_agrees_with_opensees_newmark() -> None:
+def test_implicit_agrees_with_opensees_newmark(ops) -> None:
     """The same Newmark scheme; OpenSees updates z by backward Euler (first order in the
     step), femupdate by Runge–Kutta over the increment: the difference shrinks with the step."""
-    from femupdate.paper.bench.opensees import import_opensees
-
-    try:
-        ops = import_opensees()
-    except MissingDependencyError as exc:
-        pytest.skip(f"openseespy is not installed or does not import here: {exc}")
     ag = _record()
-    s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=LAWS)
-    s.set_rayleigh(alpha=RAYLEIGH_ALPHA)
-    system = s.assemble()
+    system = _system()
     gaps = []
     for count in (5, 10, 20):
         ours = simulate(system, DT, ag=ag, method="implicit", substeps=count).displacement
@@ -116,24 +119,16 @@ def test_implicit_agrees_with_opensees_newmark() -> None:
     assert gaps[-1] < 1e-4, gaps
 
 
-def test_rayleigh_beta_on_the_links_is_opensees_betakinit() -> None:
+def test_rayleigh_beta_on_the_links_is_opensees_betakinit(ops) -> None:
     """Rayleigh's β on the links' initial stiffness (the default) is OpenSees's ``rayleigh``
     with ``betaKinit`` on zeroLength elements with ``-doRayleigh 1``: the implicit paths agree
     as closely as without β (measured NMSE 8.3e-6, 2.1e-6, 5.4e-7 at 5, 10, 20 substeps),
     and leaving the links out of β K (bouc_wen=False) differs by an NMSE of 0.34."""
-    from femupdate.paper.bench.opensees import import_opensees
-
-    try:
-        ops = import_opensees()
-    except MissingDependencyError as exc:
-        pytest.skip(f"openseespy is not installed or does not import here: {exc}")
     beta = 2e-3  # s: ζ = β ω / 2 of 5.5 % and 15 % on the two initial modes
     ag = _record()
 
     def ours(count: int, bouc_wen: bool = True) -> np.ndarray:
-        s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=LAWS)
-        s.set_rayleigh(alpha=RAYLEIGH_ALPHA, beta=beta, bouc_wen=bouc_wen)
-        return simulate(s.assemble(), DT, ag=ag, method="implicit",
+        return simulate(_system(beta, bouc_wen), DT, ag=ag, method="implicit",
                         substeps=count).displacement
 
     def nmse(a: np.ndarray, b: np.ndarray) -> float:
