@@ -13,6 +13,7 @@ from plugins import register_optimizers
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
 from femupdate.optimize import METHODS, minimize, start
+from femupdate.optimize.multistart import PATIENCE
 from femupdate.optimize.trust import (
     forward_columns,
     forward_steps,
@@ -347,8 +348,8 @@ def test_a_run_ends_when_searches_keep_finding_the_best() -> None:
 
     res = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=50_000,
                    residuals=True)
-    assert res.stop == {"patience": 5} and res.success and res.status == 2
-    assert res.fun == pytest.approx(1.0, abs=1e-12) and res.restarts >= 4
+    assert res.stop == {"patience": PATIENCE} and res.success and res.status == 2
+    assert res.fun == pytest.approx(1.0, abs=1e-12) and res.restarts >= PATIENCE - 1
     assert res.nfev < 2_000
     off = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=2, max_evals=3_000,
                    residuals=True, patience=None)
@@ -365,7 +366,7 @@ def test_patience_ends_a_run_whose_best_is_zero(monkeypatch: pytest.MonkeyPatch)
 
     res = minimize(residuals, [(-1.0, 1.0)] * 2, "multistart-lm", seed=1, max_evals=50_000,
                    residuals=True)
-    assert res.stop == {"patience": 5} and res.fun < 1e-28 and res.nfev < 1_000
+    assert res.stop == {"patience": PATIENCE} and res.fun < 1e-28 and res.nfev < 1_000
     from femupdate.optimize import multistart
     monkeypatch.setattr(multistart, "PATIENCE_FLOOR_NOISE", 0.0)  # the relative rule alone
     monkeypatch.setattr(multistart.MultistartLM, "phi_floor", lambda self: 0.0)
@@ -387,7 +388,7 @@ def test_patience_at_zero_does_not_hang_on_the_last_ulps(scale: float, jitter: f
         return scale * (r + jitter * np.sin(1e9 * x[0] + 3e9 * x[1] + np.arange(3)))
 
     res = minimize(residuals, [(0.0, 1.0)] * 2, "multistart-lm", seed=1, residuals=True)
-    assert res.stop == {"patience": 5} and res.nfev <= 2_000
+    assert res.stop == {"patience": PATIENCE} and res.nfev <= 2_000
     assert np.allclose(res.x, [0.3, 0.7], atol=1e-9)
     assert res.fun <= scale ** 2 * (1e-26 + 3.0 * jitter ** 2)  # the jitter is a floor
 
@@ -593,7 +594,7 @@ def test_a_rejected_step_of_an_updated_model_asks_a_difference_jacobian() -> Non
 def test_pickled_between_broyden_updates_resumes_bit_identically() -> None:
     p = DynamicProblem()
     state = start(p.residuals, p.bounds, "multistart-lm", seed=7, max_evals=1500,
-                  residuals=True, broyden=5)
+                  residuals=True, broyden=5, patience=5)
     while not (state.optimizer.updates >= 2 and state.optimizer.jac is not None):
         state.step(p.residuals)
     clone = pickle.loads(pickle.dumps(state))

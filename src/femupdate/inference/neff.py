@@ -11,6 +11,11 @@ measures, on the viscous bridge at its own truth and at truths drawn from the pr
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
 import numpy as np
 
 from femupdate.errors import ConfigError
@@ -38,3 +43,64 @@ class NEff(ErrorModelKind):
         counts = np.array([effective_count(int(n - k), p)
                            for n, k, p in zip(fit.lengths, fit.removed, rho, strict=True)])
         return ErrorModel(self.name, fit.starts, fit.stops, np.maximum(counts, 1.0), rho)
+
+
+@dataclass(frozen=True)
+class PlugInModel(ErrorModel):
+    """N_c independent Gaussian errors per block whose variance is the best fit's
+    ‖r_c*‖²/N_c, fixed (a plug-in), instead of integrated out::
+
+        log L = Σ_c −(N_c/2) · [ ‖r_c‖²/‖r_c*‖² + log(2π ‖r_c*‖²/L_c) ]
+
+    (L_c the block's length). At the best fit its curvature is the integrated variance's;
+    away from it the integrated variance's log ‖r_c‖² grows far more slowly when N_c is a
+    handful (the Student-t tails of a variance estimated from a few values), where the data,
+    thousands of samples, fix the variance well: only the parameters' information is that of
+    N_c values. The constant is the same function of ‖r_c*‖² for every model class, so their
+    evidences compare as profile likelihoods.
+    """
+
+    reference: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def loglike_rows(self, rows: np.ndarray) -> np.ndarray:
+        rows = np.atleast_2d(np.asarray(rows, dtype=float))
+        if rows.shape[1] != self.size:
+            raise ConfigError(f"error model: residual rows of length {rows.shape[1]}, the "
+                              f"model was built for {self.size}")
+        finite = np.all(np.isfinite(rows), axis=1)
+        squares = self.sums_of_squares(np.where(finite[:, None], rows, 0.0))
+        lengths = self._white_lengths()
+        out = (-0.5 * self.counts * (squares / self.reference
+                                     + np.log(2.0 * math.pi * self.reference / lengths))
+               ).sum(axis=1)
+        out[~finite] = -np.inf
+        return out
+
+    def weights(self, r: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.full(b - a, w) for (a, b), w in zip(
+            self._white_blocks(), self.counts / self.reference, strict=True)])
+
+    def data(self) -> dict[str, Any]:
+        return super().data() | {"reference": self.reference.tolist()}
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any]) -> ErrorModel:
+        base = ErrorModel.from_data(data)
+        return cls(base.kind, base.starts, base.stops, base.counts, base.rho,
+                   reference=np.asarray(data["reference"], dtype=float))
+
+
+class NEffPlugIn(ErrorModelKind):
+    """``"neff-plugin"``: the counts of ``"neff"``, each block's variance fixed at the best
+    fit's (:class:`PlugInModel`)."""
+
+    name = "neff-plugin"
+    model = PlugInModel
+
+    def build(self, fit: FitResiduals) -> ErrorModel:
+        base = NEff().build(fit)
+        r = fit.need_residuals(self.name)
+        reference = np.array([float(r[a:b] @ r[a:b]) for a, b in zip(fit.starts, fit.stops,
+                                                                     strict=True)])
+        return PlugInModel(self.name, base.starts, base.stops, base.counts, base.rho,
+                           reference=reference)

@@ -67,7 +67,8 @@ from femupdate.inference.proposals import GaussianMixture, fit_mixture
 from femupdate.optimize.base import StepTrace, check_option_names, int_option, real_option
 
 OPTIONS = ("population", "cov_target", "steps", "proposal", "reference", "inflate",
-           "max_stages", "final_steps", "components", "final", "ess", "final_inflate")
+           "max_stages", "final_steps", "components", "final", "ess", "final_inflate",
+           "importance_from")
 PROPOSALS = ("rw", "independent", "mixture")
 #: What the last stage (β = 1) does: importance sampling from a defensive mixture fitted to
 #: the population (:mod:`femupdate.inference.importance`), or ``final_steps`` sweeps of moves
@@ -308,7 +309,8 @@ class TMCMC:
                  reference: tuple[np.ndarray, np.ndarray] | None = None,
                  inflate: float = INFLATE, max_stages: int = 100,
                  components: int = COMPONENTS, final: str = "moves",
-                 ess: int | None = None, final_inflate: float = FINAL_INFLATE) -> None:
+                 ess: int | None = None, final_inflate: float = FINAL_INFLATE,
+                 importance_from: float = 1.0) -> None:
         method = "tmcmc"
         if not isinstance(error_model, ErrorModel):
             raise ConfigError(f"option 'error_model' of method 'tmcmc' must be an ErrorModel, "
@@ -343,6 +345,8 @@ class TMCMC:
                            else int_option(method, "ess", ess, 1, 10_000_000))
         self.final_inflate = float(real_option(method, "final_inflate", final_inflate, 0.0,
                                                100.0, low_open=True))
+        self.importance_from = float(real_option(method, "importance_from", importance_from,
+                                                 0.0, 1.0, low_open=True))
         self._trace = StepTrace()
         self.phase = "init"
         self.beta = 0.0
@@ -377,6 +381,7 @@ class TMCMC:
         self._drawn = 0  # draws made, those outside the cube included
         self._ess: np.ndarray | None = None  # per parameter, of the samples handed back
         self._adapt_left = ADAPT_BATCHES
+        self._jumped_from: float | None = None  # the β importance sampling went to 1 from
         self._pool_x = np.empty((0, n))  # the adapting batches' draws and log-weights
         self._pool_log_w = np.empty(0)
 
@@ -387,6 +392,8 @@ class TMCMC:
         state.setdefault("components", COMPONENTS)
         # and before the last stage could be importance sampling: its moves
         state.setdefault("final", "moves")
+        state.setdefault("importance_from", 1.0)
+        state.setdefault("_jumped_from", None)
         state.setdefault("_ess", None)
         state.setdefault("_adapt_left", 0)
         self.__dict__.update(state)
@@ -561,20 +568,22 @@ class TMCMC:
             self.stopped = {"max_stages": float(self.beta)}
             return
         beta = next_beta(g, self.beta, self.cov_target)
+        # importance sampling takes the population at β ≥ importance_from to β = 1 at once
+        jump = self.final == "importance" and self.importance_from <= beta < 1.0
         a = np.where(finite, (beta - self.beta) * g, -np.inf)
         log_mean = float(logsumexp(a) - math.log(a.size))
         self.log_evidence += log_mean
         w = np.exp(a - logsumexp(a))
         mean, cov = weighted_moments(self.x, w)
         idx = systematic_resample(w, self.rng)
-        if beta >= 1.0:
+        if beta >= 1.0 or jump:
             self._final_start = self.x[idx].copy()
             self._final_copies = np.bincount(idx, minlength=idx.size).astype(float)
         self._eve = self._eve[idx]
         self.x, self.ll, self.lp, self.lq = (self.x[idx].copy(), self.ll[idx].copy(),
                                              self.lp[idx].copy(), self.lq[idx].copy())
-        self.beta = beta
-        if beta >= 1.0 and self.final == "importance":
+        self.beta = 1.0 if jump else beta
+        if self.beta >= 1.0 and self.final == "importance":
             self._move = defensive_mixture(self.x, self.components, self.final_inflate,
                                            self.rng, safe_cholesky)
         elif self.proposal == "rw":
@@ -584,10 +593,11 @@ class TMCMC:
                                      safe_cholesky)
         else:
             self._move = (mean, safe_cholesky(self.inflate ** 2 * cov))
-        self.stages.append({"beta": beta, "weights_ess": ess_of_weights(w),
+        self.stages.append({"beta": self.beta, "weights_ess": ess_of_weights(w),
                             "scale": self.scale, "log_evidence": self.log_evidence,
                             "acceptance": math.nan, "evaluations": 0, "failures": 0})
-        self.phase = "importance" if beta >= 1.0 and self.final == "importance" else "mcmc"
+        self.phase = "importance" if self.beta >= 1.0 and self.final == "importance" else "mcmc"
+        self._jumped_from = beta if jump else None
         self._stage_step = 0
         self._stage_accepted = self._stage_proposed = 0
         self._stage_evaluations = self._stage_failures = 0
@@ -640,6 +650,8 @@ class TMCMC:
         self.lp = self.prior.logpdf_unit(self.x)
         self.lq = self._log_q(self.x, self.lp)
         self._ess = resampled_ess(ess, count)
+        if self._jumped_from is not None:  # log Z by the draws themselves: E_q[p L / q]
+            self.log_evidence = float(logsumexp(self._log_w) - math.log(self._drawn))
         self.stages[-1].update(acceptance=math.nan, evaluations=self._stage_evaluations,
                                failures=self._stage_failures, draws=float(self._drawn),
                                efficiency=kish_ess(self._log_w) / self._drawn)

@@ -105,8 +105,14 @@ POOL_BATCH = 64
 #: With residuals, a run ends when this many searches have ended at the best φ, within the
 #: fraction PATIENCE_TOL (option ``patience``; None: only the budget or the target end it).
 #: On the bridge with 2 % noise, searches end 0.1–0.3 % apart along the kp1 valley, at the
-#: same E–kp4 to 1e-4: at 0.1 % a run took 9,000–13,000 evaluations to see five of them.
-PATIENCE = 5
+#: same E–kp4 to 1e-4: at 0.1 % a run took 9,000–13,000 evaluations to see five of them. Three
+#: are enough where runs must also agree with each other (``[search] agree``, 2 by default:
+#: the second run is the independent check): on issue 36's bridge record the two runs took
+#: 4,643 evaluations with patience 3 against 27,978 with 5, ending 0.2 % higher in φ (0.01 of
+#: a nat under the error model ``neff``); on the 1-storey Jenkins fit
+#: (benchmarks/jenkins_reliability.py, 10 runs of 3,000) every run ended at the best with 3 as
+#: with 5 (24,593 evaluations against 29,759).
+PATIENCE = 3
 PATIENCE_TOL = 5e-3
 #: ... and only once at least PATIENCE_SEARCHES × patience searches from the pool have ended:
 #: a spurious basin that draws most starts can hold the first five (the 1-storey Jenkins fit

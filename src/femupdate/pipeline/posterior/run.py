@@ -84,10 +84,15 @@ RECENTRED_DIR = "recentred"
 MORE_RUNS_DIR = "more"
 #: Effective samples per parameter each sampler run reaches at β = 1 (at least): TMCMC's last
 #: stage is importance sampling (:mod:`femupdate.inference.importance`) until every parameter
-#: has them. On the viscous bridge (issue 36's record) this gave the 4 runs a least ESS of
-#: 3,425 in 51,462 evaluations, where 12 sweeps of moves gave 1,780 in 56,455, with sds within
-#: 3 % of emcee's and of an importance check (benchmarks/bridge_posterior.py).
-RUN_ESS = 1000
+#: has them; the default four runs pool about 2,000, and their agreement checks them.
+RUN_ESS = 500
+#: The tempering goes to β = 1 by importance sampling once a stage reaches this β (TMCMC's
+#: ``importance_from``): from the Laplace start, a defensive mixture fitted to the population at
+#: β ≥ 0.3 is wide enough for the posterior. On the viscous bridge (issue 36's record, four
+#: runs of 1,000 with RUN_ESS = 500, posterior seeds 11–13) 23,523–30,339 evaluations gave a
+#: least ESS of 1,297–2,422, where tempering to β = 1 by moves took 51,462 for 3,425 with
+#: RUN_ESS = 1,000.
+IMPORTANCE_FROM = 0.3
 #: Spawn keys of the seed's children: the bands' draws (1), the start's mass estimate (2),
 #: the polish before re-centring pass k (3 + k), the added runs' root seeds (1000, batch).
 BANDS_KEY, START_KEY, POLISH_KEY, MORE_RUNS_KEY = 1, 2, 3, 1000
@@ -203,7 +208,8 @@ class FitSampler:
                 np.random.default_rng(derived_seed(seed, x, START_KEY)))
         run_ess = max(RUN_ESS, math.ceil(2 * (settings.ess or MIN_ESS) / settings.runs))
         options = sampler_options(model, prior, specs, self.population, reference,
-                                  **{"final": "importance", "ess": run_ess, **self.tmcmc})
+                                  **{"final": "importance", "ess": run_ess,
+                                     "importance_from": IMPORTANCE_FROM, **self.tmcmc})
         outcomes = self._runs(options, store_dir, seed)
         # runs are added, `runs` at a time, while a parameter is unsettled (module agreement);
         # not to one run, which asked for no check
