@@ -82,8 +82,8 @@ BOUC_WEN_PARAMETERS = ("k", "alpha", "A", "beta", "gamma", "n", "delta_a", "delt
                        "delta_eta")
 #: The degradation columns of :data:`BOUC_WEN_PARAMETERS`.
 DEGRADATION_PARAMETERS = BOUC_WEN_PARAMETERS[6:]
-#: The most Runge–Kutta parts of one degrading update: a law degraded so far that it needs
-#: more (ν^(1/n) / η beyond about 10^4 on a step of the undegraded limit) is integrated
+#: The most Runge–Kutta parts of one degrading update: an increment of a law degraded so far
+#: that it needs more (a small n with a large ν: z_u(e) shrinks as ν^(−1/n)) is integrated
 #: coarser rather than stall the simulation.
 MAX_DEGRADING_PARTS = 1 << 16
 
@@ -149,8 +149,8 @@ def bouc_wen_degrading_step_limit(z: float, e: float, A: float, beta: float, gam
     the reach ``z_m = max(|z|, z_u(e))``, ``z_u(e) = (A(e) / (ν (β + γ)))^(1/n)``: it grows as
     ``ν(e) z_m^(n−1) / η(e)``. ``λ_e = √(c |∂(dz/dy)/∂e|)`` (``c = (1 − α) k``, the slope of
     ``de/dy``) bounds what the coupling of ``z`` and ``e`` adds to the eigenvalues of the
-    pair's Jacobian. For ``n < 1`` the reach is held above ``10⁻⁶`` of the undegraded one
-    (the slope is unbounded at ``z = 0``, as undegraded).
+    pair's Jacobian. For ``n < 1``, ``(z_m / z_u)^n`` is held above ``10⁻⁶`` (the slope is
+    unbounded at ``z = 0``; undegraded, the bound at ``z_u`` serves the same way).
     """
     a = A - delta_a * e
     nu = 1.0 + delta_nu * e
