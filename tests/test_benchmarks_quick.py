@@ -62,6 +62,7 @@ def _module_missing(*modules: str) -> str | None:
 QUICK = {
     "bridge_posterior.py": ("emcee's evaluations per effective sample over the default's",
                             lambda: _module_missing("emcee", "arviz")),
+    "bouc_wen_degradation.py": ("vs OpenSees", _opensees_missing),
     "building3d_scale.py": ('"reached_1e-6": 2', _opensees_missing),
     "coco_bbob.py": ("targets hit", lambda: _module_missing("cocoex", "cma")),
     "craig_bampton.py": ("full / reduced", lambda: None),

@@ -136,3 +136,32 @@ def test_rayleigh_beta_on_the_links_compiled(tmp_path: Path, bouc_wen: bool) -> 
     system = trial.structure.assemble(TRUTH)
     links = system.C - 0.6 * system.M - 1e-3 * system.K
     assert (np.abs(links).max() > 1.0) == bouc_wen  # β k₀ of the links, or nothing
+
+
+@pytest.mark.parametrize("dampers", ["[model.rayleigh]\nalpha = 0.6", "dampers = [0.5, 0.4]"])
+def test_compiled_phi_with_degradation(tmp_path: Path, dampers: str) -> None:
+    """Degrading elements, δ_ν a search parameter: the compiled path (modal kernel with
+    Rayleigh damping, physical with storey dashpots) carries the hysteretic energy as the
+    simulator does, φ to rounding on every point; δ_ν moves φ."""
+    text = CASE.replace("QUANTITY", "acceleration").replace("DAMPERS", dampers).replace(
+        "n = 2.0\n", 'n = 2.0\ndelta_a = 2.0\ndelta_nu = "dnu"\ndelta_eta = [1.0, 0.0]\n'
+    ).replace("[preprocess]", '[[parameters]]\nname = "dnu"\nlower = 0.0\nupper = 8.0\n\n'
+              "[preprocess]")
+    (tmp_path / "case.toml").write_text(text)
+    case = load_case(tmp_path / "case.toml")
+    virtual_experiment(case, {**TRUTH, "dnu": 4.0}, tmp_path / "data", seed=7, rate=200.0,
+                       duration=1.5, pga_g=0.35)
+    problem = UpdateProblem(case, load_experiments(case))
+    trial = problem.trials[0]
+    evaluator = evaluator_for(trial)
+    X = _points(problem, 4)
+    phi = np.empty(len(X))
+    status = np.ones(len(X), dtype=np.int64)
+    evaluator._run(np.ascontiguousarray(X), False, phi, status)
+    assert not status.any()  # every point on the compiled path
+    reference = np.array([trial.phi_reference(x) for x in X])
+    np.testing.assert_allclose(phi, reference, rtol=1e-10, atol=0)
+    column = problem.names.index("dnu")
+    still = X.copy()
+    still[:, column] = problem.bounds[column][0]  # δ_ν = 0
+    assert np.all(np.abs(evaluator.batch(still) - phi) > 1e-3 * phi)

@@ -16,6 +16,7 @@ from femupdate.case.fields import (
     DOF_NAMES,
     Area,
     BoucWenA,
+    BoucWenDegradation,
     BoucWenExponent,
     BoucWenGamma,
     BoucWenShape,
@@ -169,7 +170,9 @@ def _ultimate_issue(A: float | str, beta: float | str, gamma: float | str, n: fl
 
 class BoucWen(_Link):
     """``[[model.bouc_wen]]``: a Bouc–Wen hysteretic element, force α k y + (1 − α) k z with
-    ż = A ẏ − β |ẏ| |z|^(n−1) z − γ ẏ |z|^n."""
+    ż = (A(e) ẏ − ν(e) (β |ẏ| |z|^(n−1) z + γ ẏ |z|^n)) / η(e), A(e) = A − δ_A e,
+    ν(e) = 1 + δ_ν e, η(e) = 1 + δ_η e, e = ∫ (1 − α) k z dy (Baber–Wen degradation; the
+    rates default to 0: none)."""
 
     k: InitialStiffness
     alpha: StiffnessRatio = 0.0
@@ -177,6 +180,9 @@ class BoucWen(_Link):
     beta: BoucWenShape
     gamma: BoucWenGamma
     n: BoucWenExponent = 1.0
+    delta_a: BoucWenDegradation = 0.0
+    delta_nu: BoucWenDegradation = 0.0
+    delta_eta: BoucWenDegradation = 0.0
 
     @model_validator(mode="after")
     def _check_shape(self) -> BoucWen:
@@ -303,6 +309,9 @@ class StoreyBoucWen(Section):
     beta: _per_storey(BoucWenShape)
     gamma: _per_storey(BoucWenGamma)
     n: _per_storey(BoucWenExponent) = 1.0
+    delta_a: _per_storey(BoucWenDegradation) = 0.0
+    delta_nu: _per_storey(BoucWenDegradation) = 0.0
+    delta_eta: _per_storey(BoucWenDegradation) = 0.0
 
 
 def storey_values(section: Section, n: int) -> list[dict[str, float | str]]:

@@ -38,6 +38,7 @@ from femupdate.model.friction import elasto_slip
 from femupdate.model.hysteresis import (
     BOUC_WEN_PARAMETERS,
     Z_U_RANGE,
+    bouc_wen_degrading_update,
     bouc_wen_force,
     bouc_wen_update,
 )
@@ -58,12 +59,12 @@ _REFERENCE = 1
 class BoucWenPlan(NamedTuple):
     """The Bouc–Wen elements of a structure for the compiled path, and their buffers.
 
-    ``const`` and ``pidx`` (6, n_h): value per element and column of
+    ``const`` and ``pidx`` (9, n_h): value per element and column of
     :data:`~femupdate.model.hysteresis.BOUC_WEN_PARAMETERS`, or the element's parameter index
-    in the search vector (-1: the constant); ``spec`` (6, 3) each column's (low, high,
-    low_open). Written per evaluation: ``table`` (n_h, 6), ``dy_max`` (n_h,), the rows ``yb``
-    (deformations from the modes) and ``pb`` (forces into the modes), ``state`` (2, n_h): the
-    previous deformation and z.
+    in the search vector (-1: the constant); ``spec`` (9, 3) each column's (low, high,
+    low_open). Written per evaluation: ``table`` (n_h, 9), ``dy_max`` (n_h,), the rows ``yb``
+    (deformations from the modes) and ``pb`` (forces into the modes), ``state`` (3, n_h): the
+    previous deformation, z and the hysteretic energy (of degrading elements).
     """
 
     dof_i: np.ndarray
@@ -103,9 +104,10 @@ def bouc_wen_plan(structure: Structure, names: Sequence[str]) -> BoucWenPlan:
     params = structure.parameters
     props = topo.bouc_wen_props
     count = int(topo.bouc_wen_i.size)
-    const = np.zeros((6, count))
-    pidx = np.full((6, count), -1, dtype=np.int64)
-    spec = np.zeros((6, 3))
+    width = len(BOUC_WEN_PARAMETERS)
+    const = np.zeros((width, count))
+    pidx = np.full((width, count), -1, dtype=np.int64)
+    spec = np.zeros((width, 3))
     for row, prop in enumerate(props):
         const[row] = prop.const
         for e in prop.where:
@@ -114,11 +116,13 @@ def bouc_wen_plan(structure: Structure, names: Sequence[str]) -> BoucWenPlan:
     n = int(topo.n)
     return BoucWenPlan(
         dof_i=topo.bouc_wen_i.astype(np.int64), dof_j=topo.bouc_wen_j.astype(np.int64),
-        const=const, pidx=pidx, spec=spec, table=np.zeros((count, 6)), dy_max=np.zeros(count),
-        yb=np.zeros((count, n)), pb=np.zeros((count, n)), state=np.zeros((2, count)))
+        const=const, pidx=pidx, spec=spec, table=np.zeros((count, width)),
+        dy_max=np.zeros(count), yb=np.zeros((count, n)), pb=np.zeros((count, n)),
+        state=np.zeros((3, count)))
 
 
-assert BOUC_WEN_PARAMETERS == ("k", "alpha", "A", "beta", "gamma", "n")  # the columns below
+assert BOUC_WEN_PARAMETERS == ("k", "alpha", "A", "beta", "gamma", "n", "delta_a", "delta_nu",
+                               "delta_eta")  # the columns below
 
 
 @njit(cache=True)
@@ -126,7 +130,7 @@ def _table(bw: BoucWenPlan, p: np.ndarray) -> bool:
     """The elements' parameters at physical values ``p``; False when one gives no hysteresis
     (a value out of its range, or γ outside (−β, β])."""
     for e in range(bw.table.shape[0]):
-        for j in range(6):
+        for j in range(bw.table.shape[1]):
             v = bw.const[j, e] if bw.pidx[j, e] < 0 else p[bw.pidx[j, e]]
             low, high, low_open = bw.spec[j, 0], bw.spec[j, 1], bw.spec[j, 2]
             if not (v > low if low_open else v >= low) or not v <= high:
@@ -142,6 +146,25 @@ def _table(bw: BoucWenPlan, p: np.ndarray) -> bool:
             return False
         bw.dy_max[e] = 0.5 / (n * (beta + abs(gamma)) * math.exp((n - 1.0) * log_z_u))
     return True
+
+
+@njit(cache=True, inline="always")
+def _advance(bw: BoucWenPlan, e: int, y: float) -> float:
+    """Element ``e``'s ``z`` (and with degradation its energy) advanced to the deformation
+    ``y`` from ``bw.state``, as the simulator's ``_bouc_wen_step``; its force."""
+    t = bw.table
+    if t[e, 6] == 0.0 and t[e, 7] == 0.0 and t[e, 8] == 0.0:
+        z = bouc_wen_update(bw.state[1, e], y - bw.state[0, e], t[e, 2], t[e, 3], t[e, 4],
+                            t[e, 5], bw.dy_max[e])
+    else:
+        z, energy = bouc_wen_degrading_update(bw.state[1, e], bw.state[2, e], y - bw.state[0, e],
+                                              t[e, 2], t[e, 3], t[e, 4], t[e, 5], t[e, 6],
+                                              t[e, 7], t[e, 8], (1.0 - t[e, 1]) * t[e, 0],
+                                              bw.dy_max[e])
+        bw.state[2, e] = energy
+    bw.state[0, e] = y
+    bw.state[1, e] = z
+    return bouc_wen_force(y, z, t[e, 0], t[e, 1])
 
 
 @njit(cache=True)
@@ -226,6 +249,7 @@ def _kernel(ag: np.ndarray, substeps: int, h: float, quantity: int, r_out: np.nd
     for e in range(nh):
         bw.state[0, e] = 0.0  # from rest: no deformation, z = 0
         bw.state[1, e] = 0.0
+        bw.state[2, e] = 0.0
     for k in range(ns):
         last = k == ns - 1
         ak = ag[k]
@@ -247,12 +271,7 @@ def _kernel(ag: np.ndarray, substeps: int, h: float, quantity: int, r_out: np.nd
                 u = 0.0
                 for i in range(n):
                     u += bw.yb[e, i] * eta[ic, i]
-                z = bouc_wen_update(bw.state[1, e], u - bw.state[0, e], bw.table[e, 2],
-                                    bw.table[e, 3], bw.table[e, 4], bw.table[e, 5],
-                                    bw.dy_max[e])
-                bw.state[0, e] = u
-                bw.state[1, e] = z
-                f = bouc_wen_force(u, z, bw.table[e, 0], bw.table[e, 1])
+                f = _advance(bw, e, u)
                 for i in range(n):
                     eta[ix, i] -= bw.pb[e, i] * f
             if j == 0:
@@ -319,6 +338,7 @@ def _physical_kernel(ag: np.ndarray, substeps: int, h: float, quantity: int,
     for e in range(nh):
         bw.state[0, e] = 0.0
         bw.state[1, e] = 0.0
+        bw.state[2, e] = 0.0
     for k in range(ns):
         last = k == ns - 1
         for j in range(1 if last else substeps):
@@ -347,12 +367,7 @@ def _physical_kernel(ag: np.ndarray, substeps: int, h: float, quantity: int,
                 d = u[ic, bw.dof_i[e]]
                 if bw.dof_j[e] >= 0:
                     d -= u[ic, bw.dof_j[e]]
-                z = bouc_wen_update(bw.state[1, e], d - bw.state[0, e], bw.table[e, 2],
-                                    bw.table[e, 3], bw.table[e, 4], bw.table[e, 5],
-                                    bw.dy_max[e])
-                bw.state[0, e] = d
-                bw.state[1, e] = z
-                f = bouc_wen_force(d, z, bw.table[e, 0], bw.table[e, 1])
+                f = _advance(bw, e, d)
                 for i in range(n):
                     u[ix, i] -= phys.HbT[e, i] * f
             if j == 0:

@@ -64,6 +64,9 @@ BOUC_WEN_SPECS = {
     "beta": POSITIVE,
     "gamma": Spec(-_INF),
     "n": POSITIVE,
+    "delta_a": NONNEG,
+    "delta_nu": NONNEG,
+    "delta_eta": NONNEG,
 }
 
 # Beam properties the mass matrix depends on (besides E, through Φ, when G is given).

@@ -294,6 +294,9 @@ class Structure:
         beta: Value,
         gamma: Value,
         n: Value = 1.0,
+        delta_a: Value = 0.0,
+        delta_nu: Value = 0.0,
+        delta_eta: Value = 0.0,
         node2: str | None = None,
         dof2: str | None = None,
         name: str | None = None,
@@ -301,7 +304,9 @@ class Structure:
         """Add a Bouc–Wen hysteretic element (:mod:`femupdate.model.hysteresis`).
 
         Force ``α k y + (1 − α) k z`` with ``ż = A ẏ − β |ẏ| |z|^(n−1) z − γ ẏ |z|^n``, ``y``
-        the deformation of ``node.dof`` (minus ``node2.dof2``, or to ground).
+        the deformation of ``node.dof`` (minus ``node2.dof2``, or to ground); with Baber and
+        Wen's degradation ``ż = (A(e) ẏ − ν(e) (β |ẏ| |z|^(n−1) z + γ ẏ |z|^n)) / η(e)``,
+        ``A(e) = A − δ_A e``, ``ν(e) = 1 + δ_ν e``, ``η(e) = 1 + δ_η e``, ``e = ∫ (1 − α) k z dy``.
 
         Parameters
         ----------
@@ -311,8 +316,12 @@ class Structure:
             Post-yield to initial stiffness ratio, in ``[0, 1]``.
         A, beta, gamma, n : float or str
             ``A > 0``, ``β > 0``, ``−β < γ ≤ β`` (checked at assembly), ``n > 0``.
+        delta_a, delta_nu, delta_eta : float or str
+            Degradation rates ``≥ 0`` per unit of hysteretic energy (1/J); 0 (the default):
+            none.
         """
-        props = {"k": k, "alpha": alpha, "A": A, "beta": beta, "gamma": gamma, "n": n}
+        props = {"k": k, "alpha": alpha, "A": A, "beta": beta, "gamma": gamma, "n": n,
+                 "delta_a": delta_a, "delta_nu": delta_nu, "delta_eta": delta_eta}
         values = [props[key] for key in BOUC_WEN_PARAMETERS]
         if all(isinstance(v, int | float) for v in values):  # constants: say now, not later
             check_bouc_wen_parameters(np.array([values], dtype=float),
@@ -755,8 +764,10 @@ def shear_building(
     frictions : sequence of mapping, optional
         Per storey ``{"k_r": ..., "f_u": ...}`` (:meth:`Structure.add_friction`), same length.
     bouc_wen : sequence of mapping, optional
-        Per storey ``{"k", "alpha", "A", "beta", "gamma", "n"}`` (:meth:`Structure.add_bouc_wen`;
-        ``alpha``, ``A`` and ``n`` may be left out), same length.
+        Per storey ``{"k", "alpha", "A", "beta", "gamma", "n"}`` and optionally the
+        degradation rates ``delta_a``, ``delta_nu``, ``delta_eta``
+        (:meth:`Structure.add_bouc_wen`; ``alpha``, ``A`` and ``n`` may be left out), same
+        length.
     """
     n = len(masses)
     if n == 0:

@@ -74,8 +74,10 @@ class BoucWenElements:
     ----------
     dof_i, dof_j : ndarray of int64, shape (n_h,)
         Free-DOF indices (``dof_j`` may be -1 for ground).
-    table : ndarray of float64, shape (n_h, 6)
-        ``k, alpha, A, beta, gamma, n`` per element (``hysteresis.BOUC_WEN_PARAMETERS``).
+    table : ndarray of float64, shape (n_h, 9)
+        ``k, alpha, A, beta, gamma, n, delta_a, delta_nu, delta_eta`` per element
+        (``hysteresis.BOUC_WEN_PARAMETERS``); a table of the first six columns is completed
+        with degradation rates 0.
     names : tuple of str
         Element names, for messages.
     """
@@ -84,6 +86,11 @@ class BoucWenElements:
     dof_j: np.ndarray
     table: np.ndarray
     names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        table = np.asarray(self.table, dtype=float)
+        if table.ndim == 2 and table.shape[1] == 6:  # no degradation
+            object.__setattr__(self, "table", np.hstack([table, np.zeros((table.shape[0], 3))]))
 
     @property
     def count(self) -> int:

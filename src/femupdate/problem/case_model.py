@@ -82,8 +82,9 @@ def build_structure(model: Model) -> Structure:
                                    dof2=fr.dof2, name=fr.name or f"model.frictions[{i}]")
         for i, bw in enumerate(model.bouc_wen):
             structure.add_bouc_wen(bw.node, bw.dof, bw.k, alpha=bw.alpha, A=bw.A, beta=bw.beta,
-                                   gamma=bw.gamma, n=bw.n, node2=bw.node2, dof2=bw.dof2,
-                                   name=bw.name or f"model.bouc_wen[{i}]")
+                                   gamma=bw.gamma, n=bw.n, delta_a=bw.delta_a,
+                                   delta_nu=bw.delta_nu, delta_eta=bw.delta_eta, node2=bw.node2,
+                                   dof2=bw.dof2, name=bw.name or f"model.bouc_wen[{i}]")
         for i, mass in enumerate(model.masses):
             structure.add_mass(mass.node, m=mass.m, J=mass.J, name=f"model.masses[{i}]",
                                dofs=mass.dofs)

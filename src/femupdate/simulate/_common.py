@@ -13,7 +13,7 @@ from numba import njit
 
 from femupdate.errors import ConfigError, DataError, ModelError, SimulationError
 from femupdate.model.friction import check_friction_parameters
-from femupdate.model.hysteresis import check_bouc_wen_parameters
+from femupdate.model.hysteresis import BOUC_WEN_PARAMETERS, check_bouc_wen_parameters
 from femupdate.model.system import System
 from femupdate.simulate.response import Response
 
@@ -64,11 +64,12 @@ def check_system(system: System) -> np.ndarray:
     bw = system.bouc_wen
     if bw is not None and bw.count:
         nb = bw.count
-        if np.shape(bw.table) != (nb, 6) or np.shape(bw.dof_i) != (nb,) or np.shape(
+        width = len(BOUC_WEN_PARAMETERS)
+        if np.shape(bw.table) != (nb, width) or np.shape(bw.dof_i) != (nb,) or np.shape(
                 bw.dof_j) != (nb,):
             raise ModelError(f"bouc_wen: table {np.shape(bw.table)}, dof_i "
                              f"{np.shape(bw.dof_i)}, dof_j {np.shape(bw.dof_j)}; expected "
-                             f"({nb}, 6), ({nb},), ({nb},)")
+                             f"({nb}, {width}), ({nb},), ({nb},)")
         if np.any((bw.dof_i < 0) | (bw.dof_i >= n)) or np.any((bw.dof_j < -1) | (bw.dof_j >= n)):
             raise ModelError(f"bouc_wen.dof_i must lie in [0, {n - 1}] and dof_j in [-1, "
                              f"{n - 1}] (-1 = ground); got {bw.dof_i.tolist()}, "

@@ -20,9 +20,10 @@ results agree to rounding, 1e-12…1e-10) at about half the work per step. Non-p
 (discrete dashpots) keeps the physical form.
 
 Bouc–Wen elements (:mod:`femupdate.model.hysteresis`) enter the same way, ``- H_b f_H`` with
-``H_b = A_eff⁻¹ B_hᵀ``: their hysteretic displacement ``z`` is advanced over each step's
-deformation increment (Runge–Kutta in the deformation) before their force is computed from the
-current displacement, so the scheme stays explicit.
+``H_b = A_eff⁻¹ B_hᵀ``: their hysteretic displacement ``z`` (with degradation, with their
+hysteretic energy) is advanced over each step's deformation increment (Runge–Kutta in the
+deformation) before their force is computed from the current displacement, so the scheme stays
+explicit.
 
 The scheme is stable for ``h < 2/ω_max``, of the stuck system and the Bouc–Wen elements at their
 largest tangent stiffness; a larger step is refused with the largest stable step and the number
@@ -40,6 +41,8 @@ from numba import njit
 from femupdate.errors import SimulationError
 from femupdate.model.friction import elasto_slip
 from femupdate.model.hysteresis import (
+    BOUC_WEN_PARAMETERS,
+    bouc_wen_degrading_update,
     bouc_wen_force,
     bouc_wen_step_limit,
     bouc_wen_update,
@@ -69,10 +72,19 @@ def _sample_arrays(ns, no, nf, nb):
 
 
 @njit(cache=True, inline="always")
-def _bouc_wen_step(e, y, yb, zb, bw, dy_max):
-    """Advance element ``e``'s ``z`` to the deformation ``y`` and return its force."""
-    zb[e] = bouc_wen_update(zb[e], y - yb[e], bw[e, 2], bw[e, 3], bw[e, 4], bw[e, 5],
-                            dy_max[e])
+def _bouc_wen_step(e, y, yb, zb, eb, bw, dy_max):
+    """Advance element ``e``'s ``z`` (and with degradation its energy ``eb[e]``) to the
+    deformation ``y`` and return its force."""
+    if bw[e, 6] == 0.0 and bw[e, 7] == 0.0 and bw[e, 8] == 0.0:
+        zb[e] = bouc_wen_update(zb[e], y - yb[e], bw[e, 2], bw[e, 3], bw[e, 4], bw[e, 5],
+                                dy_max[e])
+    else:
+        z, energy = bouc_wen_degrading_update(zb[e], eb[e], y - yb[e], bw[e, 2], bw[e, 3],
+                                              bw[e, 4], bw[e, 5], bw[e, 6], bw[e, 7],
+                                              bw[e, 8], (1.0 - bw[e, 1]) * bw[e, 0],
+                                              dy_max[e])
+        zb[e] = z
+        eb[e] = energy
     yb[e] = y
     return bouc_wen_force(y, zb[e], bw[e, 0], bw[e, 1])
 
@@ -85,7 +97,7 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out, bi, b
 
     ``G1T, G2T, HT, HbT`` are the transposes of ``G1, G2, H, H_b`` (columns contiguous for the
     updates); ``q`` (ns, n) the loads ``A_eff⁻¹ p`` at the samples, interpolated linearly in
-    between; ``bw`` (nb, 6) the Bouc–Wen parameters, ``dy_max`` their Runge–Kutta part limits.
+    between; ``bw`` (nb, 9) the Bouc–Wen parameters, ``dy_max`` their Runge–Kutta part limits.
     Returns displacement, velocity and relative acceleration at the output DOFs, friction force
     and slip offset per element, Bouc–Wen force and z per element at the samples, and whether
     the solution diverged.
@@ -98,6 +110,7 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out, bi, b
     disp, vel, acc, ff, slip, bf, bz = _sample_arrays(ns, no, nf, nb)
     yb = np.empty(nb)  # deformation at the previous step
     zb = np.zeros(nb)
+    eb = np.zeros(nb)  # hysteretic energy (degrading elements)
     fb = np.empty(nb)
     for e in range(nb):
         yb[e] = u0[bi[e]] - (u0[bj[e]] if bj[e] >= 0 else 0.0)
@@ -136,7 +149,7 @@ def _cd_kernel(G1T, G2T, q, substeps, h, u0, um1, fi, fj, kr, fu, HT, out, bi, b
                 y = u[bi[e]]
                 if bj[e] >= 0:
                     y -= u[bj[e]]
-                f = _bouc_wen_step(e, y, yb, zb, bw, dy_max)
+                f = _bouc_wen_step(e, y, yb, zb, eb, bw, dy_max)
                 fb[e] = f
                 for i in range(n):
                     u_next[i] -= HbT[e, i] * f
@@ -177,6 +190,7 @@ def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po, Yb,
     disp, vel, acc, ff, slip, bf, bz = _sample_arrays(ns, no, nf, nb)
     yb = np.empty(nb)
     zb = np.zeros(nb)
+    eb = np.zeros(nb)  # hysteretic energy (degrading elements)
     fb = np.empty(nb)
     for e in range(nb):
         y = 0.0
@@ -212,7 +226,7 @@ def _modal_cd_kernel(a, b, q, substeps, h, eta0, eta_m1, Yf, kr, fu, Pf, Po, Yb,
                 y = 0.0
                 for i in range(n):
                     y += Yb[e, i] * eta[i]
-                f = _bouc_wen_step(e, y, yb, zb, bw, dy_max)
+                f = _bouc_wen_step(e, y, yb, zb, eb, bw, dy_max)
                 fb[e] = f
                 for i in range(n):
                     eta_next[i] -= Pb[e, i] * f
@@ -302,7 +316,7 @@ class CentralDifferenceSimulator(Simulator):
                                                                     t[:, 5]))
         else:
             hb = np.zeros((0, n))
-            self._bw = np.zeros((0, 6))
+            self._bw = np.zeros((0, len(BOUC_WEN_PARAMETERS)))
             self._bi = np.zeros(0, dtype=np.int64)
             self._bj = np.zeros(0, dtype=np.int64)
             self._dy_max = np.zeros(0)

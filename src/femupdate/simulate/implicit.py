@@ -29,7 +29,9 @@ same fourth-order Runge–Kutta rule as the explicit path
 (:func:`femupdate.model.hysteresis.bouc_wen_update`, in parts of at most ``1/(2λ)``: adaptive
 sub-steps inside the step), differentiated exactly (forward sensitivity through the four
 stages, :func:`bouc_wen_update_tangent`) for its consistent tangent
-``k (α + (1 - α) ∂z/∂y)``; the iteration matrix takes the element's secant over the step
+``k (α + (1 - α) ∂z/∂y)`` (with degradation, the pair ``z`` and hysteretic energy and both
+sensitivities, :func:`femupdate.model.hysteresis.bouc_wen_degrading_update_tangent`); the
+iteration matrix takes the element's secant over the step
 instead (robust where the deformation turns inside the step, see :func:`_element_laws`). The
 iteration matrix is factorised when the iterations stop contracting by half and reused
 otherwise, and a backtracking line search keeps the residual falling. Each iteration costs
@@ -58,7 +60,14 @@ import scipy.linalg as sla
 from numba import njit
 
 from femupdate.errors import ConfigError, SimulationError
-from femupdate.model.hysteresis import bouc_wen_force, bouc_wen_rate, bouc_wen_step_limit
+from femupdate.model.hysteresis import (
+    BOUC_WEN_PARAMETERS,
+    bouc_wen_degrading_parts,
+    bouc_wen_degrading_update_tangent,
+    bouc_wen_force,
+    bouc_wen_rate,
+    bouc_wen_step_limit,
+)
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     DIVERGENCE_LIMIT,
@@ -149,7 +158,9 @@ def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
                   dy_max: np.ndarray, f: np.ndarray, df: np.ndarray,
                   trial: np.ndarray) -> None:
     """Forces ``f``, tangents ``df`` and the trial internal state (slip offset or ``z``) of
-    every element at deformations ``y`` from the committed ``state`` (friction first)."""
+    every element at deformations ``y`` from the committed ``state`` (friction first; after
+    the ``m`` elements, the Bouc–Wen elements' hysteretic energies)."""
+    m = nf + bw.shape[0]
     for e in range(nf):
         k_r = kr[e]
         if k_r <= 0.0:
@@ -173,8 +184,18 @@ def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
         step = y[e] - y_old[e]
         # the step's parts, or more where an iterate went further (never parts above 1/(2λ))
         count = max(parts[b], math.ceil(abs(step) / dy_max[b]))
-        z, s = bouc_wen_update_tangent(state[e], step, bw[b, 2], bw[b, 3], bw[b, 4],
-                                       bw[b, 5], count)
+        if bw[b, 6] == 0.0 and bw[b, 7] == 0.0 and bw[b, 8] == 0.0:
+            z, s = bouc_wen_update_tangent(state[e], step, bw[b, 2], bw[b, 3], bw[b, 4],
+                                           bw[b, 5], count)
+            trial[m + b] = state[m + b]
+        else:  # degradation: z and the energy together, as fine as the degraded law needs
+            c = (1.0 - bw[b, 1]) * bw[b, 0]
+            count = max(count, bouc_wen_degrading_parts(
+                state[e], state[m + b], step, bw[b, 2], bw[b, 3], bw[b, 4], bw[b, 5], bw[b, 6],
+                bw[b, 7], bw[b, 8], c, dy_max[b]))
+            z, trial[m + b], s = bouc_wen_degrading_update_tangent(
+                state[e], state[m + b], step, bw[b, 2], bw[b, 3], bw[b, 4], bw[b, 5], bw[b, 6],
+                bw[b, 7], bw[b, 8], c, count)
         trial[e] = z
         f[e] = bouc_wen_force(y[e], z, bw[b, 0], bw[b, 1])
         # The iteration matrix takes the element's secant over the step, (z - z_n) / Δy, and
@@ -285,12 +306,12 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
     ut = np.empty(n)
     y_old = np.empty(m)  # committed deformations, forces and internal state
     f_old = np.empty(m)
-    state = np.zeros(m)
+    state = np.zeros(m + nb)  # then the Bouc–Wen energies
     y = np.empty(m)
     ylin = np.empty(m)
     f = np.empty(m)
     df = np.empty(m)
-    trial = np.empty(m)
+    trial = np.empty(m + nb)
     dy = np.empty(m)
     y_try = np.empty(m)
     res = np.empty(m)
@@ -413,6 +434,7 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
             for e in range(m):
                 y_old[e] = y[e]
                 f_old[e] = f[e]
+            for e in range(m + nb):
                 state[e] = trial[e]
     return disp, vel, acc, ff, slip, bf, bz, False, -1, iterations, factorisations
 
@@ -500,7 +522,7 @@ class ImplicitSimulator(Simulator):
             self._dy_max = np.ascontiguousarray(
                 bouc_wen_step_limit(t[:, 2], t[:, 3], t[:, 4], t[:, 5]), dtype=float)
         else:
-            self._bw = np.zeros((0, 6))
+            self._bw = np.zeros((0, len(BOUC_WEN_PARAMETERS)))
             self._dy_max = np.zeros(0)
         self._ei = np.ascontiguousarray(np.concatenate(ei), dtype=np.int64)
         self._ej = np.ascontiguousarray(np.concatenate(ej), dtype=np.int64)
