@@ -376,6 +376,7 @@ def test_from_a_results_directory_the_search_is_not_run_again(result: PosteriorR
                                                                case_path: Path,
                                                                tmp_path: Path) -> None:
     searched = case_path.parent / "out"
+    before = read_summary(searched / "summary.json").posterior
     got = run_posterior(load_case(case_path), tmp_path / "sampled", search_from=searched,
                         runs=1, recentre=0)
     assert not (tmp_path / "sampled" / FILENAME).exists()  # no search in --out
@@ -383,6 +384,8 @@ def test_from_a_results_directory_the_search_is_not_run_again(result: PosteriorR
         r.nfev for r in result.search.summary.runs]
     assert got.search.summary.best.phi == result.search.summary.best.phi
     assert read_summary(tmp_path / "sampled" / "summary.json").posterior.reached
+    # the search's own directory keeps the posterior it holds: --from erases no result
+    assert before is not None and read_summary(searched / "summary.json").posterior == before
     with pytest.raises(ConfigError, match=r"--from .*: no search results there"):
         run_posterior(load_case(case_path), tmp_path / "x", search_from=tmp_path / "none")
 

@@ -27,6 +27,7 @@ from femupdate.errors import ConfigError, FemupdateError, SimulationError
 from femupdate.inference.best_fit import laplace_record
 from femupdate.optimize.minimize import RESIDUAL_METHODS, objective_for
 from femupdate.pipeline.results import (
+    SUMMARY_FILE,
     Best,
     DefectRecord,
     Fit,
@@ -35,6 +36,7 @@ from femupdate.pipeline.results import (
     Summary,
     TrialRecord,
     VerdictRecord,
+    read_summary,
     save_fits,
     write_summary,
 )
@@ -432,9 +434,26 @@ def run_case(
         summary.simulation = simulation
         fits = trial_fits(problem, summary.best.params)
     if out_dir is not None:
+        summary.posterior = kept_posterior(out_dir, summary)
         write_summary(summary, out_dir)
         save_fits(fits, out_dir)
     return UpdateResult(summary, outcomes, problem, fits)
+
+
+def kept_posterior(out_dir: Path, summary: Summary) -> Any:
+    """The sampled posterior of ``out_dir``'s summary.json when it is of this same best fit
+    (a finished search resumed, e.g. by ``femupdate posterior --from``, must not erase it);
+    else None."""
+    path = out_dir / SUMMARY_FILE
+    if not path.is_file():
+        return None
+    try:
+        before = read_summary(path)
+    except FemupdateError:
+        return None
+    same = (before.best.run == summary.best.run and before.best.phi == summary.best.phi
+            and before.best.params == summary.best.params)
+    return before.posterior if same else None
 
 
 @dataclass
