@@ -106,7 +106,7 @@ FIT_EVALS = 2000
 #: The product's error models and, registered here explicitly, those measured and set aside
 #: (benchmarks/error_models)
 REGISTRY = registry()
-KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
+KINDS = ("neff", "neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
 #: least-squares estimate (benchmarks/error_models/sandwich.py), measured beside them
 SANDWICH = "sandwich"
@@ -301,7 +301,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     least-squares fit (benchmarks/error_models/mode.py), as the product does; ``KIND@fit`` is the
     same Gaussian centred at the least-squares fit instead."""
     # the kinds of the library when these seeds were spawned (their order fixes them)
-    ALL_KINDS = ("neff", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
+    ALL_KINDS = ("neff", "neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
     rng = np.random.default_rng(child)
     # TMCMC's seeds: one child per kind of the library, whichever kinds this run measures
     tm_seeds = dict(zip(ALL_KINDS, child.spawn(len(ALL_KINDS)), strict=True))

@@ -1,9 +1,10 @@
 """The error models measured and set aside (docs/history.md, "Posterior"), as plug-ins.
 
-``"iid"`` (N_c = N), ``"tau"`` (N/τ, τ the integrated autocorrelation time), ``"ar1"`` (the
-innovations of a fixed AR(1)), ``"arp"`` (of a fixed AR(p), p by BIC), ``"adjusted"`` (the
-i.i.d. likelihood tempered by the sandwich's magnitude adjustment) and ``"eiv"`` (errors in
-the variables: the table's noise whitened in the frequency domain, :mod:`input_noise`).
+``"neff-integrated"`` (``"neff"``'s counts, the variance integrated out), ``"iid"``
+(N_c = N), ``"tau"`` (N/τ, τ the integrated autocorrelation time), ``"ar1"`` (the innovations
+of a fixed AR(1)), ``"arp"`` (of a fixed AR(p), p by BIC), ``"adjusted"`` (the i.i.d.
+likelihood tempered by the sandwich's magnitude adjustment) and ``"eiv"`` (errors in the
+variables: the table's noise whitened in the frequency domain, :mod:`input_noise`).
 :func:`registry` adds them, explicitly, to a copy of the product's registry; nothing here is
 registered by importing it.
 """
@@ -23,11 +24,12 @@ from scipy.signal import lfilter
 from femupdate.errors import ConfigError
 from femupdate.inference.error_models import ERROR_MODELS
 from femupdate.inference.likelihood import ErrorModel, ErrorModelKind, FitResiduals, Registry
+from femupdate.inference.neff import effective_count
 
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
 #: The kinds here, in the order the benchmark prints them.
-KINDS: tuple[str, ...] = ("tau", "iid", "ar1", "arp", "adjusted", "eiv")
+KINDS: tuple[str, ...] = ("neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
 
 
 def autocorrelation_count(r: np.ndarray) -> float:
@@ -157,6 +159,22 @@ class IID(ErrorModelKind):
         return ErrorModel(self.name, fit.starts, fit.stops, counts, np.zeros(fit.starts.size))
 
 
+class NEffIntegrated(ErrorModelKind):
+    """``"neff"``'s counts N_c = N(1 − ρ_c)/(1 + ρ_c), each block's variance integrated out
+    under Jeffreys' prior (a Student-t of N_c values: wider than ``"neff"``'s plug-in where
+    N_c is a handful; docs/history.md, "Posterior")."""
+
+    name = "neff-integrated"
+
+    def build(self, fit: FitResiduals) -> ErrorModel:
+        _unknown_variance(self.name, fit)
+        r = fit.need_residuals(self.name)
+        rho = fit.rho(r)
+        counts = np.array([effective_count(int(n - k), p)
+                           for n, k, p in zip(fit.lengths, fit.removed, rho, strict=True)])
+        return ErrorModel(self.name, fit.starts, fit.stops, np.maximum(counts, 1.0), rho)
+
+
 class Tau(ErrorModelKind):
     """N_c = N/τ_c (ArviZ's ESS of the block) less the removed share."""
 
@@ -252,7 +270,7 @@ class EIV(ErrorModelKind):
 def registry() -> Registry:
     """The product's registry with the kinds here added."""
     out = ERROR_MODELS.copy()
-    for kind in (Tau(), IID(), AR1(), ARp(), Adjusted(), EIV()):
+    for kind in (NEffIntegrated(), Tau(), IID(), AR1(), ARp(), Adjusted(), EIV()):
         out.register(kind)
     return out
 

@@ -87,7 +87,7 @@ class PosteriorSection(Section):
     runs: integer_field(ge=1, le=64) = 4
     ess: integer_field(ge=10, le=10_000_000) | None = None
     max_runs: integer_field(ge=1, le=256) = 12
-    error_model: Literal["neff", "neff-plugin"] | None = None
+    error_model: Literal["neff"] | None = None
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000
     modes_samples: integer_field(ge=0, le=100_000) = 200

@@ -16,10 +16,10 @@ import numpy as np
 
 from femupdate.inference.known import Known
 from femupdate.inference.likelihood import ErrorModel, Registry, fit_residuals, residual_blocks
-from femupdate.inference.neff import NEff, NEffPlugIn
+from femupdate.inference.neff import NEff
 
 #: The product's kinds (the default first).
-ERROR_MODELS = Registry(NEff(), NEffPlugIn(), Known())
+ERROR_MODELS = Registry(NEff(), Known())
 #: The error model of the Laplace record and of the sampled posterior when the case names
 #: none (docs/posterior.md, "Calibration").
 DEFAULT_KIND = "neff"

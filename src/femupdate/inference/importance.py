@@ -34,9 +34,9 @@ from femupdate.inference.proposals import fit_mixture
 DEFENSIVE_SHARE = 0.3
 #: Its scale: the population's standard deviations times this.
 DEFENSIVE_WIDTH = 1.5
-#: Its degrees of freedom. The likelihood of ``neff`` integrates each channel's variance out:
-#: it falls as ‖r‖^(−N_c), a power of the distance with N_c of the order of ten on the bridge,
-#: so the posterior's tails are a power law too, and a Gaussian proposal's are lighter.
+#: Its degrees of freedom: tails heavier than any posterior's the product samples (a Gaussian
+#: likelihood's, or a power law where a kind integrates each channel's variance out), so that
+#: π/q stays bounded far out.
 DEFENSIVE_DOF = 4.0
 
 

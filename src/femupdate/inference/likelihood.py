@@ -3,15 +3,16 @@
 The residual vector r (m,) of an :class:`~femupdate.problem.update.UpdateProblem` is made of blocks,
 one per fitted trial × channel (each channel's samples in turn, the trials in order), each
 scaled by a constant (its share of φ over its energy). Within a block the prediction errors
-are modelled as Gaussian with an unknown variance σ_c², integrated out under Jeffreys' prior
+are modelled as Gaussian (Beck & Katafygiotis 1998 for the prediction-error model): here,
+:class:`ErrorModel`, with an unknown variance σ_c² integrated out under Jeffreys' prior
 p(σ²) ∝ 1/σ²::
 
     log L = Σ_c [ log Γ(N_c/2) − (N_c/2) · log(π · ‖r_c‖²) ]
 
-(Beck & Katafygiotis 1998 for the prediction-error model), or, when σ_c is known, the
-Gaussian of that variance. ``N_c`` is the number of *independent* values in the block: what
-an error model measures at the best fit, once, so that the likelihood is one fixed function
-of the parameters.
+or, when σ_c is known, the Gaussian of that variance; the default kind fixes σ_c at the best
+fit's (:class:`femupdate.inference.neff.PlugInModel`). ``N_c`` is the number of *independent*
+values in the block: what an error model measures at the best fit, once, so that the
+likelihood is one fixed function of the parameters.
 
 The kinds plug in as emcee's moves do: a small :class:`ErrorModelKind` per file (the default
 ``"neff"`` in :mod:`femupdate.inference.neff`, ``"known"`` in
@@ -128,19 +129,36 @@ class ErrorModel:
             raise ConfigError(f"error model: residual rows of length {rows.shape[1]}, the "
                               f"model was built for {self.size}")
         finite = np.all(np.isfinite(rows), axis=1)
-        safe = np.where(finite[:, None], rows, 0.0)
-        squares = self.sums_of_squares(safe)
+        out = self.loglike_of_squares(self.sums_of_squares(np.where(finite[:, None], rows,
+                                                                     0.0)))
+        out[~finite] = -np.inf
+        return out
+
+    def loglike_of_squares(self, squares: np.ndarray) -> np.ndarray:
+        """log L of rows (k, c) of the blocks' sums of squares ‖r_c‖²: shape (k,)."""
+        squares = np.atleast_2d(squares)
         with np.errstate(divide="ignore"):
             if self.sigma is not None:
                 sigma2 = self.sigma ** 2
                 lengths = self._white_lengths()
-                out = (-0.5 * squares / sigma2
-                       - 0.5 * lengths * np.log(2.0 * math.pi * sigma2)).sum(axis=1)
-            else:
-                half = 0.5 * self.counts
-                out = (gammaln(half) - half * np.log(math.pi * squares)).sum(axis=1)
-        out[~finite] = -np.inf
-        return out
+                return (-0.5 * squares / sigma2
+                        - 0.5 * lengths * np.log(2.0 * math.pi * sigma2)).sum(axis=1)
+            half = 0.5 * self.counts
+            return (gammaln(half) - half * np.log(math.pi * squares)).sum(axis=1)
+
+    def log_squares_slope(self, squares: np.ndarray) -> np.ndarray:
+        """∂ log L / ∂ log ‖r_c‖² at rows (k, c) of sums of squares: shape (k, c)."""
+        squares = np.atleast_2d(squares)
+        if self.sigma is not None:
+            return -0.5 * squares / self.sigma ** 2
+        return np.broadcast_to(-0.5 * self.counts, squares.shape).copy()
+
+    def of_sums(self) -> ErrorModel:
+        """A model of c one-value blocks whose log L of rows √‖r_c‖² is this model's of the
+        residuals (an unknown variance; the surrogate posterior samples with it)."""
+        c = self.counts.size
+        return ErrorModel("iid", np.arange(c), np.arange(1, c + 1), self.counts.copy(),
+                          np.zeros(c))
 
     def loglike(self, r: np.ndarray) -> float:
         """log L of one residual vector."""

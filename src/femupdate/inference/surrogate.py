@@ -1,14 +1,13 @@
 """Surrogate-aided posterior for expensive models: TMCMC on a Gaussian-process surrogate.
 
-Every error model of :mod:`femupdate.inference.likelihood` but ``"known"`` is a function of
-the (whitened) residual sums S_c = ‖r_c‖² of its blocks (one per trial × channel)::
-
-    log L(x) = Σ_c [ log Γ(N_c/2) − (N_c/2) · log(π · S_c(x)) ]
-
-so a surrogate of the C functions y_c(x) = log S_c(x) is a surrogate of the likelihood. Each
-y_c is modelled on the unit cube by a quadratic trend (least squares) plus a Gaussian process
-(scikit-learn's ``GaussianProcessRegressor``, Matérn 5/2 with one length per parameter) on
-what the trend leaves; design points far below the best in log L are fitted loosely (they
+Every error model of :mod:`femupdate.inference.likelihood` is a function of the (whitened)
+residual sums S_c = ‖r_c‖² of its blocks (one per trial × channel),
+log L(x) = Σ_c ℓ_c(S_c(x)) (``ErrorModel.loglike_of_squares``; for the default ``"neff"``,
+ℓ_c(S) = −(N_c/2)·S/S_c* + const, S_c* the best fit's), so a surrogate of the C functions
+y_c(x) = log S_c(x) is a surrogate of the likelihood. Each y_c is modelled on the unit cube
+by a quadratic trend (least squares) plus a Gaussian process (scikit-learn's
+``GaussianProcessRegressor``, Matérn 5/2 with one length per parameter) on what the trend
+leaves; design points far below the best in log L are fitted loosely (they
 only need to say "unlikely here"), those near it exactly. The surrogate's own uncertainty
 enters the likelihood through the expected residual energy: with y_c ~ N(μ_c, σ_c²),
 E[S_c] = exp(μ_c + σ_c²/2) takes the place of S_c, so where the surrogate is unsure the
@@ -86,10 +85,7 @@ def log_sums(model: ErrorModel, rows: np.ndarray) -> np.ndarray:
 
 def loglike_of_sums(model: ErrorModel, log_s: np.ndarray) -> np.ndarray:
     """log L of rows of log S_c (k, C), as ``model.loglike_rows`` of their residuals."""
-    half = 0.5 * model.counts
-    from scipy.special import gammaln
-
-    return (gammaln(half) - half * (math.log(math.pi) + log_s)).sum(axis=1)
+    return model.loglike_of_squares(np.exp(log_s))
 
 
 def quadratic_features(unit: np.ndarray) -> np.ndarray:
@@ -199,17 +195,16 @@ def surrogate_loglike(model: ErrorModel, mean: np.ndarray, var: np.ndarray) -> n
     return loglike_of_sums(model, mean + 0.5 * var)
 
 
-def loglike_variance(model: ErrorModel, var: np.ndarray) -> np.ndarray:
-    """The variance of log L from the surrogate's (channels taken independent)."""
-    return ((0.5 * model.counts) ** 2 * var).sum(axis=1)
+def loglike_variance(model: ErrorModel, mean: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """The variance of log L from the surrogate's (channels taken independent, log L linear
+    in log S_c about the surrogate's mean)."""
+    return (model.log_squares_slope(np.exp(mean)) ** 2 * var).sum(axis=1)
 
 
 def pseudo_model(model: ErrorModel) -> ErrorModel:
-    """An error model of C one-value blocks with ``model``'s counts: its log L of the rows
-    √E[S_c] is ``surrogate_loglike`` (so TMCMC samples the surrogate unchanged)."""
-    c = model.counts.size
-    return ErrorModel("iid", np.arange(c), np.arange(1, c + 1), model.counts.copy(),
-                      np.zeros(c))
+    """An error model of C one-value blocks with ``model``'s likelihood: its log L of the
+    rows √E[S_c] is ``surrogate_loglike`` (so TMCMC samples the surrogate unchanged)."""
+    return model.of_sums()
 
 
 def spread_points(candidates: np.ndarray, k: int, scale: np.ndarray,
@@ -459,10 +454,10 @@ def _surrogate_posterior(evaluate: Evaluate, prior: Prior, error_model_at: Error
         wide = samples.mean(axis=0) + 2.0 * (samples[rng.integers(len(samples), size=4000)]
                                               - samples.mean(axis=0))
         wide = wide[np.all((wide >= 0) & (wide <= 1), axis=1)]
-        _, wide_var = surrogate.predict(wide)
+        wide_mean, wide_var = surrogate.predict(wide)
         explore = wide[spread_points(wide, batch - len(exploit), scale,
                                      chosen=np.vstack([design.unit, exploit]),
-                                     score=loglike_variance(model, wide_var))]
+                                     score=loglike_variance(model, wide_mean, wide_var))]
         mean, var = surrogate.predict(exploit)
         predicted = surrogate_loglike(model, mean, var)
         rows = _run(design, np.vstack([exploit, explore]), evaluate, prior)
