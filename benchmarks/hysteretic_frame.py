@@ -46,14 +46,15 @@ def frame(nx: int = 5, ny: int = 5, storeys: int = 2, stiff: float = 1e3) -> Str
     s = Structure(dofs_per_node=6)
     E, A, I, J, rho, L, bay = 2.1e11, 1e-2, 1e-4, 2e-4, 7850.0, 3.5, 5.0  # noqa: E741
     k_rot, k_shear = stiff * 4 * E * I / L, stiff * 12 * E * I / L**3
+    z_shear, z_rot = 3.0 / stiff, 1.5 / stiff  # 3 µm and 1.5 µrad at 1e3: the same yield forces
     section = dict(E=E, A=A, Iy=I, Iz=I, J=J, nu=0.3, rho=rho)
     for i in range(nx):
         for j in range(ny):
             for f in range(storeys + 1):
                 s.add_node(f"N{i}{j}{f}", i * bay, j * bay, f * L)
             s.fix(f"N{i}{j}0", "uz", "rz")
-            for dof, k, z_u in (("ux", k_shear, 3e-6), ("uy", k_shear, 3e-6),
-                                ("rx", k_rot, 1.5e-6), ("ry", k_rot, 1.5e-6)):
+            for dof, k, z_u in (("ux", k_shear, z_shear), ("uy", k_shear, z_shear),
+                                ("rx", k_rot, z_rot), ("ry", k_rot, z_rot)):
                 s.add_bouc_wen(f"N{i}{j}0", dof, k, alpha=0.1, beta=0.75 / z_u,
                                gamma=0.25 / z_u, n=1.0)  # z_u = 1/(β + γ)
             for f in range(storeys):

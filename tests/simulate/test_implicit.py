@@ -12,6 +12,7 @@ from femupdate.model.hysteresis import bouc_wen_update
 from femupdate.model.structure import shear_building
 from femupdate.simulate import nonlinear_method, simulate
 from femupdate.simulate.implicit import (
+    bouc_wen_update_exponential,
     bouc_wen_update_tangent,
     explicit_stable_step,
     step_halving_error,
@@ -107,6 +108,57 @@ def test_the_bouc_wen_tangent_is_the_derivative_of_the_update() -> None:
             up = bouc_wen_update_tangent(z, dy + eps, A, beta, gamma, n, 3)[0]
             down = bouc_wen_update_tangent(z, dy - eps, A, beta, gamma, n, 3)[0]
             assert s == pytest.approx((up - down) / (2 * eps), rel=1e-5, abs=1e-8)
+
+
+@pytest.mark.parametrize("gamma", [2.5e5, -5e5, 7.5e5])  # β − γ > 0, > β, = 0 (γ = β)
+def test_the_exponential_update_is_the_limit_of_the_runge_kutta_rule(gamma: float) -> None:
+    """For n = 1 the closed form agrees with Runge–Kutta at fine parts, whether the increment
+    loads, unloads, or unloads through z = 0 and reloads on the other side (there the rate
+    has a kink, and Runge–Kutta converges to the closed form at a lower order)."""
+    A, beta = 1.0, 7.5e5
+    z_u = A / (beta + gamma)
+    for z, dy in ((0.0, 4 * z_u), (0.6 * z_u, 0.3 * z_u), (0.6 * z_u, -0.1 * z_u),
+                  (-0.9 * z_u, -1e3 * z_u), (0.3 * z_u, 0.0)):  # z keeps its sign
+        exact, slope = bouc_wen_update_exponential(z, dy, A, beta, gamma)
+        fine, fine_slope = bouc_wen_update_tangent(z, dy, A, beta, gamma, 1.0, 2000)
+        assert exact == pytest.approx(fine, rel=1e-12, abs=1e-12 * z_u)
+        assert slope == pytest.approx(fine_slope, rel=1e-10, abs=1e-12)
+        assert abs(exact) < z_u or exact == pytest.approx(np.sign(dy) * z_u, rel=1e-15)
+    for z, dy in ((0.6 * z_u, -5 * z_u), (-0.9 * z_u, 2 * z_u)):  # z crosses 0
+        exact, slope = bouc_wen_update_exponential(z, dy, A, beta, gamma)
+        errors = [np.subtract((exact, slope), bouc_wen_update_tangent(z, dy, A, beta, gamma,
+                                                                      1.0, parts))
+                  for parts in (2000, 20000)]
+        assert abs(errors[1][0]) < 1e-9 * z_u and abs(errors[1][0]) <= abs(errors[0][0])
+        assert abs(errors[1][1]) < 1e-5 and abs(errors[1][1]) < 0.3 * abs(errors[0][1])
+
+
+def test_the_exponential_update_tangent_is_its_derivative() -> None:
+    A, beta, gamma = 1.0, 7.5e5, 2.5e5
+    z_u = A / (beta + gamma)
+    for z, dy in ((0.6 * z_u, 0.3 * z_u), (0.6 * z_u, -1.7 * z_u), (-0.9 * z_u, 0.5 * z_u)):
+        eps = 1e-6 * z_u
+        up = bouc_wen_update_exponential(z, dy + eps, A, beta, gamma)[0]
+        down = bouc_wen_update_exponential(z, dy - eps, A, beta, gamma)[0]
+        slope = bouc_wen_update_exponential(z, dy, A, beta, gamma)[1]
+        assert slope == pytest.approx((up - down) / (2 * eps), rel=1e-7)
+
+
+def test_n1_links_agree_with_the_explicit_path() -> None:
+    """The building on n = 1 links (the exponential update inside Newton–Raphson) against
+    central differences at a fine step, through yield."""
+    laws = [dict(law, n=1.0, beta=law["beta"] ** 0.5, gamma=law["gamma"] ** 0.5)
+            for law in LAWS]
+    s = shear_building(list(MASSES), [0.0, 0.0], bouc_wen=laws)
+    s.set_rayleigh(alpha=0.6)
+    system = s.assemble()
+    ag = _record()
+    explicit = simulate(system, DT, ag=ag, method="nonlinear", substeps=80)
+    ours = simulate(system, DT, ag=ag, method="implicit", substeps=8)
+    z_u = 1.0 / (laws[0]["beta"] + laws[0]["gamma"])
+    assert np.abs(explicit.hysteretic_z[:, 0]).max() > 0.9 * z_u  # yields
+    assert _nmse(ours.displacement, explicit.displacement) < 1e-6
+    assert _nmse(ours.hysteretic_force, explicit.hysteretic_force) < 1e-6
 
 
 def test_step_halving_estimates_the_error() -> None:

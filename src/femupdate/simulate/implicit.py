@@ -24,17 +24,20 @@ with ``u_lin`` linear in the previous state and the load. Only the element defor
 with the iteration matrix ``I + S diag(∂f/∂y)``. The friction element's return mapping
 (:func:`femupdate.model.friction.elasto_slip`, the slider's offset from the previous step) is
 backward Euler by itself; its tangent is ``k_r`` while stuck and 0 while slipping. The
-Bouc–Wen ``z`` follows its rate-independent law over the step's deformation increment by the
-same fourth-order Runge–Kutta rule as the explicit path
-(:func:`femupdate.model.hysteresis.bouc_wen_update`, in parts of at most ``1/(2λ)``: adaptive
-sub-steps inside the step), differentiated exactly (forward sensitivity through the four
-stages, :func:`bouc_wen_update_tangent`) for its consistent tangent
-``k (α + (1 - α) ∂z/∂y)``; the iteration matrix takes the element's secant over the step
-instead (robust where the deformation turns inside the step, see :func:`_element_laws`). The
-iteration matrix is factorised when the iterations stop contracting by half and reused
-otherwise, and a backtracking line search keeps the residual falling. Each iteration costs
-``m × m`` work, whatever the number of DOFs; the ``n × n`` work per step is three
-matrix-vector products, as linear Newmark.
+Bouc–Wen ``z`` follows its rate-independent law over the step's deformation increment: for
+``n = 1`` exactly (the law is linear in ``z`` on either side of ``z = 0``,
+:func:`bouc_wen_update_exponential`: one exponential whatever the increment), otherwise by
+the same fourth-order Runge–Kutta rule as the explicit path
+(:func:`femupdate.model.hysteresis.bouc_wen_update`, in parts of at most ``1/(2λ)``),
+differentiated exactly (:func:`bouc_wen_update_tangent`). Either gives the consistent
+tangent ``k (α + (1 - α) ∂z/∂y)``, which the iteration matrix takes; where a line search
+has to shorten a correction (the law has a kink where the deformation turns, and the tangent
+can overshoot across it) the rest of the step takes the secants over the step instead.
+Newton starts from the last increment extrapolated. The iteration matrix is factorised when
+the iterations stop contracting by half and reused otherwise, across steps too (on a
+zero-length-link frame the tangents change little from step to step: most steps need no
+factorisation). Each iteration costs ``m × m`` work, whatever the number of DOFs; the
+``n × n`` work per step is three matrix-vector products, as linear Newmark.
 
 The scheme is unconditionally stable for the linear part (``α`` in [-1/3, 0]); it needs no
 step below the highest frequency, so stiff zero-length links do not set the step. Its error is
@@ -42,7 +45,7 @@ second order in ``h`` (period elongation ``(ωh)²/12`` per cycle for ``α = 0``
 chosen for the modes that carry the response, and :func:`step_halving_error` states the error
 at a given step by comparing with half of it.
 
-Why this file is long (about 600 lines): the scheme is one compiled time loop with what it calls
+Why this file is long (about 650 lines): the scheme is one compiled time loop with what it calls
 inside the loop (the element laws with their exact tangents, the condensed Newton solve and its
 small LU), and the simulator that prepares its matrices; apart, they would still be compiled
 and read together.
@@ -68,7 +71,8 @@ from femupdate.simulate._common import (
     sample_loads,
 )
 
-__all__ = ["HHT_ALPHA_RANGE", "ImplicitSimulator", "bouc_wen_update_tangent",
+__all__ = ["HHT_ALPHA_RANGE", "ImplicitSimulator", "bouc_wen_update_exponential",
+           "bouc_wen_update_tangent",
            "check_hht_alpha", "explicit_stable_step", "prepare_implicit", "step_halving_error"]
 
 #: Allowed Hilber–Hughes–Taylor ``α`` (0: Newmark's average acceleration, no numerical damping).
@@ -143,47 +147,76 @@ def bouc_wen_update_tangent(z: float, dy: float, A: float, beta: float, gamma: f
     return z, s
 
 
+@njit(cache=True)
+def bouc_wen_update_exponential(z: float, dy: float, A: float, beta: float,
+                                gamma: float) -> tuple[float, float]:
+    """``z`` after the deformation moved by ``dy`` and ``∂z/∂dy``, exactly, for ``n = 1``.
+
+    Measured along the motion (``u = z sign(dy)``, ``x = |dy|``) the law is linear on either
+    side of ``u = 0``: ``du/dx = A - (β + γ) u`` for ``u ≥ 0`` and ``A - (β - γ) u`` for
+    ``u < 0``, so ``u`` relaxes exponentially, towards ``z_u`` after crossing zero. The
+    derivative of the exact flow with respect to its length is the rate at its end,
+    ``dz/dy`` at the new ``z``; at ``dy = 0`` the loading rate in the positive direction.
+    """
+    if dy == 0.0:
+        return z, bouc_wen_rate(z, 1.0, A, beta, gamma, 1.0)
+    sign = 1.0 if dy > 0.0 else -1.0
+    x = abs(dy)
+    u = sign * z
+    if u < 0.0:  # unloading towards u = 0 at the rate A + (β - γ)|u|
+        r = beta - gamma  # ≥ 0
+        t = -r * u / A
+        x0 = math.log1p(t) / r if t > 0.0 else -u / A  # the length that reaches u = 0
+        if x < x0:
+            u = u * math.exp(-r * x) - A * math.expm1(-r * x) / r if t > 0.0 else u + A * x
+            return sign * u, A - r * u
+        x -= x0
+        u = 0.0
+    p = beta + gamma  # > 0
+    # exp(-px) below 1e-304 is 0 to the result; taken as 0 it stays out of the subnormals
+    decay = math.exp(-p * x) if p * x < 700.0 else 0.0
+    u = u * decay + A * (1.0 - decay) / p
+    return sign * u, A - p * u
+
+
 @njit(cache=True, inline="always")
 def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
-                  kr: np.ndarray, fu: np.ndarray, bw: np.ndarray, parts: np.ndarray,
-                  dy_max: np.ndarray, f: np.ndarray, df: np.ndarray,
-                  trial: np.ndarray) -> None:
-    """Forces ``f``, tangents ``df`` and the trial internal state (slip offset or ``z``) of
-    every element at deformations ``y`` from the committed ``state`` (friction first)."""
+                  kr: np.ndarray, fu: np.ndarray, bw: np.ndarray, dy_max: np.ndarray,
+                  f: np.ndarray, df: np.ndarray, sec: np.ndarray, trial: np.ndarray) -> None:
+    """Forces ``f``, consistent tangents ``df``, secants over the step ``sec`` and the trial
+    internal state (slip offset or ``z``) of every element at deformations ``y`` from the
+    committed ``state`` (friction first)."""
     for e in range(nf):
         k_r = kr[e]
         if k_r <= 0.0:
             f[e] = 0.0
-            df[e] = 0.0
+            df[e] = sec[e] = 0.0
             trial[e] = state[e]
             continue
         limit = fu[e] / k_r
         d = y[e] - state[e]
         if abs(d) <= limit:  # stuck: the spring alone
             f[e] = k_r * d
-            df[e] = k_r
+            df[e] = sec[e] = k_r
             trial[e] = state[e]
         else:  # slipping: the slider follows, the force stays at ±f_u
             sign = 1.0 if d > 0.0 else -1.0
             f[e] = sign * fu[e]
-            df[e] = 0.0
+            df[e] = sec[e] = 0.0
             trial[e] = y[e] - sign * limit
     for b in range(bw.shape[0]):
         e = nf + b
         step = y[e] - y_old[e]
-        # the step's parts, or more where an iterate went further (never parts above 1/(2λ))
-        count = max(parts[b], math.ceil(abs(step) / dy_max[b]))
-        z, s = bouc_wen_update_tangent(state[e], step, bw[b, 2], bw[b, 3], bw[b, 4],
-                                       bw[b, 5], count)
+        if bw[b, 5] == 1.0:  # the exact update: no sub-steps, whatever the increment
+            z, s = bouc_wen_update_exponential(state[e], step, bw[b, 2], bw[b, 3], bw[b, 4])
+        else:  # Runge–Kutta in parts of at most 1/(2λ)
+            z, s = bouc_wen_update_tangent(state[e], step, bw[b, 2], bw[b, 3], bw[b, 4],
+                                           bw[b, 5], max(1, math.ceil(abs(step) / dy_max[b])))
         trial[e] = z
         f[e] = bouc_wen_force(y[e], z, bw[b, 0], bw[b, 1])
-        # The iteration matrix takes the element's secant over the step, (z - z_n) / Δy, and
-        # the consistent tangent s only at Δy = 0: the law has a kink where the deformation
-        # turns (loading and unloading slopes differ), and with the tangent Newton overshoots
-        # across it; the secant of a monotone law does not (on a 3-D frame with 100 links:
-        # 8.9 iterations per step against 20.5 with the tangent).
-        df[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * ((z - state[e]) / step if step != 0.0
-                                                              else s))
+        df[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * s)
+        sec[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * ((z - state[e]) / step
+                                                              if step != 0.0 else s))
 
 
 @njit(cache=True)
@@ -290,22 +323,24 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
     ylin = np.empty(m)
     f = np.empty(m)
     df = np.empty(m)
+    sec = np.empty(m)
     trial = np.empty(m)
+    y_prev = np.empty(m)  # the deformations a step before the committed ones
     dy = np.empty(m)
     y_try = np.empty(m)
     res = np.empty(m)
     lu = np.empty((m, m))
     piv = np.zeros(m, dtype=np.int64)
-    parts = np.ones(nb, dtype=np.int64)
     c0, cu, cv = 1.0 / (beta * h * h), h * h * (0.5 - beta), h * (1.0 - gamma)
     iterations = factorisations = 0
     stale = True  # no factors yet
     for e in range(m):
         d = u[ei[e]] - (u[ej[e]] if ej[e] >= 0 else 0.0)
         y_old[e] = d
+        y_prev[e] = d
         y[e] = d
     # the forces at the initial state (slip offsets and z start at zero)
-    _element_laws(y, y_old, state, nf, kr, fu, bw, parts, dy_max, f_old, df, trial)
+    _element_laws(y, y_old, state, nf, kr, fu, bw, dy_max, f_old, df, sec, trial)
     for k in range(ns):
         s = 0.0
         for i in range(n):
@@ -340,25 +375,24 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
                     fe = alpha * f_old[e]
                     for i in range(n):
                         ulin[i] += HT[e, i] * fe
-            # Newton–Raphson on the deformations, from the linear prediction
+            # Newton–Raphson on the deformations
             for e in range(m):
-                d = ulin[ei[e]] - (ulin[ej[e]] if ej[e] >= 0 else 0.0)
-                ylin[e] = d
-                y[e] = d
-                if e >= nf:
-                    parts[e - nf] = max(1, math.ceil(2.0 * abs(d - y_old[e]) / dy_max[e - nf]))
+                ylin[e] = ulin[ei[e]] - (ulin[ej[e]] if ej[e] >= 0 else 0.0)
+                y[e] = 2.0 * y_old[e] - y_prev[e]  # from the last increment, extrapolated
             it = 0
             converged = m == 0
+            secant = False  # the iteration matrix takes the consistent tangents
             if m:
-                _element_laws(y, y_old, state, nf, kr, fu, bw, parts, dy_max, f, df, trial)
+                _element_laws(y, y_old, state, nf, kr, fu, bw, dy_max, f, df, sec, trial)
                 norm = _residual(y, ylin, S, f, res)
             last = np.inf
             while not converged and it < max_iter:
                 it += 1
                 if stale:
+                    slope = sec if secant else df
                     for r in range(m):
                         for c in range(m):
-                            lu[r, c] = S[r, c] * df[c]
+                            lu[r, c] = S[r, c] * slope[c]
                         lu[r, r] += 1.0
                     if not _lu_factor(lu, piv):
                         return disp, vel, acc, ff, slip, bf, bz, False, k, iterations, \
@@ -375,7 +409,7 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
                     converged = True
                     for e in range(m):
                         y[e] += dy[e]
-                    _element_laws(y, y_old, state, nf, kr, fu, bw, parts, dy_max, f, df, trial)
+                    _element_laws(y, y_old, state, nf, kr, fu, bw, dy_max, f, df, sec, trial)
                 else:
                     # backtracking: the residual must fall (a kink of the law at a turning
                     # point can make the full step overshoot)
@@ -383,13 +417,15 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
                     for _ in range(LINE_SEARCH_HALVINGS):
                         for e in range(m):
                             y_try[e] = y[e] + t * dy[e]
-                        _element_laws(y_try, y_old, state, nf, kr, fu, bw, parts, dy_max, f,
-                                      df, trial)
+                        _element_laws(y_try, y_old, state, nf, kr, fu, bw, dy_max, f, df, sec,
+                                      trial)
                         norm_try = _residual(y_try, ylin, S, f, res)
                         if norm_try <= (1.0 - 1e-4 * t) * norm:
                             break
                         t *= 0.5
-                        stale = True  # the old tangent led astray: factorise the current one
+                        # the tangent led astray (a kink where the deformation turns): the
+                        # secants, factorised afresh, for the rest of the step
+                        stale = secant = True
                     for e in range(m):
                         y[e] = y_try[e]
                     norm = norm_try
@@ -411,6 +447,7 @@ def _implicit_kernel(AuT, AvT, AaT, HT, S, q, substeps, h, alpha, beta, gamma, u
                 a[i] = a_new
                 u[i] = ulin[i]
             for e in range(m):
+                y_prev[e] = y_old[e]
                 y_old[e] = y[e]
                 f_old[e] = f[e]
                 state[e] = trial[e]
