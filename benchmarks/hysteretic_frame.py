@@ -46,7 +46,7 @@ def frame(nx: int = 5, ny: int = 5, storeys: int = 2, stiff: float = 1e3) -> Str
     s = Structure(dofs_per_node=6)
     E, A, I, J, rho, L, bay = 2.1e11, 1e-2, 1e-4, 2e-4, 7850.0, 3.5, 5.0  # noqa: E741
     k_rot, k_shear = stiff * 4 * E * I / L, stiff * 12 * E * I / L**3
-    z_shear, z_rot = 3.0 / stiff, 1.5 / stiff  # 3 µm and 1.5 µrad at 1e3: the same yield forces
+    z_shear, z_rot = 3e-3 / stiff, 1.5e-3 / stiff  # 3 µm, 1.5 µrad at 1e3: same yield forces
     section = dict(E=E, A=A, Iy=I, Iz=I, J=J, nu=0.3, rho=rho)
     for i in range(nx):
         for j in range(ny):

@@ -189,3 +189,17 @@ def test_bad_alpha_is_refused() -> None:
     system = _hysteretic()
     with pytest.raises(ConfigError, match=r"hht_alpha = -0\.5 .*\[-1/3, 0\]"):
         simulate(system, DT, ag=_record(), method="implicit", hht_alpha=-0.5)
+
+
+def test_the_transposed_lu_solve_solves_the_system() -> None:
+    from femupdate.simulate.implicit import _lu_factor, _lu_solve_transposed
+
+    rng = np.random.default_rng(3)
+    for m in (1, 2, 7, 40):
+        a = rng.standard_normal((m, m))
+        b = rng.standard_normal(m)
+        factors, piv = np.ascontiguousarray(a.T), np.zeros(m, dtype=np.int64)
+        assert _lu_factor(factors, piv)
+        x = b.copy()
+        _lu_solve_transposed(factors, piv, x)
+        assert np.allclose(a @ x, b, rtol=0.0, atol=1e-10 * np.abs(b).max())
