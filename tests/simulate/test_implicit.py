@@ -203,3 +203,17 @@ def test_the_transposed_lu_solve_solves_the_system() -> None:
         x = b.copy()
         _lu_solve_transposed(factors, piv, x)
         assert np.allclose(a @ x, b, rtol=0.0, atol=1e-10 * np.abs(b).max())
+
+
+def test_sample_loads_are_the_matrix_products() -> None:
+    from femupdate.simulate.implicit import _sample_loads
+
+    rng = np.random.default_rng(4)
+    g, G = rng.standard_normal(5), rng.standard_normal((5, 5))
+    ag, force = rng.standard_normal(7), rng.standard_normal((7, 5))
+    force[2] = 0.0
+    GT = np.ascontiguousarray(G.T)
+    assert np.allclose(_sample_loads(ag, force, g, GT), np.outer(ag, g) + force @ G.T,
+                       rtol=1e-14, atol=1e-14)
+    assert np.allclose(_sample_loads(None, force, g, GT), force @ G.T, rtol=1e-14, atol=1e-14)
+    assert np.array_equal(_sample_loads(ag, None, g, GT), np.outer(ag, g))
