@@ -302,12 +302,14 @@ def _implicit_kernel(AuT, AvT, AaT, HT, ST, q, substeps, h, alpha, beta, gamma, 
     between;
     ``ei, ej`` the elements' DOFs (friction then Bouc–Wen; -1: ground).
 
-    The tangent ``I + S diag(∂f/∂y)`` is factorised when the iterations need it: at the first
-    step, and whenever an iteration shrinks the correction by less than half (then the
-    factors of the current tangent replace the old ones and the step goes on). Between, the
-    factors are reused across iterations and steps (modified Newton): each iteration costs an
-    ``m × m`` back-substitution instead of a factorisation, and the contraction of at most ½
-    keeps the error below the last correction.
+    Each step starts Newton from the last increment extrapolated. The iteration matrix
+    ``I + S diag(∂f/∂y)`` (consistent tangents; the secants over the step once a line search
+    has had to shorten a correction in that step) is factorised when the iterations need it:
+    at the first step, after a shortened correction, and whenever an iteration shrinks the
+    correction by less than half. Between, the factors are reused across iterations and
+    steps (modified Newton): each iteration costs an ``m × m`` back-substitution instead of a
+    factorisation, and the contraction of at most ½ keeps the error below the last
+    correction.
 
     Returns displacement, velocity and relative acceleration at the outputs, friction force
     and slip, Bouc–Wen force and z at the samples, whether the solution diverged, the index
