@@ -214,8 +214,11 @@ def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
         trial[e] = z
         f[e] = bouc_wen_force(y[e], z, bw[b, 0], bw[b, 1])
         df[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * s)
+        # the secant over the step; below 1e-7 of the law's own scale z - z_n is rounding
+        # (n = 1 at 1e-12 z_u: off by 1.5e-4; at 1e-30 z_u: 0), and the secant the tangent
         sec[e] = bw[b, 0] * (bw[b, 1] + (1.0 - bw[b, 1]) * ((z - state[e]) / step
-                                                              if step != 0.0 else s))
+                                                              if abs(step) > 1e-7 * dy_max[b]
+                                                              else s))
 
 
 @njit(cache=True)
