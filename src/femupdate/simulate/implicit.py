@@ -32,7 +32,9 @@ the same fourth-order Runge–Kutta rule as the explicit path
 differentiated exactly (:func:`bouc_wen_update_tangent`). Either gives the consistent
 tangent ``k (α + (1 - α) ∂z/∂y)``, which the iteration matrix takes; where a line search
 has to shorten a correction (the law has a kink where the deformation turns, and the tangent
-can overshoot across it) the rest of the step takes the secants over the step instead.
+can overshoot across it) the rest of the step takes the secants over the step instead (on
+the 100-link frame of benchmarks/hysteretic_frame.py, 5 steps per sample: 11.9 iterations per
+step against 12.0 with the secants throughout).
 Newton starts from the last increment extrapolated. The iteration matrix is factorised when
 the iterations stop contracting by half and reused otherwise, across steps too (on a
 zero-length-link frame the tangents change little from step to step: most steps need no
@@ -302,8 +304,7 @@ def _implicit_kernel(AuT, AvT, AaT, HT, ST, q, substeps, h, alpha, beta, gamma, 
     ``AuT, AvT, AaT`` (n, n) the transposes of ``K̂⁻¹`` times the coefficients of ``u_n, v_n,
     a_n`` in the right-hand side; ``HT`` (m, n) the transpose of ``K̂⁻¹ Bᵀ``; ``ST`` (m, m)
     the transpose of ``S = (1+α) B K̂⁻¹ Bᵀ``; ``q`` (ns, n) ``K̂⁻¹ F`` at the samples, linear in
-    between;
-    ``ei, ej`` the elements' DOFs (friction then Bouc–Wen; -1: ground).
+    between; ``ei, ej`` the elements' DOFs (friction then Bouc–Wen; -1: ground).
 
     Each step starts Newton from the last increment extrapolated. The iteration matrix
     ``I + S diag(∂f/∂y)`` (consistent tangents; the secants over the step once a line search
