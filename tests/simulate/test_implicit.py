@@ -217,3 +217,44 @@ def test_sample_loads_are_the_matrix_products() -> None:
                        rtol=1e-14, atol=1e-14)
     assert np.allclose(_sample_loads(None, force, g, GT), force @ G.T, rtol=1e-14, atol=1e-14)
     assert np.array_equal(_sample_loads(ag, None, g, GT), np.outer(ag, g))
+
+
+def test_hht_damping_keeps_stiff_yielding_links_from_ringing() -> None:
+    """A column on four stiff n = 1 links (ux, uy, rx, ry to the ground; 16 kHz on the base
+    node's own rotary inertia), yielding under two components: with HHT α = −0.1 the implicit
+    path converges to central differences as the step falls; with α = 0 (no numerical
+    damping) the links' unresolved modes ring at small steps and the error grows again
+    (measured NMSE 2.2e-6 at 8 steps per sample, 5.6e-5 at 16; with α = −0.1 1.2e-6, 4.1e-7)."""
+    from femupdate.model.structure import Structure
+
+    s = Structure(dofs_per_node=6)
+    E, inertia, height, stiff = 2.1e11, 1e-4, 3.5, 1e3
+    s.add_node("B", 0.0, 0.0, 0.0)
+    s.add_node("T", 0.0, 0.0, height)
+    s.fix("B", "uz", "rz")
+    for dof, k, z_u in (("ux", 12 * E * inertia / height**3, 3e-6),
+                        ("uy", 12 * E * inertia / height**3, 3e-6),
+                        ("rx", 4 * E * inertia / height, 1.5e-6),
+                        ("ry", 4 * E * inertia / height, 1.5e-6)):
+        s.add_bouc_wen("B", dof, stiff * k, alpha=0.1, beta=0.75 / z_u, gamma=0.25 / z_u, n=1.0)
+    s.add_beam("B", "T", vecxz=(1.0, 0.0, 0.0), E=E, A=1e-2, Iy=inertia, Iz=inertia, J=2e-4,
+               nu=0.3, rho=7850.0)
+    s.add_mass("T", 4000.0, dofs=["ux", "uy"])
+    sx, sy = s.assemble(direction="x"), s.assemble(direction="y")
+    dt = 0.01
+    t = np.arange(300) * dt
+    ax = 3.0 * np.sin(2 * np.pi * 1.3 * t) + 1.5 * np.sin(2 * np.pi * 3.7 * t)
+    ay = 2.5 * np.cos(2 * np.pi * 1.1 * t) + 1.0 * np.sin(2 * np.pi * 4.3 * t)
+    force = -(np.outer(ax, sx.seismic_load) + np.outer(ay, sy.seismic_load))
+    substeps = 2 * int(np.ceil(dt / explicit_stable_step(sx)))
+    explicit = simulate(sx, dt, force=force, method="nonlinear", substeps=substeps)
+    assert np.abs(explicit.hysteretic_z[:, 0]).max() > 0.99 * 3e-6  # the shear links yield
+
+    def error(count: int, alpha: float) -> float:
+        ours = simulate(sx, dt, force=force, method="implicit", substeps=count, hht_alpha=alpha)
+        return _nmse(ours.displacement, explicit.displacement)
+
+    damped = [error(count, -0.1) for count in (4, 8, 16)]
+    assert damped[2] < damped[1] < damped[0] and damped[2] < 1e-6, damped
+    newmark = [error(count, 0.0) for count in (8, 16)]
+    assert newmark[1] > 5 * newmark[0], newmark  # ringing at the smaller step
