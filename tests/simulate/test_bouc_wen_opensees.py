@@ -47,17 +47,18 @@ def _record() -> np.ndarray:
 
 
 def _opensees(ops, ag: np.ndarray, substeps: int, scheme: str = "central",
-              beta_kinit: float = 0.0, laws: list[dict] = LAWS) -> np.ndarray:
+              beta_kinit: float = 0.0, masses=MASSES, laws=LAWS) -> np.ndarray:
     """Node displacements by OpenSees: ``"central"`` differences or ``"newmark"`` (average
     acceleration, Newton iterations); ``beta_kinit``: Rayleigh's β on the initial stiffness;
-    ``laws`` with the degradation rates ``delta_a, delta_nu, delta_eta`` (default 0)."""
+    ``masses`` and ``laws`` the building's storeys (default the two of this module), the laws
+    with the degradation rates ``delta_a, delta_nu, delta_eta`` (default 0)."""
     ops.wipe()
     ops.model("basic", "-ndm", 1, "-ndf", 1)
-    for node in (1, 2, 3):
+    for node in range(1, len(masses) + 2):
         ops.node(node, 0.0)
     ops.fix(1, 1)
-    ops.mass(2, MASSES[0])
-    ops.mass(3, MASSES[1])
+    for node, mass in enumerate(masses, start=2):
+        ops.mass(node, mass)
     for tag, law in enumerate(laws, start=1):
         # argument order: alpha ko n gamma beta Ao deltaA deltaNu deltaEta
         ops.uniaxialMaterial("BoucWen", tag, law["alpha"], law["k"], law["n"], law["gamma"],
@@ -79,10 +80,10 @@ def _opensees(ops, ag: np.ndarray, substeps: int, scheme: str = "central",
         ops.algorithm("Linear")
         ops.integrator("CentralDifference")
     ops.analysis("Transient")
-    out = np.zeros((ag.size, 2))
+    out = np.zeros((ag.size, len(masses)))
     for k in range(1, ag.size):
         assert ops.analyze(substeps, DT / substeps) == 0
-        out[k] = ops.nodeDisp(2, 1), ops.nodeDisp(3, 1)
+        out[k] = [ops.nodeDisp(node, 1) for node in range(2, len(masses) + 2)]
     ops.wipe()
     return out
 
@@ -173,3 +174,28 @@ def test_degrading_building_agrees_with_opensees(ops) -> None:
         newmark.append(float(np.sum((ours - theirs) ** 2) / np.sum(theirs**2)))
     assert newmark[-1] < newmark[0], newmark
     assert newmark[-1] < 1e-4, newmark
+
+
+def test_implicit_n1_links_agree_with_opensees_newmark(ops) -> None:
+    """Four storeys on n = 1 links (the exact exponential update inside Newton–Raphson)
+    against OpenSees's Newmark with its BoucWen material: the gap falls with the step, at
+    first order (OpenSees's backward Euler on z), and is below 1e-4 at 20 substeps (measured
+    NMSE 2.3e-5, 5.8e-6, 1.5e-6 at 5, 10, 20 substeps)."""
+    masses = (1.0, 0.8, 0.8, 0.6)
+    laws = [{"k": k, "alpha": 0.1, "A": 1.0, "beta": 750.0, "gamma": 250.0, "n": 1.0}
+            for k in (4000.0, 3500.0, 3000.0, 2500.0)]  # z_u = 1 mm
+    s = shear_building(list(masses), [0.0] * 4, bouc_wen=laws)
+    s.set_rayleigh(alpha=RAYLEIGH_ALPHA)
+    system = s.assemble()
+    ag = _record()
+    gaps = []
+    for count in (5, 10, 20):
+        ours = simulate(system, DT, ag=ag, method="implicit", substeps=count)
+        theirs = _opensees(ops, ag, count, "newmark", masses=masses, laws=laws)
+        gaps.append(float(np.sum((ours.displacement - theirs) ** 2) / np.sum(theirs**2)))
+    print(f"n = 1, four links: NMSE against OpenSees Newmark at 5, 10, 20 substeps "
+          f"{', '.join(f'{g:.1e}' for g in gaps)}; largest |z| / z_u "
+          f"{np.abs(ours.hysteretic_z).max() / 1e-3:.2f}")
+    assert np.abs(ours.hysteretic_z).max() > 0.9e-3  # the links yield
+    assert gaps[2] < gaps[1] < gaps[0], gaps
+    assert gaps[-1] < 1e-4, gaps
