@@ -11,7 +11,7 @@ import pytest
 from scipy.stats import norm
 
 from femupdate.errors import ConfigError
-from femupdate.inference.analytic import Residuals, linear_gaussian
+from femupdate.inference.analytic import Residuals, exact_log_evidence, linear_gaussian
 from femupdate.inference.importance import (
     TMixture,
     defensive_mixture,
@@ -112,3 +112,21 @@ def test_a_bad_final_option_is_refused() -> None:
     with pytest.raises(ConfigError, match="option 'final'"):
         run_tmcmc(Residuals(CASE).residuals, CASE.prior, CASE.model, population=100,
                   final="is")
+
+
+def test_importance_from_a_tempered_population_meets_the_analytic_check() -> None:
+    """``importance_from``: from the prior, the first stage at β ≥ 0.3 goes to β = 1 by
+    importance sampling (fewer stages than tempering all the way), and the posterior and its
+    evidence (then the importance draws' own estimate) pass the analytic check."""
+    tempered, _ = _importance(3, ess=1500)
+    post, _ = _importance(3, ess=1500, importance_from=0.3)
+    assert post.reached and len(post.stages) < len(tempered.stages)
+    assert post.stages[-1]["beta"] == 1.0
+    x = CASE.prior.to_search(post.samples)
+    sd = np.sqrt(np.diag(CASE.cov))
+    assert np.all(np.abs(x.mean(axis=0) - CASE.mean) <= 0.1 * sd)
+    s = np.sqrt(np.diag(np.cov(x.T)))
+    assert np.all(np.abs(s / sd - 1) <= 0.05)
+    assert post.log_evidence == pytest.approx(exact_log_evidence(CASE), abs=0.15)
+    with pytest.raises(ConfigError, match="importance_from"):
+        _importance(3, importance_from=1.5)

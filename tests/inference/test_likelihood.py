@@ -170,6 +170,27 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
         error_model([slice(1, 5)], "known", sigma=1.0)
 
 
+def test_neff_fixes_each_variance_at_the_best_fit() -> None:
+    """``neff``'s log L is Gaussian with each block's variance ‖r_c*‖²/N_c of the best fit;
+    at the best fit its curvature is the integrated variance's (the same weights), farther
+    out it falls faster; the surrogate's one-value blocks of √S_c give the same log L."""
+    rng = np.random.default_rng(11)
+    best = rng.standard_normal(60)
+    model = error_model([slice(0, 20), slice(20, 60)], "neff", best_residuals=best)
+    ref, n_c = np.array([best[:20] @ best[:20], best[20:] @ best[20:]]), model.counts
+    r = 1.7 * best
+    squares = np.array([r[:20] @ r[:20], r[20:] @ r[20:]])
+    expected = float(np.sum(-0.5 * n_c * (squares / ref + np.log(2 * math.pi * ref / n_c))))
+    assert model.loglike(r) == pytest.approx(expected, rel=1e-12)
+    integrated = unknown_variance([slice(0, 20), slice(20, 60)], n_c)
+    assert np.allclose(model.weights(best), integrated.weights(best), rtol=1e-12)
+    drop = model.loglike(best) - model.loglike(r)
+    assert drop > integrated.loglike(best) - integrated.loglike(r) > 0
+    rows = np.vstack([best, r])
+    sums = np.sqrt(np.column_stack([model.sums_of_squares(rows)]))
+    assert np.allclose(model.of_sums().loglike_rows(sums), model.loglike_rows(rows))
+
+
 def test_known_is_the_gaussian_of_that_variance() -> None:
     rng = np.random.default_rng(9)
     r = rng.standard_normal(40)
