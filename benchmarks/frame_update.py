@@ -90,14 +90,13 @@ def update(case: Case, truth: dict[str, float], out: Path, label: str, quick: bo
           f"({wall / max(evals, 1):.2f} s per evaluation, the fit's analysis included); "
           f"best φ {s.best.phi:.3g}, NMSE {s.best.nmse_percent:.3g} %")
     laplace = s.laplace.params if s.laplace is not None else {}
-    print(f"  {'parameter':>12} {'truth':>8} {'best':>9} {'error':>8}   Laplace 90 % interval")
+    print(f"  {'parameter':>12} {'truth':>8} {'best':>10} {'error':>9}   Laplace 90 % interval")
     for name, value in truth.items():
         best = s.best.params[name]
         m = laplace.get(name)
-        interval = (f"[{m.q05:.4g}, {m.q95:.4g}] holds the truth: {holds(m, value)}"
+        interval = (f"[{m.q05:.6g}, {m.q95:.6g}] holds the truth: {holds(m, value)}"
                     if m is not None else "(none)")
-        print(f"  {name:>12} {value:8.4g} {best:9.4g} {100 * (best / value - 1):+7.2f} %   "
-              f"{interval}")
+        print(f"  {name:>12} {value:8.4g} {best:10.6g} {best / value - 1:+9.1e}   {interval}")
 
 
 def posterior(case: Case, truth: dict[str, float], out: Path) -> None:

@@ -129,8 +129,12 @@ class ErrorModel:
                               f"model was built for {self.size}")
         finite = np.all(np.isfinite(rows), axis=1)
         safe = np.where(finite[:, None], rows, 0.0)
-        squares = self.sums_of_squares(safe)
-        with np.errstate(divide="ignore"):
+        # a diverged run's residuals (states up to 1e150) may square beyond the floats: its
+        # log L is then -inf (its true value lies below -1000 anyway), without an overflow
+        # warning per row
+        with np.errstate(over="ignore"):
+            squares = self.sums_of_squares(safe)
+        with np.errstate(divide="ignore", over="ignore"):
             if self.sigma is not None:
                 sigma2 = self.sigma ** 2
                 lengths = self._white_lengths()
