@@ -77,7 +77,7 @@ def test_cached_gives_the_function_result_once_per_function_and_bytes():
     assert len(calls) == 3
 
 
-def test_cached_keeps_the_latest_few_and_no_exception():
+def test_cached_keeps_the_latest_few_and_no_exception(monkeypatch):
     calls = []
 
     def ident(a):
@@ -89,6 +89,15 @@ def test_cached_keeps_the_latest_few_and_no_exception():
     assert len(_common._CACHE) == CACHE_SIZE
     cached(ident, np.array([0.0]))  # the oldest was dropped: computed again
     assert len(calls) == CACHE_SIZE + 2
+
+    _common._CACHE.clear()
+    monkeypatch.setattr(_common, "CACHE_BYTES", 3000)
+    for i in range(3):  # three of 1,008 bytes pass the byte budget
+        cached(ident, np.full(126, float(i)))
+    assert len(_common._CACHE) == 2
+    huge = np.zeros(376)
+    assert cached(ident, huge).shape == huge.shape  # computed, not kept
+    assert len(_common._CACHE) == 2
 
     def fails(a):
         raise ValueError("no")

@@ -29,10 +29,21 @@ DIVERGENCE_LIMIT = 1e150
 T = TypeVar("T")
 
 #: How many results :func:`cached` keeps per process (the latest used): a search's successive
-#: evaluations share one linear part, a case of several trials or components a few.
+#: evaluations share one linear part, a case of several trials or components a few; and the
+#: bytes their arrays may hold in all (a dense 2,000-DOF model's modes are 32 MB).
 CACHE_SIZE = 8
+CACHE_BYTES = 256 * 2**20
 _CACHE: OrderedDict[tuple[Any, bytes], Any] = OrderedDict()
 _CACHE_LOCK = threading.Lock()
+
+
+def _nbytes(value: Any) -> int:
+    """The bytes of the arrays in a result (an array, or a tuple of them; None: 0)."""
+    if isinstance(value, np.ndarray):
+        return int(value.nbytes)
+    if isinstance(value, tuple):
+        return sum(_nbytes(v) for v in value)
+    return 0
 
 
 def matrix_digest(*arrays: np.ndarray) -> bytes:
@@ -71,9 +82,12 @@ def cached(function: Callable[..., T], *arrays: np.ndarray) -> T:
             _CACHE.move_to_end(key)
             return _CACHE[key]
     value = _frozen(function(*arrays))
+    if _nbytes(value) > CACHE_BYTES:  # kept, it would push out everything else
+        return value
     with _CACHE_LOCK:
         _CACHE[key] = value
-        while len(_CACHE) > CACHE_SIZE:
+        while (len(_CACHE) > CACHE_SIZE
+               or sum(_nbytes(v) for v in _CACHE.values()) > CACHE_BYTES):
             _CACHE.popitem(last=False)
     return value
 
