@@ -15,8 +15,9 @@ Each set of records is updated by ``run_case`` with the case's defaults (what ``
 calls: multistart-lm, the case's runs, seed and budget); the 2 %-noise records then get the
 posterior by ``run_posterior`` (what ``femupdate posterior`` runs) with the case's
 ``[posterior]``: TMCMC from the Laplace Gaussian at the best fit, then importance sampling, one
-run of 200 samples (the default, four runs of 1,000 and more while a parameter is unsettled,
-would take several times the 30 minutes this benchmark is for). ``--surrogate`` runs the
+run of 200 samples, not sampled again from a better fit it finds (the default, four runs of
+1,000, more while a parameter is unsettled, and up to two re-centred passes, would take
+several times the 30 minutes this benchmark is for). ``--surrogate`` runs the
 surrogate-aided posterior instead (``run_case_surrogate``: TMCMC on a Gaussian-process surrogate
 trained at 300 model runs at most, checked against true runs at its samples), which on this
 case does not reach its accuracy within its 300 runs and reports no samples.
@@ -118,6 +119,8 @@ def posterior(case: Case, truth: dict[str, float], out: Path, surrogate: bool) -
     print(f"\nposterior ({record.method}, error model {record.error_model}, {record.runs} runs): "
           f"{record.nfev} model runs, {wall:.0f} s wall ({wall / max(record.nfev, 1):.2f} s "
           f"per run); reached: {record.reached}; {record.agreement or record.message}")
+    for words in record.start_warnings:
+        print(f"  {words}")
     if record.surrogate is not None:
         check = record.surrogate
         print(f"  check at {check.check_runs} true runs: effective share {check.check_ess:.2f} "
