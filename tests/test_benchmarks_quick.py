@@ -73,6 +73,7 @@ QUICK = {
     "external_parallel.py": ("results identical across the three: True",
                              lambda: _module_missing("dask.distributed") or _opensees_missing()),
     "frame3d_opensees.py": ("worst ", _opensees_missing),
+    "frame_update.py": ("2 % noise records: 1 runs, ", _meloland_missing),
     "friction_kernels.py": ("jacobian batch, per point", lambda: None),
     "hysteresis.py": ("4. Three storeys, a slider per storey", lambda: None),
     "hysteretic_frame.py": ("cost per second of record, explicit / implicit",

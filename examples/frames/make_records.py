@@ -1,15 +1,18 @@
-"""The records of examples/frames/isolated-frame.toml: its truth model shaken by both horizontal
-free-field components of a recorded earthquake at once, the sensors' noise added.
+"""The records of a frame case under two recorded components (examples/frames/isolated-frame.toml
+by default, or ``--case``): its truth model shaken by both horizontal free-field components of a
+recorded earthquake at once, the sensors' noise added.
 
 The components are read with femupdate's network reader from the CSMIP archive of the 1979
 Imperial Valley earthquake at the Meloland Road Overcrossing (CESMD station 01336; the data's
 provenance is in ../shared/data/cesmd_meloland/PROVENANCE.md): channel 15 (free field, 360°)
 on x and channel 24 (free field, 270°) on y, a segment of ``--seconds`` from ``--start``,
 scaled by ``--scale`` (the recorded 0.3 m/s² barely strain the links). The virtual experiment
-(``femupdate.trials.virtual``) writes ``base.csv`` (both components) and ``roof.csv`` in the
-case's ``data-synth`` folder, with ``truth.json`` and ``manifest.json``.
+(``femupdate.trials.virtual``) writes the files the case reads (both components, the outputs)
+in the case's ``[data] directory``, with ``truth.json`` and ``manifest.json``. The truth is
+``--truth``, by default ``truth.json`` beside isolated-frame.toml and ``<case>-truth.json``
+beside another case.
 
-    python examples/frames/make_records.py [--data ../shared/data] [--snr 0.02]
+    python examples/frames/make_records.py [--case CASE] [--data ../shared/data] [--snr 0.02]
 """
 
 from __future__ import annotations
@@ -52,12 +55,18 @@ def main() -> None:
     parser.add_argument("--scale", type=float, default=10.0, help="factor on the records")
     parser.add_argument("--snr", type=float, default=0.02, help="noise rms / signal rms")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--case", type=Path, default=HERE / "isolated-frame.toml")
+    parser.add_argument("--truth", type=Path, help="truth values (JSON)")
     args = parser.parse_args()
-    case_file = HERE / "isolated-frame.toml"
+    case_file = args.case
     case = load_case(case_file)
-    truth = json.loads((HERE / "truth.json").read_text())
+    truth_file = args.truth or (case_file.parent / ("truth.json"
+                                                    if case_file.name == "isolated-frame.toml"
+                                                    else f"{case_file.stem}-truth.json"))
+    truth = json.loads(truth_file.read_text())
     motion = free_field(args.data, args.start, args.seconds, args.scale)
-    out = case_file.parent / "data-synth"
+    assert case.data is not None and case.data.directory is not None
+    out = case_file.parent / case.data.directory
     manifest = virtual_experiment(case, truth, out, seed=args.seed, motion=motion,
                                   snr=args.snr, offset=0.0, drift=0.0)
     print(f"{manifest['motion']}; {manifest['samples']} samples; wrote "

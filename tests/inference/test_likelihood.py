@@ -244,3 +244,19 @@ def test_importing_the_posterior_registers_no_method() -> None:
             "femupdate.inference.method.register()\n"
             "assert 'tmcmc' in METHODS\n")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+@pytest.mark.parametrize("size", [4e153, 1e200])
+def test_a_diverged_rows_residuals_give_minus_inf_without_a_warning(size):
+    """Residuals whose squares (or π times them) pass the largest float: that row's log L is
+    -inf, the other rows' stay finite, and nothing warns (a warning per row flooded the
+    surrogate posterior's console)."""
+    import warnings
+
+    model = unknown_variance([slice(0, 4), slice(4, 8)], [4.0, 4.0])
+    rows = np.vstack([np.full(8, size), np.linspace(-1.0, 1.0, 8)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = model.loglike_rows(rows)
+    assert out[0] == -np.inf
+    assert np.isfinite(out[1])

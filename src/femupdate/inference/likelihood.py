@@ -129,15 +129,19 @@ class ErrorModel:
             raise ConfigError(f"error model: residual rows of length {rows.shape[1]}, the "
                               f"model was built for {self.size}")
         finite = np.all(np.isfinite(rows), axis=1)
-        out = self.loglike_of_squares(self.sums_of_squares(np.where(finite[:, None], rows,
-                                                                     0.0)))
+        # a diverged run's residuals (states up to 1e150) may square beyond the floats: its
+        # log L is then -inf (its true value lies below -1000 anyway), without an overflow
+        # warning per row
+        with np.errstate(over="ignore"):
+            squares = self.sums_of_squares(np.where(finite[:, None], rows, 0.0))
+        out = self.loglike_of_squares(squares)
         out[~finite] = -np.inf
         return out
 
     def loglike_of_squares(self, squares: np.ndarray) -> np.ndarray:
         """log L of rows (k, c) of the blocks' sums of squares ‖r_c‖²: shape (k,)."""
         squares = np.atleast_2d(squares)
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):
             if self.sigma is not None:
                 sigma2 = self.sigma ** 2
                 lengths = self._white_lengths()

@@ -628,6 +628,11 @@ class Structure:
     def _xyz(self, node: int) -> tuple[float, float, float]:
         return (*self._xy[node], self._z[node])
 
+    @property
+    def mass_is_constant(self) -> bool:
+        """Whether no parameter changes the mass matrix (nor the base motion's load ``p``)."""
+        return bool(self._topo().mass_const)
+
     def _rigid(self, direction: str | None) -> np.ndarray:
         """Rigid base translation over all global DOFs (fixed ones included)."""
         return rigid_translation(self._topo().dof_names, self.dof_names, self.dofs_per_node,

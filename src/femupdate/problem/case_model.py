@@ -160,6 +160,7 @@ class CaseModel:
         #: The directions of a base motion with several components (``[[data.components]]``
         #: or an input's ``angle``), the columns of its input; empty: one record.
         self.components: tuple[str, ...] = ()
+        self._component_loads: np.ndarray | None = None  # when the mass is constant
         self.reference = np.zeros((len(channels), 0))
         self.external = external_model(case, channels)
         if self.external is not None:
@@ -249,13 +250,24 @@ class CaseModel:
         acceleration, on the case's integrator."""
         from femupdate.simulate.components import components_response
 
+        return components_response(self.simulator(values, dt), ag,
+                                   self.component_loads(values), self.component_influence)
+
+    def component_loads(self, values: Mapping[str, float]) -> np.ndarray:
+        """``p_c`` of each direction of ``components`` (n_dof, k), the base motion's loads at
+        ``values``; assembled once when no parameter changes the mass (they depend on M
+        alone), else at every call."""
         structure = self._builtin("a base motion with several components")
+        if self._component_loads is not None:
+            return self._component_loads
         sparse = self.reduced is not None
         loads = np.column_stack([np.asarray(structure.assemble(
             values, direction=d, sparse=sparse).seismic_load, dtype=float)
             for d in self.components])
-        return components_response(self.simulator(values, dt), ag, loads,
-                                   self.component_influence)
+        if structure.mass_is_constant:
+            loads.setflags(write=False)
+            self._component_loads = loads
+        return loads
 
     def base_share(self, ag: np.ndarray) -> np.ndarray:
         """The base motion's share of each output's absolute acceleration as recorded,

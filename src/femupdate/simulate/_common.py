@@ -5,7 +5,11 @@ Everything a user passes is checked here, once, before any compiled loop runs.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import hashlib
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.linalg as sla
@@ -22,10 +26,88 @@ from femupdate.simulate.response import Response
 DIVERGENCE_LIMIT = 1e150
 
 
+T = TypeVar("T")
+
+#: How many results :func:`cached` keeps per process (the latest used): a search's successive
+#: evaluations share one linear part, a case of several trials or components a few; and the
+#: bytes their arrays may hold in all (a dense 2,000-DOF model's modes are 32 MB).
+CACHE_SIZE = 8
+CACHE_BYTES = 256 * 2**20
+_CACHE: OrderedDict[tuple[Any, bytes], Any] = OrderedDict()
+_CACHE_LOCK = threading.Lock()
+
+
+def _nbytes(value: Any) -> int:
+    """The bytes of the arrays in a result (an array, or a tuple of them; None: 0)."""
+    if isinstance(value, np.ndarray):
+        return int(value.nbytes)
+    if isinstance(value, tuple):
+        return sum(_nbytes(v) for v in value)
+    return 0
+
+
+def matrix_digest(*arrays: np.ndarray) -> bytes:
+    """A digest of the arrays' shapes, dtypes and bytes: equal digests, equal arrays."""
+    h = hashlib.blake2b(digest_size=20)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.shape}{a.dtype.str};".encode())
+        h.update(memoryview(a).cast("B"))
+    return h.digest()
+
+
+def _frozen(value: Any) -> Any:
+    """``value`` with its arrays made read-only (a cached result is shared, never written)."""
+    if isinstance(value, np.ndarray):
+        value.setflags(write=False)
+    elif isinstance(value, tuple):
+        for v in value:
+            _frozen(v)
+    return value
+
+
+def cached(function: Callable[..., T], *arrays: np.ndarray) -> T:
+    """``function(*arrays)``, a pure function of the arrays, or its result for the same
+    function and the same bytes when this process computed it lately (its arrays are then
+    read-only).
+
+    A search changes a nonlinear model's elements (Bouc–Wen, friction) from one evaluation to
+    the next while M, C and K of its linear part stay the same: their factorisations and modes
+    are then computed once (on a 256-DOF frame they cost more than its simulation). The
+    results are those ``function`` gives, bit for bit; an exception is not kept.
+    """
+    key = (function, matrix_digest(*arrays))
+    with _CACHE_LOCK:
+        if key in _CACHE:
+            _CACHE.move_to_end(key)
+            return _CACHE[key]
+    value = _frozen(function(*arrays))
+    if _nbytes(value) > CACHE_BYTES:  # kept, it would push out everything else
+        return value
+    with _CACHE_LOCK:
+        _CACHE[key] = value
+        while (len(_CACHE) > CACHE_SIZE
+               or sum(_nbytes(v) for v in _CACHE.values()) > CACHE_BYTES):
+            _CACHE.popitem(last=False)
+    return value
+
+
+def mass_cholesky(M: np.ndarray) -> np.ndarray:
+    """The lower Cholesky factor of ``M`` (``LinAlgError`` when it is not positive definite)."""
+    return sla.cholesky(M, lower=True, check_finite=False)
+
+
+def mass_inverse(M: np.ndarray) -> np.ndarray:
+    """``M⁻¹`` from its (cached) Cholesky factor."""
+    chol = cached(mass_cholesky, M)
+    return sla.cho_solve((chol, True), np.eye(M.shape[0]), check_finite=False)
+
+
 def check_system(system: System) -> np.ndarray:
     """Raise ModelError unless M, C, K, r and the friction elements are consistent and finite.
 
-    Returns the lower Cholesky factor of M (computed by the positive-definiteness check).
+    Returns the lower Cholesky factor of M (computed by the positive-definiteness check, kept
+    by :func:`cached`).
     """
     n = system.n_dof
     if n < 1:
@@ -41,7 +123,7 @@ def check_system(system: System) -> np.ndarray:
     if not np.all(np.isfinite(system.r)):
         raise ModelError("system.r contains NaN or inf; all entries must be finite")
     try:
-        chol = sla.cholesky(system.M, lower=True, check_finite=False)
+        chol = cached(mass_cholesky, system.M)
     except sla.LinAlgError:
         raise ModelError(
             "system.M is not positive definite; every free DOF needs mass (or rotary inertia)"
@@ -285,13 +367,13 @@ class Simulator:
 
     def __init__(self, system: System, dt: float, outputs: Sequence[int] | np.ndarray | None,
                  substeps: int = 1) -> None:
-        chol = check_system(system)
+        check_system(system)
         self.dt, self.substeps = check_step(dt, substeps)
         self.h = self.dt / self.substeps
         self.n_dof = system.n_dof
         self.outputs = check_outputs(outputs, self.n_dof)
         self._r_out = system.r[self.outputs]
-        self._minv = sla.cho_solve((chol, True), np.eye(self.n_dof), check_finite=False)
+        self._minv = cached(mass_inverse, system.M)
         self._C, self._K, self._p = system.C, system.K, system.seismic_load
 
     def _initial_acceleration(

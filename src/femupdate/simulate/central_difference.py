@@ -44,12 +44,14 @@ from femupdate.model.hysteresis import (
     BOUC_WEN_PARAMETERS,
     bouc_wen_degrading_update,
     bouc_wen_force,
+    bouc_wen_max_tangent,
     bouc_wen_step_limit,
     bouc_wen_update,
 )
 from femupdate.model.system import System
 from femupdate.simulate._common import (
     Simulator,
+    cached,
     check_critical_step,
     element_histories,
     is_diverged,
@@ -274,6 +276,30 @@ def modal_damping(
     return w2, phi, c
 
 
+def stuck_omega_max(w2: np.ndarray, phi: np.ndarray, rows: np.ndarray, k: np.ndarray) -> float:
+    """Largest natural circular frequency (rad/s) of ``(K + Bᵀ diag(k) B, M)`` from the modes
+    of ``(K, M)``.
+
+    Parameters
+    ----------
+    w2, phi : ndarray
+        Eigenvalues of ``(K, M)`` and their mass-normalised modes (``Φᵀ M Φ = I``).
+    rows, k : ndarray
+        The elements' connectivity ``B`` (n_el, n) and their stiffnesses (n_el,).
+
+    Returns
+    -------
+    float
+        ``√λ_max`` of ``diag(ω²) + (BΦ)ᵀ diag(k) (BΦ)``: the same eigenvalues as the
+        generalised problem, by a standard one (no Cholesky of M, no reduction).
+    """
+    n = w2.size
+    bp = rows @ phi
+    a = np.diag(w2) + bp.T @ (k[:, None] * bp)
+    top = sla.eigh(a, eigvals_only=True, subset_by_index=[n - 1, n - 1], check_finite=False)
+    return float(np.sqrt(max(top[-1], 0.0)))
+
+
 class CentralDifferenceSimulator(Simulator):
     """Central differences prepared for one system, sample interval and number of substeps.
 
@@ -296,18 +322,21 @@ class CentralDifferenceSimulator(Simulator):
         n = self.n_dof
         fr = system.friction
         nf = 0 if fr is None else fr.count
+        # the stuck stiffness Bᵀ diag(k) B of the elements, as its rows B and stiffnesses k
+        stuck_rows, stuck_k = [np.zeros((0, n))], [np.zeros(0)]
         if nf:
             bf = fr.connectivity(n)
             active = fr.f_u > 0  # a slider with f_u = 0 never carries force
-            k_stuck = bf[active].T @ (fr.k_r[active, None] * bf[active])
+            stuck_rows.append(bf[active])
+            stuck_k.append(np.asarray(fr.k_r, dtype=float)[active])
         else:
             bf = np.zeros((0, n))
-            k_stuck = 0.0
         bw = system.bouc_wen
         nb = 0 if bw is None else bw.count
         if nb:
             hb = bw.connectivity(n)
-            k_stuck = k_stuck + bw.max_stiffness(n)
+            stuck_rows.append(hb)
+            stuck_k.append(bouc_wen_max_tangent(*bw.table[:, :5].T))
             self._bw = np.ascontiguousarray(bw.table, dtype=np.float64)
             self._bi = np.ascontiguousarray(bw.dof_i, dtype=np.int64)
             self._bj = np.ascontiguousarray(bw.dof_j, dtype=np.int64)
@@ -322,10 +351,14 @@ class CentralDifferenceSimulator(Simulator):
             self._dy_max = np.zeros(0)
         self._hb = hb
         self.n_bouc_wen = nb
-        self.omega_max = omega_max(system.M, system.K + k_stuck)
-        check_critical_step(self.dt, self.substeps, self.omega_max, 2.0, method)
         M, C, K = system.M, system.C, system.K
-        modal = modal_damping(M, C, K)
+        # the modes depend on the linear part alone: a search that changes only the elements
+        # computes them once (femupdate.simulate._common.cached)
+        modal = cached(modal_damping, M, C, K)
+        stuck, k_el = np.vstack(stuck_rows), np.concatenate(stuck_k)
+        self.omega_max = (omega_max(M, K + stuck.T @ (k_el[:, None] * stuck)) if modal is None
+                          else stuck_omega_max(modal[0], modal[1], stuck, k_el))
+        check_critical_step(self.dt, self.substeps, self.omega_max, 2.0, method)
         self.modal = modal is not None
         if modal is None:
             self._prepare_physical(M, C, K, system.seismic_load, bf, method, hb)
