@@ -84,22 +84,33 @@ def building(degrading: bool = True):
     return s.assemble()
 
 
-def opensees_building(ops, ag: np.ndarray, substeps: int, scheme: str) -> np.ndarray:
-    """Floor displacements by OpenSees: ``"central"`` differences or ``"newmark"``."""
+def opensees_building(ops, ag: np.ndarray, substeps: int, scheme: str = "central", *,
+                      dt: float = DT, masses=MASSES, laws=STOREYS,
+                      rayleigh_alpha: float = RAYLEIGH_ALPHA,
+                      beta_kinit: float = 0.0) -> np.ndarray:
+    """Floor displacements of a shear building on zero-length ``BoucWen`` storeys by OpenSees:
+    ``"central"`` differences or ``"newmark"`` (average acceleration, Newton iterations);
+    ``laws`` with the degradation rates ``delta_a, delta_nu, delta_eta`` (default 0);
+    ``beta_kinit``: Rayleigh's β on the storeys' initial stiffness. The tests' OpenSees checks
+    call it too (tests/simulate/test_bouc_wen_opensees.py)."""
     ops.wipe()
     ops.model("basic", "-ndm", 1, "-ndf", 1)
-    for node in (1, 2, 3):
+    for node in range(1, len(masses) + 2):
         ops.node(node, 0.0)
     ops.fix(1, 1)
-    ops.mass(2, MASSES[0])
-    ops.mass(3, MASSES[1])
-    for tag, law in enumerate(STOREYS, start=1):
+    for node, mass in enumerate(masses, start=2):
+        ops.mass(node, mass)
+    for tag, law in enumerate(laws, start=1):
+        # argument order: alpha ko n gamma beta Ao deltaA deltaNu deltaEta
         ops.uniaxialMaterial("BoucWen", tag, law["alpha"], law["k"], law["n"], law["gamma"],
-                             law["beta"], law["A"], law["delta_a"], law["delta_nu"],
-                             law["delta_eta"])
-        ops.element("zeroLength", tag, tag, tag + 1, "-mat", tag, "-dir", 1)
-    ops.rayleigh(RAYLEIGH_ALPHA, 0.0, 0.0, 0.0)
-    ops.timeSeries("Path", 1, "-dt", DT, "-values", *ag.tolist())
+                             law["beta"], law["A"],
+                             *(law.get(key, 0.0) for key in ("delta_a", "delta_nu",
+                                                             "delta_eta")))
+        # a zeroLength element takes part in Rayleigh damping only when told (-doRayleigh)
+        ops.element("zeroLength", tag, tag, tag + 1, "-mat", tag, "-dir", 1,
+                    *(("-doRayleigh", 1) if beta_kinit else ()))
+    ops.rayleigh(rayleigh_alpha, 0.0, beta_kinit, 0.0)
+    ops.timeSeries("Path", 1, "-dt", dt, "-values", *ag.tolist())
     ops.pattern("UniformExcitation", 1, 1, "-accel", 1)
     ops.constraints("Plain")
     ops.numberer("Plain")
@@ -112,11 +123,11 @@ def opensees_building(ops, ag: np.ndarray, substeps: int, scheme: str) -> np.nda
         ops.algorithm("Linear")
         ops.integrator("CentralDifference")
     ops.analysis("Transient")
-    out = np.zeros((ag.size, 2))
+    out = np.zeros((ag.size, len(masses)))
     for k in range(1, ag.size):
-        if ops.analyze(substeps, DT / substeps) != 0:
-            raise SystemExit(f"OpenSees failed at sample {k}")
-        out[k] = ops.nodeDisp(2, 1), ops.nodeDisp(3, 1)
+        if ops.analyze(substeps, dt / substeps) != 0:
+            raise RuntimeError(f"OpenSees failed at sample {k}")
+        out[k] = [ops.nodeDisp(node, 1) for node in range(2, len(masses) + 2)]
     ops.wipe()
     return out
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from bouc_wen_degradation import opensees_building
 
 from femupdate.errors import MissingDependencyError
 from femupdate.model.structure import shear_building
@@ -16,7 +17,6 @@ MASSES = (1.0, 0.8)
 LAWS = [{"k": 4000.0, "alpha": 0.1, "A": 1.0, "beta": 7.5e5, "gamma": 2.5e5, "n": 2.0},
         {"k": 3000.0, "alpha": 0.1, "A": 1.0, "beta": 1.0e6, "gamma": 2.5e5, "n": 2.0}]
 DT = 0.005
-DEGRADATION = ("delta_a", "delta_nu", "delta_eta")
 # 1/J: the record dissipates about 0.2 J per element, so A falls by a fifth, ν rises by 40 %
 DEGRADING = [dict(law, delta_a=1.0, delta_nu=2.0, delta_eta=1.0) for law in LAWS]
 RAYLEIGH_ALPHA = 0.6
@@ -48,44 +48,11 @@ def _record() -> np.ndarray:
 
 def _opensees(ops, ag: np.ndarray, substeps: int, scheme: str = "central",
               beta_kinit: float = 0.0, masses=MASSES, laws=LAWS) -> np.ndarray:
-    """Node displacements by OpenSees: ``"central"`` differences or ``"newmark"`` (average
-    acceleration, Newton iterations); ``beta_kinit``: Rayleigh's β on the initial stiffness;
-    ``masses`` and ``laws`` the building's storeys (default the two of this module), the laws
-    with the degradation rates ``delta_a, delta_nu, delta_eta`` (default 0)."""
-    ops.wipe()
-    ops.model("basic", "-ndm", 1, "-ndf", 1)
-    for node in range(1, len(masses) + 2):
-        ops.node(node, 0.0)
-    ops.fix(1, 1)
-    for node, mass in enumerate(masses, start=2):
-        ops.mass(node, mass)
-    for tag, law in enumerate(laws, start=1):
-        # argument order: alpha ko n gamma beta Ao deltaA deltaNu deltaEta
-        ops.uniaxialMaterial("BoucWen", tag, law["alpha"], law["k"], law["n"], law["gamma"],
-                             law["beta"], law["A"], *(law.get(key, 0.0) for key in DEGRADATION))
-        # a zeroLength element takes part in Rayleigh damping only when told (-doRayleigh)
-        ops.element("zeroLength", tag, tag, tag + 1, "-mat", tag, "-dir", 1,
-                    *(("-doRayleigh", 1) if beta_kinit else ()))
-    ops.rayleigh(RAYLEIGH_ALPHA, 0.0, beta_kinit, 0.0)
-    ops.timeSeries("Path", 1, "-dt", DT, "-values", *ag.tolist())
-    ops.pattern("UniformExcitation", 1, 1, "-accel", 1)
-    ops.constraints("Plain")
-    ops.numberer("Plain")
-    ops.system("FullGeneral")
-    if scheme == "newmark":
-        ops.test("NormDispIncr", 1e-14, 50)
-        ops.algorithm("Newton")
-        ops.integrator("Newmark", 0.5, 0.25)
-    else:
-        ops.algorithm("Linear")
-        ops.integrator("CentralDifference")
-    ops.analysis("Transient")
-    out = np.zeros((ag.size, len(masses)))
-    for k in range(1, ag.size):
-        assert ops.analyze(substeps, DT / substeps) == 0
-        out[k] = [ops.nodeDisp(node, 1) for node in range(2, len(masses) + 2)]
-    ops.wipe()
-    return out
+    """Node displacements by OpenSees (the benchmark's driver) for this module's building:
+    ``"central"`` differences or ``"newmark"``; ``beta_kinit``: Rayleigh's β on the initial
+    stiffness; ``masses`` and ``laws`` the storeys (default the two of this module)."""
+    return opensees_building(ops, ag, substeps, scheme, dt=DT, masses=masses, laws=laws,
+                             rayleigh_alpha=RAYLEIGH_ALPHA, beta_kinit=beta_kinit)
 
 
 def test_building_agrees_with_opensees_at_its_first_order(ops) -> None:
