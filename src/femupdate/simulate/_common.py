@@ -289,6 +289,8 @@ def check_critical_step(
         f"{method}: the time step h = dt/substeps = {h:.6g} s is not stable; the largest stable "
         f"step is {h_crit:.6g} s ({omega_crit:g}/ω_max, ω_max = {w_max:.6g} rad/s = "
         f"{w_max / (2 * np.pi):.6g} Hz); use substeps >= {needed} at dt = {dt:.6g} s"
+        + ("" if method != "nonlinear" else ", or method 'implicit' ([simulation] method = "
+           "\"implicit\" in a case), which needs no step below the stiffest element's")
     )
 
 
