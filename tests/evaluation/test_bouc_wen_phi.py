@@ -77,6 +77,19 @@ def _points(problem: UpdateProblem, count: int) -> np.ndarray:
     return lower + (upper - lower) * rng.random((count, lower.size))
 
 
+def _compiled_and_reference(problem: UpdateProblem, count: int):
+    """The first trial's compiled evaluator, ``count`` points, φ of its compiled run at them
+    (every point on the compiled path: asserted) and φ of the reference path."""
+    trial = problem.trials[0]
+    evaluator = evaluator_for(trial)
+    X = _points(problem, count)
+    phi = np.empty(len(X))
+    status = np.ones(len(X), dtype=np.int64)
+    evaluator._run(np.ascontiguousarray(X), False, phi, status)
+    assert not status.any()  # every point on the compiled path
+    return evaluator, X, phi, np.array([trial.phi_reference(x) for x in X])
+
+
 @pytest.mark.parametrize("quantity", ["acceleration", "displacement"])
 def test_compiled_phi_equals_the_reference(tmp_path: Path, quantity: str) -> None:
     """Same recurrence, same law: φ to rounding; a batch is its
@@ -104,14 +117,7 @@ def test_non_proportional_damping_runs_the_physical_kernel(tmp_path: Path) -> No
     compiled, and agrees with the reference's physical kernel to rounding (measured 4.4e-13;
     9.6e-13 in displacements)."""
     problem = _problem(tmp_path, "acceleration", "dampers = [0.5, 0.4]")
-    trial = problem.trials[0]
-    evaluator = evaluator_for(trial)
-    X = _points(problem, 4)
-    phi = np.empty(4)
-    status = np.ones(4, dtype=np.int64)
-    evaluator._run(np.ascontiguousarray(X), False, phi, status)
-    assert not status.any()
-    reference = [trial.phi_reference(x) for x in X]
+    evaluator, X, _, reference = _compiled_and_reference(problem, 4)
     np.testing.assert_allclose(evaluator.batch(X), reference, rtol=1e-10, atol=0)
 
 
@@ -124,16 +130,9 @@ def test_rayleigh_beta_on_the_links_compiled(tmp_path: Path, bouc_wen: bool) -> 
     links = "" if bouc_wen else "\nbouc_wen = false"
     problem = _problem(tmp_path, "acceleration",
                        "[model.rayleigh]\nalpha = 0.6\nbeta = 1e-3" + links)
-    trial = problem.trials[0]
-    evaluator = evaluator_for(trial)
-    X = _points(problem, 4)
-    phi = np.empty(len(X))
-    status = np.ones(len(X), dtype=np.int64)
-    evaluator._run(np.ascontiguousarray(X), False, phi, status)
-    assert not status.any()  # every point on the compiled path
-    reference = np.array([trial.phi_reference(x) for x in X])
+    _, _, phi, reference = _compiled_and_reference(problem, 4)
     np.testing.assert_allclose(phi, reference, rtol=1e-10, atol=0)
-    system = trial.structure.assemble(TRUTH)
+    system = problem.trials[0].structure.assemble(TRUTH)
     links = system.C - 0.6 * system.M - 1e-3 * system.K
     assert (np.abs(links).max() > 1.0) == bouc_wen  # β k₀ of the links, or nothing
 
@@ -152,14 +151,7 @@ def test_compiled_phi_with_degradation(tmp_path: Path, dampers: str) -> None:
     virtual_experiment(case, {**TRUTH, "dnu": 4.0}, tmp_path / "data", seed=7, rate=200.0,
                        duration=1.5, pga_g=0.35)
     problem = UpdateProblem(case, load_experiments(case))
-    trial = problem.trials[0]
-    evaluator = evaluator_for(trial)
-    X = _points(problem, 4)
-    phi = np.empty(len(X))
-    status = np.ones(len(X), dtype=np.int64)
-    evaluator._run(np.ascontiguousarray(X), False, phi, status)
-    assert not status.any()  # every point on the compiled path
-    reference = np.array([trial.phi_reference(x) for x in X])
+    evaluator, X, phi, reference = _compiled_and_reference(problem, 4)
     np.testing.assert_allclose(phi, reference, rtol=1e-10, atol=0)
     column = problem.names.index("dnu")
     still = X.copy()

@@ -41,6 +41,7 @@ from femupdate.model.hysteresis import (
     bouc_wen_degrading_update,
     bouc_wen_force,
     bouc_wen_update,
+    row_degrades,
 )
 from femupdate.model.structure import Structure
 from femupdate.simulate._common import DIVERGENCE_LIMIT
@@ -153,7 +154,7 @@ def _advance(bw: BoucWenPlan, e: int, y: float) -> float:
     """Element ``e``'s ``z`` (and with degradation its energy) advanced to the deformation
     ``y`` from ``bw.state``, as the simulator's ``_bouc_wen_step``; its force."""
     t = bw.table
-    if t[e, 6] == 0.0 and t[e, 7] == 0.0 and t[e, 8] == 0.0:
+    if not row_degrades(t, e):
         z = bouc_wen_update(bw.state[1, e], y - bw.state[0, e], t[e, 2], t[e, 3], t[e, 4],
                             t[e, 5], bw.dy_max[e])
     else:

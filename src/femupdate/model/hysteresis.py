@@ -73,6 +73,7 @@ __all__ = [
     "bouc_wen_update",
     "check_bouc_wen_parameters",
     "is_degrading",
+    "row_degrades",
     "ultimate_deformation_issue",
 ]
 
@@ -302,6 +303,13 @@ def bouc_wen_degrading_update_tangent(z: float, e: float, dy: float, A: float, b
 def bouc_wen_force(y: float, z: float, k: float, alpha: float) -> float:
     """Force ``α k y + (1 − α) k z``, positive in tension."""
     return k * (alpha * y + (1.0 - alpha) * z)
+
+
+@njit(cache=True, inline="always")
+def row_degrades(table: np.ndarray, e: int) -> bool:
+    """Whether row ``e`` of a parameter table has a non-zero degradation rate (the compiled
+    kernels' test; :func:`is_degrading` for whole tables)."""
+    return table[e, 6] != 0.0 or table[e, 7] != 0.0 or table[e, 8] != 0.0
 
 
 def is_degrading(table: np.ndarray) -> np.ndarray:

@@ -47,6 +47,7 @@ from femupdate.model.hysteresis import (
     bouc_wen_max_tangent,
     bouc_wen_step_limit,
     bouc_wen_update,
+    row_degrades,
 )
 from femupdate.model.system import System
 from femupdate.simulate._common import (
@@ -77,7 +78,7 @@ def _sample_arrays(ns, no, nf, nb):
 def _bouc_wen_step(e, y, yb, zb, eb, bw, dy_max):
     """Advance element ``e``'s ``z`` (and with degradation its energy ``eb[e]``) to the
     deformation ``y`` and return its force."""
-    if bw[e, 6] == 0.0 and bw[e, 7] == 0.0 and bw[e, 8] == 0.0:
+    if not row_degrades(bw, e):
         zb[e] = bouc_wen_update(zb[e], y - yb[e], bw[e, 2], bw[e, 3], bw[e, 4], bw[e, 5],
                                 dy_max[e])
     else:

@@ -72,6 +72,7 @@ from femupdate.model.hysteresis import (
     bouc_wen_force,
     bouc_wen_rate,
     bouc_wen_step_limit,
+    row_degrades,
 )
 from femupdate.model.system import System
 from femupdate.simulate._common import (
@@ -220,7 +221,7 @@ def _element_laws(y: np.ndarray, y_old: np.ndarray, state: np.ndarray, nf: int,
         e = nf + b
         step = y[e] - y_old[e]
         count = max(1, math.ceil(abs(step) / dy_max[b]))  # parts of at most 1/(2λ)
-        if bw[b, 6] != 0.0 or bw[b, 7] != 0.0 or bw[b, 8] != 0.0:
+        if row_degrades(bw, b):
             # degradation: z and the energy together, as fine as the degraded law needs
             c = (1.0 - bw[b, 1]) * bw[b, 0]
             count = max(count, bouc_wen_degrading_parts(
