@@ -195,3 +195,24 @@ def test_the_command_line_prints_a_warning_on_one_line(case_file: Path, tmp_path
     said = " ".join(text.split())
     assert "warning: " in said and "only their overlap is used" in said
     assert "FemupdateWarning" not in text and ".py:" not in text  # no Python source echo
+
+
+def test_trial_tables_fold_long_names_whole_at_80_columns() -> None:
+    from types import SimpleNamespace
+
+    from femupdate.cli.tables import print_trials
+
+    name = "very-long-trial-name-of-a-shake-table-run-number-1"
+    channel = "roof_acceleration_north_of_the_specimen"
+    trial = SimpleNamespace(name=name, role="validate", phi=0.123456,
+                            nmse_per_channel={channel: 0.1, "floor1": 0.3},
+                            delays_s={channel: 0.0233}, notes=[])
+    out = io.StringIO()
+    print_trials([trial], "title", out=Console(file=out, width=WIDTH))
+    text = out.getvalue()
+    _lines_fit(text)
+    assert "…" not in text
+    cells = [line.split("│") for line in text.splitlines() if line.startswith("│")]
+    column = ["".join(row[i].strip() for row in cells) for i in range(1, 6)]
+    assert column[0] == name  # the trial's name, folded over lines, whole
+    assert channel in column[3] and channel in column[4]

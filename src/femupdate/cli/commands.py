@@ -339,7 +339,7 @@ def modes(
                  + (" (Bouc–Wen initial tangent)" if system.n_bouc_wen else ""))
     table = Table(title=title)
     for col in ("mode", "f [Hz]", "damped f [Hz]", "ζ [%]"):
-        table.add_column(col, justify="right")
+        table.add_column(col, justify="right", overflow="fold")
     above = False
     match = pair_modes(np.asarray(freqs), np.asarray(damped.freqs_hz))
     for i, f in enumerate(freqs):

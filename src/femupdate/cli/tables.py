@@ -67,7 +67,7 @@ def _print_bridge(summary: Summary) -> None:
         return
     freqs = Table(title="natural frequencies [Hz] (paper Tables 7 and 11)")
     for col in ("mode", "truth", "best", "mean ± std (successful)", "best error"):
-        freqs.add_column(col, justify="right")
+        freqs.add_column(col, justify="right", overflow="fold")
     spread = summary.spread.frequencies_hz
     for i, (ft, fb) in enumerate(zip(bench.truth_frequencies_hz[:4],
                                      summary.best.frequencies_hz[:4], strict=True)):
@@ -79,7 +79,7 @@ def _print_bridge(summary: Summary) -> None:
     ident = summary.identifiability or {}
     errs = Table(title="best run against the truth; Δφ for a 1 % change of each parameter")
     for col in ("parameter", "truth", "best", "error", "Δφ (1 %)"):
-        errs.add_column(col, justify="right")
+        errs.add_column(col, justify="right", overflow="fold")
     best = summary.best.params
     change = ident.get("phi_change_1pct", {})
     for name, value in bench.truth.items():
@@ -111,7 +111,7 @@ def _print_bridge(summary: Summary) -> None:
 def _params_table(title: str, rows: list[tuple[str, str, str]]) -> Table:
     table = Table(title=Text(title))
     for col in ("parameter", "value", "spread (successful runs)"):
-        table.add_column(col, justify="right")
+        table.add_column(col, justify="right", overflow="fold")
     for row in rows:
         table.add_row(*row)
     return table
@@ -172,7 +172,8 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
                  caption=Text(meaning))
     for col in ("run", "NMSE %", "evals", "stop", header, *(["restarts"] if restarted else []),
                 "at a bound"):
-        runs.add_column(col, justify="left" if col in ("stop", "at a bound") else "right")
+        runs.add_column(col, justify="left" if col in ("stop", "at a bound") else "right",
+                        overflow="fold")
     for r in summary.runs:
         bound = ", ".join(f"{n} {side}" for n, side in r.at_bounds.items()) or "–"
         runs.add_row(str(r.index), f"{100 * r.phi:.4g}", f"{r.nfev:,}", ", ".join(r.stop),
@@ -184,9 +185,9 @@ def print_update_summary(summary: Summary, out: Console | None = None) -> None:
     for k, group in enumerate(groups):
         part = f" ({k + 1}/{len(groups)})" if len(groups) > 1 else ""
         table = Table(title=Text(f"parameters of each run{part}"))
-        table.add_column("run", justify="right")
+        table.add_column("run", justify="right", overflow="fold")
         for j in group:
-            table.add_column(names[j], justify="right")
+            table.add_column(names[j], justify="right", overflow="fold")
         for r, row in zip(summary.runs, values, strict=True):
             table.add_row(str(r.index), *(row[j] for j in group))
         out.print(table)
@@ -261,7 +262,7 @@ def print_trials(trials: list[TrialRecord], title: str, *, out: Console | None =
         return
     table = Table(title=Text(title))
     for col in ("trial", "role", "NMSE %", "channels: NMSE %", "delays removed"):
-        table.add_column(col, justify="right")
+        table.add_column(col, justify="right", overflow="fold")
     for t in trials:
         channels = ", ".join(f"{c} {100 * v:.4g}" for c, v in t.nmse_per_channel.items())
         delays = ", ".join(f"{c} {1e3 * d:.2f} ms" for c, d in t.delays_s.items()) or "–"
@@ -276,7 +277,7 @@ def print_coverage(bands: list[Any], title: str = "5–95 % predictive bands") -
     """The share of each trial's measured record inside its predictive band."""
     table = Table(title=Text(f"{title}: share of the measured record inside"))
     for col in ("trial", "role", "channels: covered"):
-        table.add_column(col, justify="right")
+        table.add_column(col, justify="right", overflow="fold")
     for b in bands:
         table.add_row(Text(b.trial), b.role, Text(", ".join(
             f"{c} {100 * v:.1f} %" for c, v in zip(b.channels, b.coverage, strict=True))))
@@ -313,9 +314,9 @@ def _shapes_table(labels: list[str], shapes: np.ndarray, freqs: np.ndarray) -> T
     k = min(SHAPES_SHOWN, shapes.shape[1])
     table = Table(title=f"mode shapes of modes 1–{k} (undamped), each scaled to a largest "
                         "component of ±1")
-    table.add_column("DOF", justify="left")
+    table.add_column("DOF", justify="left", overflow="fold")
     for i in range(k):
-        table.add_column(f"mode {i + 1}", justify="right")
+        table.add_column(f"mode {i + 1}", justify="right", overflow="fold")
     scaled = shapes[:, :k] / np.where(np.abs(shapes[:, :k]).max(axis=0) > 0,
                                       np.abs(shapes[:, :k]).max(axis=0), 1.0)
     for label, row in zip(labels, scaled, strict=True):
