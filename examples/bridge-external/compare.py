@@ -30,8 +30,8 @@ from femupdate.case import parse_case
 from femupdate.errors import ConfigError
 from femupdate.model.modes import natural_frequencies
 from femupdate.paper.problems import bridge
-from femupdate.simulate import prepare
 from femupdate.problem.update import UpdateProblem
+from femupdate.simulate import prepare
 
 HERE = Path(__file__).resolve().parent
 OUTPUTS = [[2, 2], [3, 2], [4, 2]]  # OpenSees node tags of P1, P2, P3; DOF 2 = uy

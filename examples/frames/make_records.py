@@ -21,30 +21,22 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
-
 from femupdate.case import load_case
-from femupdate.data.network import read_network_records
-from femupdate.trials.virtual import Motion, virtual_experiment
+from femupdate.trials.virtual import Motion, recorded_motion, virtual_experiment
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1].parent / "shared" / "data"
 EVENT = "cesmd_meloland/imperialvalley1979_ce01336.zip"
 CHANNELS = (15, 24)  # free field 360° (x), 270° (y)
+RATE = 100.0  # Hz, the rate of these channels
 
 
 def free_field(data: Path, start: float, seconds: float, scale: float) -> Motion:
-    """The two free-field components (m/s², a column each) of the segment, scaled."""
-    x, y = read_network_records(data / EVENT, CHANNELS)
-    if x.dt != y.dt:
-        raise SystemExit(f"channels {CHANNELS} differ in rate ({x.dt} and {y.dt} s)")
-    first, n = round(start / x.dt), round(seconds / x.dt)
-    n = min(n, x.acceleration.size - first, y.acceleration.size - first)
-    ag = scale * np.column_stack([x.acceleration[first:first + n],
-                                  y.acceleration[first:first + n]])
-    return Motion(ag, x.dt, f"{EVENT}: channels {CHANNELS[0]} ({x.direction}, on x) and "
-                  f"{CHANNELS[1]} ({y.direction}, on y), {seconds:g} s from {start:g} s, "
-                  f"×{scale:g}")
+    """The two free-field components (m/s², a column each) of the segment, scaled: what
+    ``femupdate synth --motion ARCHIVE --channels 15,24 --motion-start 3 --motion-seconds 8
+    --motion-scale 10 --length-scale 1 --rate 100`` reads."""
+    return recorded_motion(data / EVENT, rate=RATE, length_scale=1.0, channels=CHANNELS,
+                           start=start, seconds=seconds, scale=scale)
 
 
 def main() -> None:

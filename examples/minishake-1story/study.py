@@ -40,8 +40,8 @@ from femupdate.case import Case, parse_case
 from femupdate.console import one_line_warnings
 from femupdate.data import signal
 from femupdate.errors import DataError, FemupdateError
-from femupdate.trials.experiment import Experiment
 from femupdate.pipeline.run import UpdateResult, run_case, with_data_directory
+from femupdate.trials.experiment import Experiment
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]

@@ -530,3 +530,39 @@ def test_example_frame_on_100_links_under_the_recorded_components(tmp_path):
     base = problem.simulate(truth).acceleration
     nudged = problem.simulate({**truth, "alpha": truth["alpha"] * (1 + 1e-12)}).acceleration
     assert _nmse(nudged, base) < 1e-16
+
+
+def test_synth_shakes_the_frame_with_two_channels_of_a_network_archive(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    from typer.testing import CliRunner
+
+    from femupdate.cli.commands import app
+    from femupdate.data.io import read_csv
+    from femupdate.data.network import read_network_records
+    from femupdate.trials.virtual import recorded_motion
+
+    folder = Path(__file__).resolve().parents[2] / "examples" / "frames"
+    archive = folder.parents[1].parent / "shared" / "data" / "cesmd_meloland" / \
+        "imperialvalley1979_ce01336.zip"
+    if not archive.exists():
+        pytest.skip(f"the Meloland records are not in {archive.parent}")
+    shutil.copy(folder / "isolated-frame.toml", tmp_path)
+    result = CliRunner().invoke(app, [
+        "synth", str(tmp_path / "isolated-frame.toml"), "--truth", str(folder / "truth.json"),
+        "--out", str(tmp_path / "out"), "--motion", str(archive), "--channels", "15,24",
+        "--motion-start", "3", "--motion-seconds", "1", "--motion-scale", "10",
+        "--length-scale", "1", "--rate", "100", "--snr", "0"])
+    assert result.exit_code == 0, result.output
+    x, y = read_network_records(archive, (15, 24))
+    base = read_csv(tmp_path / "out" / "base.csv", time="t").channels
+    # the window of both channels, scaled, at their own rate (resampling by 1 leaves them)
+    np.testing.assert_allclose(base["ax"], 10.0 * x.acceleration[300:400], rtol=1e-12)
+    np.testing.assert_allclose(base["ay"], 10.0 * y.acceleration[300:400], rtol=1e-12)
+    said = " ".join(result.output.split())
+    assert "channel 15 (360 Deg) and channel 24 (270 Deg), 1 s from 3 s, ×10" in said
+    with pytest.raises(ConfigError, match=r"26 channels .*--channels naming one per"):
+        recorded_motion(archive, rate=100.0, length_scale=1.0)
+    with pytest.raises(ConfigError, match="the window holds no samples"):
+        recorded_motion(archive, rate=100.0, length_scale=1.0, channels=(15,), start=1e4)

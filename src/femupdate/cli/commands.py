@@ -450,6 +450,17 @@ def validate(
     _write_json(json_path, report)
 
 
+def _channel_list(text: str | None) -> list[int | str] | None:
+    """``--channels``: comma-separated station channel numbers or selectors."""
+    if text is None:
+        return None
+    items = [item.strip() for item in text.split(",")]
+    if not all(items):
+        raise ConfigError(f"--channels: got {text!r} (allowed: channel numbers or "
+                          "'location / direction' selectors separated by commas)")
+    return [int(item) if item.isdigit() else item for item in items]
+
+
 @app.command()
 def synth(
     case_file: CaseArgument,
@@ -468,8 +479,21 @@ def synth(
     pga: Annotated[float, typer.Option(help="Peak ground acceleration of the EC8 spectrum, g."
                                        )] = 0.25,
     motion: Annotated[Path | None, typer.Option(
-        help="A recorded ground motion (El Centro formats, e.g. "
-             "../shared/data/elcentro1940/...) instead of the EC8 artificial one.")] = None,
+        help="A recorded ground motion instead of the EC8 artificial one: an El Centro record "
+             "(e.g. ../shared/data/elcentro1940/...) or a network record (an event's zip "
+             "archive, a .V2/.V2c/.AT2 file).")] = None,
+    channels: Annotated[str | None, typer.Option(
+        help="The network record's channels, comma-separated, one per component "
+             "([[data.components]]) or support group of the case, in its order: station "
+             "channel numbers or 'location / direction' selectors (`femupdate inspect` "
+             "lists them).")] = None,
+    motion_start: Annotated[float, typer.Option(
+        min=0.0, help="Start of the recorded motion's window, s of the record.")] = 0.0,
+    motion_seconds: Annotated[float | None, typer.Option(
+        min=0.0, help="Length of the recorded motion's window, s of the record (default: to "
+        "its end).")] = None,
+    motion_scale: Annotated[float, typer.Option(
+        min=0.0, help="Factor on the recorded motion's accelerations.")] = 1.0,
     length_scale: Annotated[float, typer.Option(
         help="Model length scale λ; time scales by √λ. The default, 1/50, is the paper's 1:50 "
              "model (a motion 7.1× faster than full scale); 1 for a full-scale structure.")
@@ -499,8 +523,14 @@ def synth(
         raise ConfigError(f"--rate: got {rate:g} (allowed: a sampling rate in (0, 1e7] Hz)")
     offset = (SYNTH_OFFSET if snr > 0 else 0.0) if offset is None else offset
     drift = (SYNTH_DRIFT if snr > 0 else 0.0) if drift is None else drift
+    if motion is None and (channels is not None or motion_seconds is not None
+                           or motion_start != 0.0 or motion_scale != 1.0):
+        raise ConfigError("--channels, --motion-start, --motion-seconds and --motion-scale "
+                          "choose a recorded motion's part (allowed: with --motion)")
     base = (None if motion is None
-            else virtual.recorded_motion(motion, rate=rate, length_scale=length_scale))
+            else virtual.recorded_motion(motion, rate=rate, length_scale=length_scale,
+                                         channels=_channel_list(channels), start=motion_start,
+                                         seconds=motion_seconds, scale=motion_scale))
     manifest = virtual.virtual_experiment(case, values, out, seed=seed, motion=base, snr=snr,
                                           offset=offset, drift=drift, duration=duration,
                                           rate=rate, pga_g=pga, length_scale=length_scale)

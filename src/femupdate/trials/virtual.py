@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import json
 import math
+import zipfile
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,13 +89,67 @@ def ec8_motion(rng: np.random.Generator, *, rate: float, duration: float, pga_g:
                   f"{scale_words(length_scale)}")
 
 
-def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50) -> Motion:
-    """A recorded ground motion (El Centro formats) time-scaled by √λ and resampled."""
-    t, ag = datasets.read_elcentro(path)
-    t_model = synth.scale_time(t, length_scale)
-    _, resampled = io.resample(t_model, ag, rate)
-    return Motion(resampled, 1.0 / rate,
-                  f"{Path(path).name}, {scale_words(length_scale)}, resampled to {rate:g} Hz")
+def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50,
+                    channels: Sequence[int | str] | None = None, start: float = 0.0,
+                    seconds: float | None = None, scale: float = 1.0) -> Motion:
+    """A recorded ground motion, cut to a window, scaled, time-scaled by √λ and resampled.
+
+    Parameters
+    ----------
+    path : Path
+        An El Centro record (the formats of ``read_elcentro``), or a network record
+        (``femupdate.data.network``: an event's zip archive, a folder, a ``.V2``/``.V2c``/
+        ``.AT2`` file).
+    rate : float
+        Sampling rate of the motion, Hz (model scale).
+    length_scale : float
+        Model length scale λ; time scales by √λ.
+    channels : sequence of int or str, optional
+        The network record's channels, one per component or support group of the case, in
+        its order (station channel numbers or ``"location / direction"`` selectors). None:
+        the record's only channel (a network record of several channels needs them).
+    start, seconds : float
+        The window, in seconds of the record (full scale): from ``start``, ``seconds`` long
+        (None: to the end).
+    scale : float
+        Factor on the accelerations.
+    """
+    if channels is None and not network_record(path):
+        t, ag = datasets.read_elcentro(path)
+        parts, what = [(t, ag)], Path(path).name
+    else:
+        found = network.read_network_records(path, channels)
+        if channels is None and len(found) > 1:
+            raise ConfigError(f"--motion {path}: {len(found)} channels "
+                              f"({', '.join(str(ch.number) for ch in found)}) (allowed: "
+                              "--channels naming one per component or support group)")
+        parts = [(ch.dt * np.arange(ch.acceleration.size), ch.acceleration) for ch in found]
+        what = f"{Path(path).name}: " + " and ".join(
+            f"channel {ch.number} ({ch.direction})" for ch in found)
+    end = math.inf if seconds is None else start + seconds
+    columns = []
+    for t, ag in parts:
+        inside = (t >= start - 1e-9) & (t < end - 1e-9)
+        if np.count_nonzero(inside) < 2:
+            raise ConfigError(f"--motion-start {start:g}, --motion-seconds {seconds}: the window "
+                              f"holds no samples of {what} (allowed: a window inside its "
+                              f"{t[-1]:g} s)")
+        t_model = synth.scale_time(t[inside] - t[inside][0], length_scale)
+        columns.append(io.resample(t_model, scale * ag[inside], rate)[1])
+    n = min(c.size for c in columns)
+    ag = columns[0] if len(columns) == 1 else np.column_stack([c[:n] for c in columns])
+    window = ("" if start == 0.0 and seconds is None else
+              f", {'the rest' if seconds is None else f'{seconds:g} s'} from {start:g} s")
+    return Motion(ag, 1.0 / rate, f"{what}{window}{'' if scale == 1.0 else f', ×{scale:g}'}"
+                  f", {scale_words(length_scale)}, resampled to {rate:g} Hz")
+
+
+def network_record(path: Path) -> bool:
+    """Whether ``path`` is read as a network record (a zip archive, a folder, or a file of a
+    network's format) rather than as an El Centro record."""
+    path = Path(path)
+    return (path.is_dir() or path.suffix.lower() in (".zip", ".v2", ".v2c", ".at2")
+            or (path.is_file() and zipfile.is_zipfile(path)))
 
 
 def scale_words(length_scale: float) -> str:
