@@ -26,7 +26,8 @@ Sections (``--only`` takes a comma-separated list):
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
   ``--product`` runs each replicate through ``femupdate posterior`` itself instead (the
-  case's search of ``--fit-runs`` runs of ``--fit-evals`` evaluations, then the default
+  case's search of ``--fit-runs`` runs of ``--fit-evals`` evaluations, or with ``--fit-runs
+  0`` the example's own ``[search]`` as a user runs it, then the default
   ``[posterior]``, without re-centring and with ``--recentre``), and prints the start's
   verdict beside the runs'.
 - ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
@@ -470,8 +471,12 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     bridge_problem(model, truth, work, int(rng.integers(2 ** 31)))
     search_seed, posterior_seed = (int(v) for v in np.random.SeedSequence(
         child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2))
-    spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
-                      "max_evals": fit_evals}
+    if fit_runs:
+        spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
+                          "max_evals": fit_evals}
+    else:  # the case's own search, as a user runs it on noisy records: no f_target
+        spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
+            "seed": search_seed}
     spec["posterior"] = {"seed": posterior_seed} | (
         {} if error_model is None else {"error_model": error_model})
     sampled = error_model or DEFAULT_KIND
@@ -620,9 +625,11 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
     if product:
         drawn = "from the prior" if truth is None else "fixed: " + ", ".join(
             f"{k} = {v:g}" for k, v in truth.items())
+        searched = (f"{fit_runs} run(s) of multistart-lm, {fit_evals:,} evaluations each"
+                    if fit_runs else "the example's own [search], f_target removed")
         print(f"\n## Calibration: {model} bridge, 2 % noise, {replicates} replicates (truth "
               f"{drawn}, fresh noise), through femupdate posterior: the case's search "
-              f"({fit_runs} run(s) of multistart-lm, {fit_evals:,} evaluations each), then "
+              f"({searched}), then "
               f"the default [posterior], without re-centring and with recentre = {recentre}")
     else:
         print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
@@ -1158,7 +1165,8 @@ def main() -> None:
                         "--truth examples/bridge/truth-friction.json for the friction bridge "
                         "at its truth)")
     parser.add_argument("--fit-runs", type=int, default=1,
-                        help="with --product: the case's [search] runs")
+                        help="with --product: the case's [search] runs (0: the example case's "
+                        "own [search], f_target removed, as a user runs it)")
     parser.add_argument("--recentre", type=int, default=2,
                         help="with --product: [posterior] recentre of the second pass")
     parser.add_argument("--tmcmc-from-prior", action="store_true",

@@ -29,7 +29,8 @@ from femupdate.inference.neff import effective_count
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
 #: The kinds here, in the order the benchmark prints them.
-KINDS: tuple[str, ...] = ("neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
+KINDS: tuple[str, ...] = ("neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "eiv",
+                          "spectral")
 
 
 def autocorrelation_count(r: np.ndarray) -> float:
@@ -267,10 +268,44 @@ class EIV(ErrorModelKind):
                                    spectral=spectral)
 
 
+def spectral_count(r: np.ndarray, half_width: int = 3) -> float:
+    """ν = 2 (Σ_j S_j)² / Σ_j S_j² over the one-sided frequencies: the degrees of freedom of
+    ‖r‖² as a scaled χ² (its mean and variance matched, Satterthwaite 1946), S_j the
+    periodogram smoothed over 2·half_width + 1 bins (Daniell), its own variance taken out of
+    Σ S_j²; N for white noise, about 2·B·T for noise of bandwidth B over T."""
+    r = np.asarray(r, dtype=float)
+    periodogram = np.abs(np.fft.rfft(r - r.mean()))[1:] ** 2
+    width = 2 * half_width + 1
+    smoothed = np.convolve(np.pad(periodogram, half_width, mode="reflect"),
+                           np.full(width, 1.0 / width), mode="valid")
+    nu = 2.0 * smoothed.sum() ** 2 / (smoothed @ smoothed) * (1.0 + 1.0 / width)
+    return float(min(nu, r.size))
+
+
+class Spectral(ErrorModelKind):
+    """N_c = :func:`spectral_count` of the block less the removed values; each block's
+    variance fixed at the best fit's (:class:`~femupdate.inference.neff.PlugInModel`)."""
+
+    name = "spectral"
+
+    def build(self, fit: FitResiduals) -> ErrorModel:
+        from femupdate.inference.neff import PlugInModel
+
+        _unknown_variance(self.name, fit)
+        r = fit.need_residuals(self.name)
+        counts = np.array([spectral_count(r[a:b]) - k
+                           for a, b, k in zip(fit.starts, fit.stops, fit.removed, strict=True)])
+        reference = np.array([float(r[a:b] @ r[a:b])
+                              for a, b in zip(fit.starts, fit.stops, strict=True)])
+        return PlugInModel(self.name, fit.starts, fit.stops, np.maximum(counts, 1.0),
+                           fit.rho(r), reference=reference)
+
+
 def registry() -> Registry:
     """The product's registry with the kinds here added."""
     out = ERROR_MODELS.copy()
-    for kind in (NEffIntegrated(), Tau(), IID(), AR1(), ARp(), Adjusted(), EIV()):
+    for kind in (NEffIntegrated(), Tau(), IID(), AR1(), ARp(), Adjusted(), EIV(),
+                 Spectral()):
         out.register(kind)
     return out
 
