@@ -199,13 +199,39 @@ def test_the_step_halving_check_falls_as_the_fourth_power_of_the_step(tmp_path):
     """The implicit scheme is second order: each halving of the step divides the difference
     of the predictions by about 2⁴ = 16 in NMSE; too long a step is warned about."""
     nmse = {}
-    for substeps in (2, 4, 8):
+    for substeps in (1, 2, 4, 8):
         case = _case(tmp_path / str(substeps), ON_A_LINK, substeps=substeps)
         record, warned = _record(case)
         nmse[substeps] = record["step_halving"]["nmse"]
         assert bool(warned) == (nmse[substeps] > STEP_HALVING_WARN)
+    print("step-halving check (NMSE) by substeps:",
+          ", ".join(f"{k}: {v:.2g}" for k, v in nmse.items()))  # docs/hysteresis.md
     assert nmse[2] > 1e-2 and nmse[8] < STEP_HALVING_WARN
-    for coarse in (2, 4):
+    for coarse in (1, 2, 4):
         assert 8.0 < nmse[coarse] / nmse[2 * coarse] < 32.0
     _, warned = _record(_case(tmp_path / "2", ON_A_LINK, substeps=2, records=False))
     assert "raise [preprocess] substeps" in str(warned[0].message)
+
+
+def test_femupdate_run_prints_the_choice_and_saves_it(tmp_path):
+    """``femupdate run`` on the stiff link: the line after its table, the record in
+    summary.json."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from femupdate.cli.commands import app
+
+    case = _case(tmp_path, ON_A_LINK, substeps=16)
+    text = case.source.read_text() + "\n[search]\nruns = 1\nseed = 1\nmax_evals = 30\n"
+    case.source.write_text(text)
+    result = CliRunner().invoke(app, ["run", str(case.source), "--out", str(tmp_path / "res")])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())  # the console wraps long lines
+    assert ("simulation: implicit (HHT α = 0, 16 substeps; full model, 2 DOFs), chosen at the "
+            "nominal point: central differences would need 94 substeps") in said
+    assert "step-halving check at the nominal point: NMSE" in said
+    record = json.loads((tmp_path / "res" / "summary.json").read_text())["simulation"]
+    assert record["method"] == "implicit" and record["explicit_substeps"] == 94
+    assert record["step_halving"]["substeps"] == [16, 32]
+    assert 0.0 < record["step_halving"]["nmse"] < 1e-5
