@@ -235,3 +235,16 @@ def test_femupdate_run_prints_the_choice_and_saves_it(tmp_path):
     assert record["method"] == "implicit" and record["explicit_substeps"] == 94
     assert record["step_halving"]["substeps"] == [16, 32]
     assert 0.0 < record["step_halving"]["nmse"] < 1e-5
+
+
+def test_a_step_halving_check_that_cannot_run_says_why(tmp_path):
+    """Central differences given at a step they refuse: the check fails, says why, warns."""
+    _case(tmp_path, ON_A_LINK, substeps=16)  # the records, on the implicit scheme
+    refused = _case(tmp_path, ON_A_LINK, substeps=16, method="nonlinear", records=False)
+    record, warned = _record(refused)
+    check = record["step_halving"]
+    assert record["method"] == "nonlinear" and check["nmse"] == float("inf")
+    assert "use substeps >= 47" in check["failure"]
+    assert "step-halving check at the nominal point: failed (nonlinear: the time step" in (
+        describe_simulation(record))
+    assert "failed (nonlinear: the time step" in str(warned[0].message)
