@@ -248,3 +248,14 @@ def test_a_step_halving_check_that_cannot_run_says_why(tmp_path):
     assert "step-halving check at the nominal point: failed (nonlinear: the time step" in (
         describe_simulation(record))
     assert "failed (nonlinear: the time step" in str(warned[0].message)
+
+
+def test_the_line_names_each_trials_integrator_when_they_differ():
+    """Trials sampled at different intervals choose for themselves; the line says so."""
+    record = {"method": "implicit", "n_dof": 2, "substeps": 4, "hht_alpha": 0.0,
+              "chosen": "central differences would need 9 substeps …",
+              "trial_methods": {"slow": "implicit", "fast": "nonlinear"}}
+    assert describe_simulation(record) == (
+        "simulation: implicit (HHT α = 0, 4 substeps; full model, 2 DOFs), chosen at the "
+        "nominal point: central differences would need 9 substeps …; by trial: slow implicit, "
+        "fast nonlinear")

@@ -421,6 +421,9 @@ def describe_nonlinear(record: Mapping[str, Any], dofs: str) -> str:
     line = f"simulation: {name}{steps}; {dofs})"
     if record.get("chosen"):
         line += f", chosen at the nominal point: {record['chosen']}"
+    if record.get("trial_methods"):  # trials sampled at other intervals chose for themselves
+        line += "; by trial: " + ", ".join(f"{name} {method}" for name, method
+                                           in record["trial_methods"].items())
     check = record.get("step_halving")
     if check is not None:
         coarse, fine = check["substeps"]
