@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femupdate.errors import ConfigError
+from femupdate.errors import ConfigError, SimulationError
 from femupdate.model.hysteresis import bouc_wen_update
 from femupdate.model.structure import shear_building
-from femupdate.simulate import nonlinear_method, simulate
+from femupdate.simulate import explicit_substeps, nonlinear_method, simulate
 from femupdate.simulate.implicit import (
     bouc_wen_update_exponential,
     bouc_wen_update_tangent,
@@ -183,6 +183,25 @@ def test_stiff_links_choose_the_implicit_scheme() -> None:
     assert nonlinear_method(stiff, DT) == "implicit"
     assert nonlinear_method(stiff, DT, substeps=int(np.ceil(2.05 * DT / h_stiff))) == "nonlinear"
     assert nonlinear_method(stiff, DT, substeps=int(np.floor(1.95 * DT / h_stiff))) == "implicit"
+
+
+def test_explicit_substeps_are_where_central_differences_are_kept_and_stable() -> None:
+    """With the default limit, the fewest substeps at which nonlinear_method keeps central
+    differences; with limit 2, the fewest at which they run at all."""
+    stiff = shear_building(list(MASSES), [0.0, 0.0],
+                           bouc_wen=[dict(law, k=1e3 * law["k"]) for law in LAWS]).assemble()
+    kept = explicit_substeps(stiff, DT)
+    assert kept > 10
+    assert nonlinear_method(stiff, DT, kept) == "nonlinear"
+    assert nonlinear_method(stiff, DT, kept - 1) == "implicit"
+    stable = explicit_substeps(stiff, DT, limit=2.0)
+    assert stable == pytest.approx(kept / 2, abs=1)
+    ag = _record()[:20]
+    simulate(stiff, DT, ag=ag, method="nonlinear", substeps=stable)
+    with pytest.raises(SimulationError, match=f"use substeps >= {stable} "):
+        simulate(stiff, DT, ag=ag, method="nonlinear", substeps=stable - 1)
+    with pytest.raises(ConfigError, match=r"limit = 0\.0 \(allowed: > 0\)"):
+        explicit_substeps(stiff, DT, limit=0.0)
 
 
 def test_bad_alpha_is_refused() -> None:

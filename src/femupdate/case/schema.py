@@ -568,9 +568,14 @@ class Case(Section):
 
     @property
     def simulation_method(self) -> str:
-        """``simulation.method``, or its default: ``"nonlinear"`` with frictions, ``"reduced"``
-        for a linear model of ``REDUCED_MIN_DOF`` DOFs or more
-        (:mod:`femupdate.problem.reduced_path`), else exact."""
+        """``simulation.method``, or its default: ``"nonlinear"`` with friction or Bouc–Wen
+        elements, ``"reduced"`` for a linear model of ``REDUCED_MIN_DOF`` DOFs or more
+        (:mod:`femupdate.problem.reduced_path`), else exact.
+
+        ``"nonlinear"`` by default names the nonlinear family: the model's integrator within
+        it (central differences or the implicit scheme) is chosen where the model is built,
+        at the nominal point and the records' sample interval
+        (:func:`femupdate.problem.case_model.choose_integrator`)."""
         if self.simulation.method is not None:
             return self.simulation.method
         if self.model.support_groups:  # multi-support: the dense linear path

@@ -5,6 +5,11 @@ knows the case's integrator, substeps, excitation direction and output DOFs; per
 assembles the system at parameter values and simulates it under a base motion. The update
 problem, virtual experiments, ``femupdate modes`` and the report all go through it.
 
+The integrator of a nonlinear model without ``[simulation] method`` is chosen here, once per
+sample interval, at the case's nominal point (:func:`choose_integrator`): central differences
+where they are stable with room at the case's substeps, else the implicit scheme. The choice
+is then held for every parameter value, so that φ stays one function over the search.
+
 It sits below the trials in the layers (``tests/test_architecture.py``): virtual experiments
 simulate a case's model, and the update problem above reads the trials. The case package
 (schema and validation) never imports it.
@@ -12,6 +17,8 @@ simulate a case's model, and the update problem above reads the trials. The case
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import typing
 from collections.abc import Mapping, Sequence
 
@@ -119,6 +126,61 @@ def check_base_motion_moves_mass(structure: Structure, case: Case, direction: st
                          "[model] direction along the masses' DOFs)")
 
 
+@dataclasses.dataclass(frozen=True)
+class IntegratorChoice:
+    """The integrator chosen for a nonlinear model without ``[simulation] method``.
+
+    Attributes
+    ----------
+    method : str
+        ``"nonlinear"`` (central differences) or ``"implicit"`` (HHT-α, α = 0).
+    substeps : int
+        The case's substeps per sample.
+    explicit_substeps : int or None
+        The substeps central differences would need at the nominal point with the room of
+        :data:`femupdate.simulate.EXPLICIT_MARGIN` (None: the nominal system could not be
+        assembled, and central differences were kept).
+    stable_substeps : int or None
+        The substeps at which central differences are stable at all there.
+    reason : str
+        Why, in words (printed by ``femupdate run``).
+    """
+
+    method: str
+    substeps: int
+    explicit_substeps: int | None
+    stable_substeps: int | None
+    reason: str
+
+
+def choose_integrator(system: System | None, dt: float, substeps: int,
+                      why_not: str | None = None) -> IntegratorChoice:
+    """The default integrator of a nonlinear model, from its ``system`` at the nominal point
+    (:func:`femupdate.simulate.nonlinear_method`), sampled every ``dt`` with ``substeps``.
+
+    ``system`` None (``why_not`` says why it could not be assembled): central differences,
+    whose own check of the step then speaks at the first simulation.
+    """
+    from femupdate.simulate import EXPLICIT_MARGIN, explicit_substeps, nonlinear_method
+
+    if system is None:
+        return IntegratorChoice("nonlinear", substeps, None, None,
+                                f"central differences kept: the nominal point could not be "
+                                f"assembled to choose ({why_not})")
+    method = nonlinear_method(system, dt, substeps)
+    needed = explicit_substeps(system, dt)
+    stable = explicit_substeps(system, dt, limit=2.0)
+    room = f"h·ω_max < {EXPLICIT_MARGIN:g}, half the stability limit"
+    if method == "nonlinear":
+        reason = (f"central differences need {needed:,} substep{'s' * (needed > 1)} per "
+                  f"sample at the nominal point ({room}); the case has {substeps:,}")
+    else:
+        reason = (f"central differences would need {needed:,} substeps per sample at the "
+                  f"nominal point ({room}; stable from {stable:,}); the case has "
+                  f"{substeps:,} ([simulation] method = \"nonlinear\" keeps them)")
+    return IntegratorChoice(method, substeps, needed, stable, reason)
+
+
 class CaseModel:
     """The structure of a case with its integrator and outputs (picklable).
 
@@ -128,6 +190,10 @@ class CaseModel:
         A validated case.
     channels : sequence of OutputChannel, optional
         The output channels (a trial's); default the ``[data]`` outputs, if any.
+    dt : float, optional
+        The sample interval of the records simulated (a trial's): a nonlinear model without
+        ``[simulation] method`` gets its integrator now (``method``); without ``dt``, at its
+        first simulation at each interval (:meth:`method_for`).
 
     Attributes
     ----------
@@ -135,7 +201,10 @@ class CaseModel:
     direction : str
         Direction of the base motion.
     method : str
-        Integrator (``case.simulation_method``).
+        Integrator: ``case.simulation_method``, or the one chosen at ``dt``.
+    choices : dict of float to IntegratorChoice
+        The integrators chosen (by sample interval) for a nonlinear model without
+        ``[simulation] method``; empty otherwise.
     substeps : int
         Integration steps per sample (1 for the exact method, which needs none).
     outputs : ndarray of int64
@@ -151,7 +220,10 @@ class CaseModel:
         motion (``relative_to``, along the group's direction), else 0.
     """
 
-    def __init__(self, case: Case, channels: Sequence[OutputChannel] | None = None) -> None:
+    def __init__(self, case: Case, channels: Sequence[OutputChannel] | None = None, *,
+                 dt: float | None = None) -> None:
+        self.choices: dict[float, IntegratorChoice] = {}
+        self._chooses = False
         if channels is None:
             channels = case.data.outputs if case.data is not None else []
         self._label = case.label
@@ -185,6 +257,10 @@ class CaseModel:
                                                                          len(self.groups))
         self.method = case.simulation_method
         self.substeps = 1 if self.method in ("exact", "reduced") else case.preprocess.substeps
+        #: A nonlinear model without [simulation] method: its integrator is chosen at the
+        #: nominal point (choose_integrator), per sample interval.
+        self._chooses = self.method == "nonlinear" and case.simulation.method is None
+        self._nominal = case.nominal()
         #: The reduced path's settings and warm start (None on the other paths).
         self.reduced = (ReducedPath(case, self.structure, self.direction)
                         if self.method == "reduced" else None)
@@ -204,6 +280,37 @@ class CaseModel:
 
         check_not_mechanism(self.structure, {p.name: p.nominal_value for p in
                                              case.parameters}, self.direction, case.label)
+        if dt is not None:
+            self.method = self.method_for(dt)
+
+    def method_for(self, dt: float) -> str:
+        """The integrator at sample interval ``dt``: the case's, or for a nonlinear model
+        without ``[simulation] method`` the one chosen at the nominal point (once per ``dt``,
+        then held: :attr:`choices`)."""
+        if not self._chooses:
+            return self.method
+        key = float(dt)
+        choice = self.choices.get(key)
+        if choice is None:
+            from femupdate.errors import FemupdateError
+
+            try:
+                system, why = self.system(self._nominal), None
+            except (FemupdateError, np.linalg.LinAlgError) as exc:
+                system, why = None, str(exc)
+            choice = self.choices[key] = choose_integrator(system, key, self.substeps, why)
+        return choice.method
+
+    def with_substeps(self, substeps: int) -> CaseModel:
+        """This model with ``substeps`` integration steps per sample and the same integrator
+        (a step-halving check: :func:`femupdate.problem.reduced_path.step_halving`)."""
+        if self.reduced is not None or self.structure is None or self.method == "exact":
+            raise ConfigError(f"{self._label}: substeps: the {self.method} path takes none "
+                              "(allowed: a time-stepping integrator)")
+        other = copy.copy(self)
+        other.substeps = int(substeps)
+        other.choices = dict(self.choices)  # the integrators chosen stay: only the step changes
+        return other
 
     def _builtin(self, what: str) -> Structure:
         if self.structure is None:
@@ -226,8 +333,8 @@ class CaseModel:
                               "simulate at")
         if self.reduced is not None:  # sparse, on the lowest modes
             return self.reduced.simulator(values, dt, self.outputs)
-        return prepare(self.system(values), dt, method=self.method, outputs=self.outputs,
-                       substeps=self.substeps)
+        return prepare(self.system(values), dt, method=self.method_for(dt),
+                       outputs=self.outputs, substeps=self.substeps)
 
     def simulate(self, values: Mapping[str, float], ag: np.ndarray, dt: float) -> Response:
         """Response at the output DOFs to the base acceleration ``ag`` sampled every ``dt``.

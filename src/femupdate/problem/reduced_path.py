@@ -17,6 +17,12 @@ and with the eigensolver warm-started. What this module decides for a case:
   point in every process.
 - **The truncation error**, once per ``femupdate run``: the reduced prediction against the full
   model's at the nominal point (relative, as φ is), in the console and ``summary.json``.
+
+The same record says, for a nonlinear model on the full path, which integrator ran and, when
+``[simulation] method`` is not given, why it was chosen
+(:func:`femupdate.problem.case_model.choose_integrator`), with a **step-halving check**: the
+prediction at the case's substeps against the one at twice as many, at the nominal point
+(:func:`step_halving`, warned about above :data:`STEP_HALVING_WARN`).
 """
 
 from __future__ import annotations
@@ -38,10 +44,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FULL_CHECK_MAX_DOF",
+    "STEP_HALVING_WARN",
     "TRUNCATION_WARN",
     "ReducedPath",
     "describe_simulation",
     "simulation_record",
+    "step_halving",
 ]
 
 #: The default ``cutoff_factor`` of a model with friction or Bouc–Wen elements (Craig–Bampton):
@@ -59,6 +67,13 @@ NONLINEAR_CUTOFF_FACTOR = 16.0
 FULL_CHECK_MAX_DOF = 500
 #: A truncation error above this is warned about (raise ``cutoff_factor``).
 TRUNCATION_WARN = 1e-6
+#: A step-halving check (φ of the prediction at the case's substeps against the one at twice
+#: as many) above this is warned about (raise ``[preprocess] substeps``): a difference of 1 %
+#: rms, a quarter of the φ that noise of 2 % rms leaves at the truth (4e-4), where the
+#: integration error would start to move a best fit.
+STEP_HALVING_WARN = 1e-4
+#: The integrators whose step the step-halving check halves.
+STEPPED_NONLINEAR = ("nonlinear", "implicit")
 
 
 class ReducedPath:
@@ -256,17 +271,84 @@ def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
             "phi_reduced": phi_reduced, "phi_full": phi_full}
 
 
+def step_halving(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
+    """The step-halving check of one trial (a ``femupdate.problem.update.TrialProblem``) at
+    ``values``: φ of its prediction at the case's substeps against the prediction at twice as
+    many as the measured target (the error function's own weights and normalisation), two
+    simulations on the integrator the trial holds. ``nmse`` is inf when either fails (its
+    ``failure`` says why)."""
+    from femupdate.errors import SimulationError
+
+    model = trial.model
+    dt = trial.experiment.dt
+    record: dict[str, Any] = {"trial": trial.name, "substeps": [model.substeps,
+                                                                2 * model.substeps]}
+    try:
+        coarse = model.simulate(values, trial._ag, dt)
+        fine = model.with_substeps(2 * model.substeps).simulate(values, trial._ag, dt)
+    except SimulationError as exc:
+        return {**record, "nmse": math.inf, "failure": str(exc)}
+    if coarse.diverged or fine.diverged:
+        return {**record, "nmse": math.inf, "failure": "the simulation diverged"}
+    nmse = trial.phi_against(trial.scored(trial.prediction(coarse)),
+                             trial.scored(trial.prediction(fine)))
+    return {**record, "nmse": nmse if math.isfinite(nmse) else math.inf}
+
+
+def warn_step_halving(label: str, worst: Mapping[str, Any]) -> None:
+    """FemupdateWarning when the worst trial's step-halving check exceeds STEP_HALVING_WARN."""
+    if worst["nmse"] <= STEP_HALVING_WARN:
+        return
+    coarse, fine = worst["substeps"]
+    what = (f"failed ({worst['failure']})" if "failure" in worst
+            else f"gives NMSE {worst['nmse']:.2g}")
+    warnings.warn(f"{label}: simulation: the step-halving check at the nominal point {what} "
+                  f"between {coarse} and {fine} substeps (trial {worst['trial']!r}), above "
+                  f"{STEP_HALVING_WARN:g}: the integration error is not small against the "
+                  "noise; raise [preprocess] substeps", FemupdateWarning, stacklevel=4)
+
+
+def nonlinear_record(problem: Any) -> dict[str, Any]:
+    """What :func:`simulation_record` says of a nonlinear model on the full path: the
+    integrator and its substeps, why it was chosen (no ``[simulation] method``), and the
+    step-halving check of every fitted trial at the nominal point (the worst, warned about)."""
+    model = problem.model
+    method = model.method
+    record: dict[str, Any] = {"substeps": model.substeps}
+    if method == "implicit":
+        record["hht_alpha"] = 0.0  # the case path's HHT α: Newmark's average acceleration
+    choice = model.choices.get(float(problem.fitted[0].experiment.dt))
+    if choice is not None:
+        record["chosen"] = choice.reason
+        if choice.explicit_substeps is not None:
+            record.update(explicit_substeps=choice.explicit_substeps,
+                          stable_substeps=choice.stable_substeps)
+    methods = sorted({t.model.method for t in problem.fitted})
+    if len(methods) > 1:  # trials sampled at different rates may take different integrators
+        record["trial_methods"] = {t.name: t.model.method for t in problem.fitted}
+    values = problem.case.nominal()
+    checks = [step_halving(t, values) for t in problem.fitted]
+    worst = max(checks, key=lambda c: c["nmse"])
+    record["step_halving"] = {**worst, "at": "the nominal point", "warn_above": STEP_HALVING_WARN,
+                              "trials": checks}
+    warn_step_halving(problem.case.label, worst)
+    return record
+
+
 def simulation_record(problem: Any) -> dict[str, Any] | None:
     """Which path simulated the case's model (``problem``: a
     ``femupdate.problem.update.UpdateProblem``), and on the reduced path its truncation error at
-    the nominal point for every fitted trial (warned about above :data:`TRUNCATION_WARN`).
-    None for an external model."""
+    the nominal point for every fitted trial (warned about above :data:`TRUNCATION_WARN`); for
+    a nonlinear model on the full path its integrator, why it was chosen and the step-halving
+    check (:func:`nonlinear_record`). None for an external model."""
     case = problem.case
     model = problem.model
     if model.structure is None:
         return None
-    method = case.simulation_method
+    method = model.method  # the integrator chosen for a nonlinear model without method
     record: dict[str, Any] = {"method": method, "n_dof": model.structure.n_dof}
+    if method in STEPPED_NONLINEAR and case.model.has_nonlinear:
+        return {**record, **nonlinear_record(problem)}
     if method != "reduced":
         return record
     from femupdate._parallel import single_blas_thread
@@ -310,8 +392,11 @@ def warn_truncation(label: str, worst: Mapping[str, Any]) -> None:
 def describe_simulation(record: Mapping[str, Any]) -> str:
     """One line: which path ran (``"reduced: 25 modes ≤ 200 Hz of 1000 DOFs; …"``)."""
     method, n = record["method"], record["n_dof"]
+    dofs = f"full model, {n} DOF{'' if n == 1 else 's'}"
+    if "substeps" in record:  # a nonlinear model on the full path
+        return describe_nonlinear(record, dofs)
     if method != "reduced":
-        return f"simulation: {method} (full model, {n} DOF{'' if n == 1 else 's'})"
+        return f"simulation: {method} ({dofs})"
     cut = record.get("cutoff_hz")
     where = f" ≤ {cut:.4g} Hz" if cut is not None else ""
     err = record.get("truncation_error")
@@ -323,6 +408,32 @@ def describe_simulation(record: Mapping[str, Any]) -> str:
         return (f"simulation: reduced (Craig–Bampton: the nonlinear elements' and sensors' DOFs "
                 f"kept, the interior's modes{where}): {record['n_modes']} DOFs of {n}{tail}")
     return f"simulation: reduced: {record['n_modes']} modes{where} of {n} DOFs{tail}"
+
+
+def describe_nonlinear(record: Mapping[str, Any], dofs: str) -> str:
+    """The line of a nonlinear model on the full path: ``"simulation: implicit (HHT α = 0, 2
+    substeps; full model, 12 DOFs), chosen at the nominal point: central differences would
+    need …; step-halving check at the nominal point: NMSE 4.8e-05 between 2 and 4 substeps"``."""
+    method, substeps = record["method"], record["substeps"]
+    steps = f"{substeps:,} substep{'' if substeps == 1 else 's'}"
+    name = ("implicit (HHT α = 0, " if method == "implicit"
+            else "nonlinear (central differences, ")
+    line = f"simulation: {name}{steps}; {dofs})"
+    if record.get("chosen"):
+        line += f", chosen at the nominal point: {record['chosen']}"
+    if record.get("trial_methods"):  # trials sampled at other intervals chose for themselves
+        line += "; by trial: " + ", ".join(f"{name} {method}" for name, method
+                                           in record["trial_methods"].items())
+    check = record.get("step_halving")
+    if check is not None:
+        coarse, fine = check["substeps"]
+        what = (f"failed ({check['failure']})" if "failure" in check
+                else f"NMSE {check['nmse']:.2g}")
+        line += (f"; step-halving check at {check['at']}: {what} between {coarse:,} and "
+                 f"{fine:,} substeps")
+        if len(check.get("trials", ())) > 1:
+            line += f" (trial {check['trial']!r}, the largest)"
+    return line
 
 
 #: `femupdate modes` of a model on the reduced path: this many lowest modes.

@@ -79,7 +79,9 @@ class TrialProblem:
         spec = next((s for s in specs if s.name == experiment.name),
                     specs[0] if len(specs) == 1 else None)
         channels = spec.data.outputs if spec is not None else None
-        self.model = CaseModel(case, channels)
+        # dt: a nonlinear model without [simulation] method gets its integrator here, at the
+        # nominal point, held for the whole search (CaseModel.method_for)
+        self.model = CaseModel(case, channels, dt=experiment.dt)
         self.released = partial(released_structure, case.model)  # evaluation.supports builds it
         external = self.model.external
         gives_acceleration = external is None or external.quantity == "acceleration"

@@ -26,6 +26,7 @@ implicit
 
 from __future__ import annotations
 
+import math
 import sys
 import types
 from collections.abc import Sequence
@@ -57,6 +58,7 @@ __all__ = [
     "NewmarkSimulator",
     "NonlinearSimulator",
     "Response",
+    "explicit_substeps",
     "nonlinear_method",
     "prepare",
     "prepare_central_difference",
@@ -88,6 +90,19 @@ def nonlinear_method(system: System, dt: float, substeps: int = 1) -> str:
     """
     h = float(dt) / int(substeps)
     return "nonlinear" if h * 2.0 / explicit_stable_step(system) < EXPLICIT_MARGIN else "implicit"
+
+
+def explicit_substeps(system: System, dt: float, limit: float = EXPLICIT_MARGIN) -> int:
+    """The fewest substeps per sample interval ``dt`` that keep central differences on
+    ``system`` at ``h ω_max < limit`` (sliders stuck, Bouc–Wen elements at their largest
+    tangent): with the default ``limit``, where :func:`nonlinear_method` keeps them; with
+    ``limit = 2``, where they are stable at all. 1 for a system without stiffness."""
+    if not limit > 0.0:
+        raise ConfigError(f"explicit_substeps: limit = {limit!r} (allowed: > 0)")
+    step = explicit_stable_step(system)  # 2/ω_max
+    if math.isinf(step):
+        return 1
+    return math.floor(float(dt) * 2.0 / step / limit) + 1
 
 
 def prepare(

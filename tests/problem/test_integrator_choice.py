@@ -1,0 +1,261 @@
+"""The integrator of a nonlinear case without ``[simulation] method``, chosen once at the
+nominal point (femupdate.problem.case_model.choose_integrator), and the step-halving check that
+``femupdate run`` states with it (femupdate.problem.reduced_path.step_halving)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+from femupdate.case import load_case
+from femupdate.errors import FemupdateWarning, SimulationError
+from femupdate.problem.case_model import CaseModel
+from femupdate.problem.reduced_path import (
+    STEP_HALVING_WARN,
+    describe_simulation,
+    simulation_record,
+)
+from femupdate.problem.update import UpdateProblem
+from femupdate.simulate.implicit import ImplicitSimulator
+from femupdate.trials.experiment import load_experiments
+from femupdate.trials.virtual import virtual_experiment
+
+#: A body (1 kg) on a column (k2) on a footing (50 g) held by a stiff Bouc–Wen link (3e6 N/m,
+#: yield at 1 mm): the footing's mode is at 1.5 kHz, the body's at 8 Hz. Central differences
+#: need 47 substeps per sample of 0.01 s to be stable; the response is the body's.
+ON_A_LINK = """\
+[case]
+name = "on-a-link"
+
+[model.shear_building]
+masses = [0.05, 1.0]
+stiffnesses = [10.0, "k2"]
+dampers = [0.5, "c2"]
+
+[model.shear_building.bouc_wen]
+k = [3e6, 1.0]
+alpha = 0.1
+beta = 750.0
+gamma = 250.0
+
+[[parameters]]
+name = "k2"
+lower = 1000.0
+upper = 10000.0
+nominal = 2500.0
+
+[[parameters]]
+name = "c2"
+lower = 0.0
+upper = 5.0
+nominal = 0.6
+"""
+
+#: One storey on a soft slider (k_r 500 N/m beside a 2,000 N/m column): 8 Hz at most.
+SOFT_SLIDER = """\
+[case]
+name = "soft-slider"
+
+[model.shear_building]
+masses = [1.0]
+stiffnesses = ["k1"]
+dampers = [0.5]
+
+[model.shear_building.frictions]
+k_r = 500.0
+f_u = 0.5
+
+[[parameters]]
+name = "k1"
+lower = 1000.0
+upper = 3000.0
+nominal = 2000.0
+"""
+
+OUTPUT = """\
+[data]
+format = "csv"
+directory = "data"
+time_column = "t"
+
+[data.input]
+file = "table.csv"
+column = "table"
+
+[[data.outputs]]
+file = "floors.csv"
+column = "a"
+node = "F{floor}"
+dof = "ux"
+"""
+
+TRUTH = {"on-a-link": {"k2": 2500.0, "c2": 0.6}, "soft-slider": {"k1": 2000.0}}
+DT = 0.01
+
+
+def _case(folder: Path, model: str, substeps: int, method: str | None = None,
+          records: bool = True):
+    """The case in ``folder`` with noise-free records of its truth (2 s at 100 Hz) made by
+    ``femupdate synth``'s path (its own integrator choice)."""
+    floor = 2 if "on-a-link" in model else 1
+    simulation = f'\n[simulation]\nmethod = "{method}"\n' if method else ""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "case.toml").write_text(model + "\n" + OUTPUT.format(floor=floor) + simulation
+                                      + f"\n[preprocess]\nsubsteps = {substeps}\n")
+    case = load_case(folder / "case.toml")
+    if records:
+        virtual_experiment(case, TRUTH[case.case.name], folder / "data", seed=2, duration=2.0,
+                           rate=1.0 / DT, snr=0.0, offset=0.0, drift=0.0, length_scale=1.0)
+    return case
+
+
+def _record(case) -> tuple[dict, list[warnings.WarningMessage]]:
+    problem = UpdateProblem(case, load_experiments(case))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        record = simulation_record(problem)
+    return record, [w for w in caught if issubclass(w.category, FemupdateWarning)
+                    and "step-halving" in str(w.message)]
+
+
+def test_a_stiff_link_without_method_takes_the_implicit_scheme(tmp_path):
+    """The case that central differences refuse at its step runs: its records are made and
+    fitted on the implicit scheme chosen at the nominal point (φ = 0 at the truth)."""
+    case = _case(tmp_path, ON_A_LINK, substeps=16)
+    problem = UpdateProblem(case, load_experiments(case))
+    trial = problem.fitted[0]
+    assert trial.model.method == "implicit" and not trial.compiled
+    choice = trial.model.choices[DT]
+    assert (choice.explicit_substeps, choice.stable_substeps) == (94, 47)
+    assert "central differences would need 94 substeps" in choice.reason
+    assert problem(case.to_search(TRUTH["on-a-link"])) < 1e-20
+    assert problem(case.to_search({"k2": 3000.0, "c2": 0.6})) > 1e-3
+
+
+def test_the_choice_is_held_over_the_search(tmp_path):
+    """Once chosen at the nominal point, the integrator stays for every parameter value."""
+    case = _case(tmp_path, ON_A_LINK, substeps=16, records=False)
+    model = CaseModel(case, dt=DT)
+    assert model.method == "implicit" and list(model.choices) == [DT]
+    softest = {"k2": 1000.0, "c2": 5.0}
+    assert isinstance(model.simulator(softest, DT), ImplicitSimulator)
+    assert list(model.choices) == [DT]  # no second choice at another point
+    lazy = CaseModel(case)  # synth, modes: the choice at the first simulation at each dt
+    assert lazy.method == "nonlinear" and not lazy.choices
+    assert lazy.method_for(DT) == "implicit" and list(lazy.choices) == [DT]
+
+
+def test_an_explicit_method_is_obeyed(tmp_path):
+    """``method = "nonlinear"`` keeps central differences, which refuse the step as they did;
+    ``method = "implicit"`` on a soft model keeps the implicit scheme."""
+    stiff = _case(tmp_path / "stiff", ON_A_LINK, substeps=16, method="nonlinear",
+                  records=False)
+    model = CaseModel(stiff, dt=DT)
+    assert model.method == "nonlinear" and not model.choices
+    with pytest.raises(SimulationError, match=r"use substeps >= 47 at dt = 0\.01 s, or "
+                                              r"method 'implicit'"):
+        model.simulate(TRUTH["on-a-link"], [0.0, 1.0, 0.0], DT)
+    soft = _case(tmp_path / "soft", SOFT_SLIDER, substeps=4, method="implicit", records=False)
+    model = CaseModel(soft, dt=DT)
+    assert model.method == "implicit" and not model.choices
+
+
+def test_a_soft_slider_keeps_central_differences(tmp_path):
+    case = _case(tmp_path, SOFT_SLIDER, substeps=4)
+    problem = UpdateProblem(case, load_experiments(case))
+    trial = problem.fitted[0]
+    assert trial.model.method == "nonlinear" and trial.compiled
+    choice = trial.model.choices[DT]
+    assert choice.explicit_substeps == 1 and "central differences need 1 substep " in choice.reason
+    assert problem(case.to_search(TRUTH["soft-slider"])) < 1e-20
+
+
+def test_the_record_and_its_line_say_the_choice_and_the_step_halving_check(tmp_path):
+    case = _case(tmp_path, ON_A_LINK, substeps=16)
+    record, warned = _record(case)
+    assert not warned
+    assert record["method"] == "implicit" and record["hht_alpha"] == 0.0
+    assert (record["substeps"], record["explicit_substeps"], record["stable_substeps"]) == (
+        16, 94, 47)
+    check = record["step_halving"]
+    assert check["substeps"] == [16, 32] and check["at"] == "the nominal point"
+    assert 0.0 < check["nmse"] < 1e-5
+    line = describe_simulation(record)
+    assert line.startswith("simulation: implicit (HHT α = 0, 16 substeps; full model, 2 DOFs), "
+                           "chosen at the nominal point: central differences would need 94 "
+                           "substeps per sample at the nominal point")
+    assert line.endswith(f"; step-halving check at the nominal point: NMSE {check['nmse']:.2g} "
+                         "between 16 and 32 substeps")
+    soft, _ = _record(_case(tmp_path / "soft", SOFT_SLIDER, substeps=4, method="nonlinear"))
+    assert "chosen" not in soft and "hht_alpha" not in soft
+    assert describe_simulation(soft).startswith(
+        "simulation: nonlinear (central differences, 4 substeps; full model, 1 DOF); "
+        "step-halving check at the nominal point: NMSE ")
+
+
+def test_the_step_halving_check_falls_as_the_fourth_power_of_the_step(tmp_path):
+    """The implicit scheme is second order: each halving of the step divides the difference
+    of the predictions by about 2⁴ = 16 in NMSE; too long a step is warned about."""
+    nmse = {}
+    for substeps in (1, 2, 4, 8):
+        case = _case(tmp_path / str(substeps), ON_A_LINK, substeps=substeps)
+        record, warned = _record(case)
+        nmse[substeps] = record["step_halving"]["nmse"]
+        assert bool(warned) == (nmse[substeps] > STEP_HALVING_WARN)
+    print("step-halving check (NMSE) by substeps:",
+          ", ".join(f"{k}: {v:.2g}" for k, v in nmse.items()))  # docs/hysteresis.md
+    assert nmse[2] > 1e-2 and nmse[8] < STEP_HALVING_WARN
+    for coarse in (1, 2, 4):
+        assert 8.0 < nmse[coarse] / nmse[2 * coarse] < 32.0
+    _, warned = _record(_case(tmp_path / "2", ON_A_LINK, substeps=2, records=False))
+    assert "raise [preprocess] substeps" in str(warned[0].message)
+
+
+def test_femupdate_run_prints_the_choice_and_saves_it(tmp_path):
+    """``femupdate run`` on the stiff link: the line after its table, the record in
+    summary.json."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from femupdate.cli.commands import app
+
+    case = _case(tmp_path, ON_A_LINK, substeps=16)
+    text = case.source.read_text() + "\n[search]\nruns = 1\nseed = 1\nmax_evals = 30\n"
+    case.source.write_text(text)
+    result = CliRunner().invoke(app, ["run", str(case.source), "--out", str(tmp_path / "res")])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())  # the console wraps long lines
+    assert ("simulation: implicit (HHT α = 0, 16 substeps; full model, 2 DOFs), chosen at the "
+            "nominal point: central differences would need 94 substeps") in said
+    assert "step-halving check at the nominal point: NMSE" in said
+    record = json.loads((tmp_path / "res" / "summary.json").read_text())["simulation"]
+    assert record["method"] == "implicit" and record["explicit_substeps"] == 94
+    assert record["step_halving"]["substeps"] == [16, 32]
+    assert 0.0 < record["step_halving"]["nmse"] < 1e-5
+
+
+def test_a_step_halving_check_that_cannot_run_says_why(tmp_path):
+    """Central differences given at a step they refuse: the check fails, says why, warns."""
+    _case(tmp_path, ON_A_LINK, substeps=16)  # the records, on the implicit scheme
+    refused = _case(tmp_path, ON_A_LINK, substeps=16, method="nonlinear", records=False)
+    record, warned = _record(refused)
+    check = record["step_halving"]
+    assert record["method"] == "nonlinear" and check["nmse"] == float("inf")
+    assert "use substeps >= 47" in check["failure"]
+    assert "step-halving check at the nominal point: failed (nonlinear: the time step" in (
+        describe_simulation(record))
+    assert "failed (nonlinear: the time step" in str(warned[0].message)
+
+
+def test_the_line_names_each_trials_integrator_when_they_differ():
+    """Trials sampled at different intervals choose for themselves; the line says so."""
+    record = {"method": "implicit", "n_dof": 2, "substeps": 4, "hht_alpha": 0.0,
+              "chosen": "central differences would need 9 substeps …",
+              "trial_methods": {"slow": "implicit", "fast": "nonlinear"}}
+    assert describe_simulation(record) == (
+        "simulation: implicit (HHT α = 0, 4 substeps; full model, 2 DOFs), chosen at the "
+        "nominal point: central differences would need 9 substeps …; by trial: slow implicit, "
+        "fast nonlinear")
