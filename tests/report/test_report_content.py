@@ -259,3 +259,20 @@ def test_a_count_of_one_is_singular() -> None:
     assert _counted(1, "storeys") == "1 storey" and _counted(1, "free DOFs") == "1 free DOF"
     assert _counted(2, "storeys") == "2 storeys" and _counted(1, "masses") == "1 mass"
     assert _counted(0, "beams") == "0 beams"
+
+
+def test_the_simulation_row_names_the_integrator_the_run_used() -> None:
+    from types import SimpleNamespace
+
+    from femupdate.report.sections_runs import _simulation_text
+
+    case = SimpleNamespace(simulation_method="nonlinear")
+    chosen = {"method": "implicit", "n_dof": 32, "substeps": 8, "hht_alpha": 0.0,
+              "chosen": "central differences would need 9 substeps per sample"}
+    ran = SimpleNamespace(case=case, summary=SimpleNamespace(simulation=chosen))
+    text = _simulation_text(ran)
+    assert text.startswith("implicit (HHT α = 0, 8 substeps; full model, 32 DOFs)")
+    assert "would need 9 substeps" in text
+    # a summary of an earlier version, without the record: the case's path
+    old = SimpleNamespace(case=case, summary=SimpleNamespace(simulation=None))
+    assert _simulation_text(old) == "nonlinear"

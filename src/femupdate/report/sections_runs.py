@@ -9,7 +9,8 @@ import json
 import numpy as np
 
 from femupdate.case import Case
-from femupdate.pipeline.results import RunRecord, Summary
+from femupdate.pipeline.results import Results, RunRecord, Summary
+from femupdate.problem.reduced_path import describe_simulation
 from femupdate.report.facts import Context, case_positions, relative_error
 from femupdate.report.markup import (
     Page,
@@ -91,6 +92,14 @@ def _excitation_text(case: Case) -> str:
     return f"base motion in {case.model.excitation_direction}"
 
 
+def _simulation_text(res: Results) -> str:
+    """The path that simulated the model, as the run said it (its integrator, the one chosen
+    at the nominal point when the case gives none), else the case's."""
+    if res.summary.simulation:
+        return describe_simulation(res.summary.simulation).removeprefix("simulation: ")
+    return res.case.simulation_method
+
+
 def section_case(ctx: Context) -> str:
     """The model, the parameters (with the truth), the data, the processing and the search."""
     res = ctx.res
@@ -99,7 +108,7 @@ def section_case(ctx: Context) -> str:
     out = [f"<p>{esc(case.case.description)}</p>" if case.case.description else ""]
     items = [("model", esc(_model_text(ctx))),
              ("excitation", esc(_excitation_text(case))),
-             ("simulation", esc(case.simulation_method))]
+             ("simulation", esc(_simulation_text(res)))]
     if model.rayleigh is not None:
         links = ("" if not model.has_nonlinear else
                  " (K with the Bouc–Wen elements' initial stiffness)"
