@@ -259,3 +259,35 @@ def test_the_line_names_each_trials_integrator_when_they_differ():
         "simulation: implicit (HHT α = 0, 4 substeps; full model, 2 DOFs), chosen at the "
         "nominal point: central differences would need 9 substeps …; by trial: slow implicit, "
         "fast nonlinear")
+
+
+def test_hht_alpha_reaches_the_implicit_scheme_and_is_refused_where_none_runs(tmp_path):
+    """[simulation] hht_alpha: the chosen implicit scheme takes it (said in the record), and
+    the step-halving check's φ moves with it; a linear case or central differences refuse it."""
+    import tomllib
+
+    from femupdate.case import parse_case
+    from femupdate.errors import ConfigError
+
+    def parse(text: str):
+        return parse_case(tomllib.loads(text))
+
+    case = _case(tmp_path / "damped", ON_A_LINK + "\n[simulation]\nhht_alpha = -0.1\n",
+                 substeps=4)
+    model = CaseModel(case, dt=DT)
+    simulator = model.simulator(TRUTH["on-a-link"], DT)
+    assert isinstance(simulator, ImplicitSimulator) and simulator.alpha == -0.1
+    damped, _ = _record(case)
+    assert damped["hht_alpha"] == -0.1
+    assert describe_simulation(damped).startswith("simulation: implicit (HHT α = -0.1, 4 ")
+    plain, _ = _record(_case(tmp_path / "plain", ON_A_LINK, substeps=4))
+    assert plain["hht_alpha"] == 0.0
+    assert damped["step_halving"]["nmse"] != plain["step_halving"]["nmse"]
+    with pytest.raises(ConfigError, match=r"simulation\.hht_alpha: got -0\.1 but the "
+                       r"simulation method is 'nonlinear'"):
+        parse(ON_A_LINK + '\n[simulation]\nmethod = "nonlinear"\nhht_alpha = -0.1\n')
+    with pytest.raises(ConfigError, match=r"simulation\.hht_alpha"):
+        parse(SOFT_SLIDER.replace("[model.shear_building.frictions]\nk_r = 500.0\n"
+                                       "f_u = 0.5\n", "") + "\n[simulation]\nhht_alpha = -0.05\n")
+    with pytest.raises(ConfigError, match=r"simulation\.hht_alpha"):
+        parse(ON_A_LINK + "\n[simulation]\nhht_alpha = -0.5\n")

@@ -446,6 +446,9 @@ class Simulation(Section):
     # fitted band, or the lowest n_modes
     cutoff_factor: number_field(ge=1.0, le=1e3) | None = None
     n_modes: integer_field(ge=1, le=10**7) | None = None
+    # the implicit scheme's HHT α (given, or chosen for a nonlinear model): 0 is Newmark's
+    # average acceleration; below 0 it damps the unresolved high modes of stiff links
+    hht_alpha: number_field(ge=-1.0 / 3.0, le=0.0) | None = None
 
 
 #: ``[search] agree`` when not given (femupdate.runs.verdict.AGREE).

@@ -69,6 +69,14 @@ def simulation_issues(case: Case) -> list[tuple[str, str, str]]:
             issues.append((f"simulation.{name}", f"got {getattr(sim, name)!r} but the "
                            f"simulation method is {method!r}",
                            "only with method = \"reduced\" (or leave it out)"))
+    implicit_possible = sim.method == "implicit" or (sim.method is None
+                                                     and case.model.has_nonlinear
+                                                     and method == "nonlinear")
+    if sim.hht_alpha is not None and not implicit_possible:
+        issues.append(("simulation.hht_alpha", f"got {sim.hht_alpha!r} but the simulation "
+                       f"method is {method!r}", "only with method = \"implicit\", or without "
+                       "a method on a model with friction or Bouc–Wen elements (where the "
+                       "implicit scheme may be chosen)"))
     if sim.cutoff_factor is not None and sim.n_modes is not None:
         issues.append(("simulation.n_modes", "given with cutoff_factor: the modes are either "
                        "counted or cut at a frequency", "one of n_modes and cutoff_factor"))

@@ -260,6 +260,8 @@ class CaseModel:
         #: A nonlinear model without [simulation] method: its integrator is chosen at the
         #: nominal point (choose_integrator), per sample interval.
         self._chooses = self.method == "nonlinear" and case.simulation.method is None
+        #: HHT α of the implicit scheme ([simulation] hht_alpha; 0: average acceleration).
+        self.hht_alpha = case.simulation.hht_alpha or 0.0
         self._nominal = case.nominal()
         #: The reduced path's settings and warm start (None on the other paths).
         self.reduced = (ReducedPath(case, self.structure, self.direction)
@@ -333,8 +335,10 @@ class CaseModel:
                               "simulate at")
         if self.reduced is not None:  # sparse, on the lowest modes
             return self.reduced.simulator(values, dt, self.outputs)
-        return prepare(self.system(values), dt, method=self.method_for(dt),
-                       outputs=self.outputs, substeps=self.substeps)
+        method = self.method_for(dt)
+        return prepare(self.system(values), dt, method=method, outputs=self.outputs,
+                       substeps=self.substeps,
+                       hht_alpha=self.hht_alpha if method == "implicit" else 0.0)
 
     def simulate(self, values: Mapping[str, float], ag: np.ndarray, dt: float) -> Response:
         """Response at the output DOFs to the base acceleration ``ag`` sampled every ``dt``.

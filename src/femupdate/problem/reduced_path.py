@@ -316,7 +316,7 @@ def nonlinear_record(problem: Any) -> dict[str, Any]:
     method = model.method
     record: dict[str, Any] = {"substeps": model.substeps}
     if method == "implicit":
-        record["hht_alpha"] = 0.0  # the case path's HHT α: Newmark's average acceleration
+        record["hht_alpha"] = model.hht_alpha  # [simulation] hht_alpha, 0 by default
     choice = model.choices.get(float(problem.fitted[0].experiment.dt))
     if choice is not None:
         record["chosen"] = choice.reason
@@ -416,7 +416,7 @@ def describe_nonlinear(record: Mapping[str, Any], dofs: str) -> str:
     need …; step-halving check at the nominal point: NMSE 4.8e-05 between 2 and 4 substeps"``."""
     method, substeps = record["method"], record["substeps"]
     steps = f"{substeps:,} substep{'' if substeps == 1 else 's'}"
-    name = ("implicit (HHT α = 0, " if method == "implicit"
+    name = (f"implicit (HHT α = {record.get('hht_alpha', 0.0):g}, " if method == "implicit"
             else "nonlinear (central differences, ")
     line = f"simulation: {name}{steps}; {dofs})"
     if record.get("chosen"):
