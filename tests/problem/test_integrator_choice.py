@@ -186,8 +186,11 @@ def test_the_record_and_its_line_say_the_choice_and_the_step_halving_check(tmp_p
     assert line.startswith("simulation: implicit (HHT α = 0, 16 substeps; full model, 2 DOFs), "
                            "chosen at the nominal point: central differences would need 94 "
                            "substeps per sample at the nominal point")
+    rounding = record["rounding"]
+    assert rounding["step"] == 1e-10 and rounding["nmse"] < 1e-16  # a smooth model
     assert line.endswith(f"; step-halving check at the nominal point: NMSE {check['nmse']:.2g} "
-                         "between 16 and 32 substeps")
+                         f"between 16 and 32 substeps; rounding check: NMSE "
+                         f"{rounding['nmse']:.2g} for parameters moved by 1e-10")
     soft, _ = _record(_case(tmp_path / "soft", SOFT_SLIDER, substeps=4, method="nonlinear"))
     assert "chosen" not in soft and "hht_alpha" not in soft
     assert describe_simulation(soft).startswith(
@@ -291,3 +294,41 @@ def test_hht_alpha_reaches_the_implicit_scheme_and_is_refused_where_none_runs(tm
                                        "f_u = 0.5\n", "") + "\n[simulation]\nhht_alpha = -0.05\n")
     with pytest.raises(ConfigError, match=r"simulation\.hht_alpha"):
         parse(ON_A_LINK + "\n[simulation]\nhht_alpha = -0.5\n")
+
+
+@pytest.mark.slow
+def test_the_rounding_check_warns_of_links_chattering_on_massless_feet(tmp_path):
+    """examples/frames/links-frame-100.toml without its footings: a change of 1e-10 in the
+    parameters moves the prediction by NMSE ~1e-7 (the links on the columns' feet chatter when
+    they reverse); with them ~1e-19. Only the first is warned about."""
+    import json
+    import re
+    import tomllib
+
+    from femupdate.case import parse_case
+    from femupdate.problem.reduced_path import ROUNDING_WARN
+
+    folder = Path(__file__).resolve().parents[2] / "examples" / "frames"
+    text = re.sub(r"substeps = 16", "substeps = 60",
+                  (folder / "links-frame-100.toml").read_text())
+    truth = json.loads((folder / "links-frame-100-truth.json").read_text())
+    found = {}
+    for name, keep in (("without footings", False), ("with footings", True)):
+        lines = text if keep else "\n".join(line for line in text.splitlines()
+                                            if "m = 2000.0" not in line)
+        spec = tomllib.loads(lines)
+        spec["data"]["directory"] = str(tmp_path / name)
+        case = parse_case(spec, source=tmp_path / f"{name}.toml")
+        virtual_experiment(case, truth, tmp_path / name, seed=1, duration=2.0, rate=100.0,
+                           pga_g=0.3, length_scale=1.0, snr=0.02, offset=0.0, drift=0.0)
+        problem = UpdateProblem(case, load_experiments(case))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            record = simulation_record(problem)
+        found[name] = (record["rounding"]["nmse"],
+                       [w for w in caught if "not smooth at rounding level" in str(w.message)])
+    chatter, warned = found["without footings"]
+    assert chatter > 1e3 * ROUNDING_WARN and len(warned) == 1
+    assert "give those DOFs their mass (a footing)" in str(warned[0].message)
+    smooth, quiet = found["with footings"]
+    assert smooth < 1e-3 * ROUNDING_WARN and not quiet

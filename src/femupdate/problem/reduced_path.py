@@ -22,7 +22,10 @@ The same record says, for a nonlinear model on the full path, which integrator r
 ``[simulation] method`` is not given, why it was chosen
 (:func:`femupdate.problem.case_model.choose_integrator`), with a **step-halving check**: the
 prediction at the case's substeps against the one at twice as many, at the nominal point
-(:func:`step_halving`, warned about above :data:`STEP_HALVING_WARN`).
+(:func:`step_halving`, warned about above :data:`STEP_HALVING_WARN`), and a **rounding
+check**: the prediction against the one with every parameter moved by 1e-10 of itself
+(:func:`rounding_check`, warned about above :data:`ROUNDING_WARN`): a response that jumps at
+that scale defeats the search's finite differences.
 """
 
 from __future__ import annotations
@@ -44,10 +47,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FULL_CHECK_MAX_DOF",
+    "ROUNDING_WARN",
     "STEP_HALVING_WARN",
     "TRUNCATION_WARN",
     "ReducedPath",
     "describe_simulation",
+    "rounding_check",
     "simulation_record",
     "step_halving",
 ]
@@ -72,6 +77,14 @@ TRUNCATION_WARN = 1e-6
 #: rms, a quarter of the φ that noise of 2 % rms leaves at the truth (4e-4), where the
 #: integration error would start to move a best fit.
 STEP_HALVING_WARN = 1e-4
+#: The rounding check moves every parameter by this share of itself: far below the search's
+#: difference steps (1e-3 of a range), far above rounding (1e-16).
+ROUNDING_STEP = 1e-10
+#: A prediction that moves by more than this NMSE under ROUNDING_STEP is warned about: a smooth
+#: model moves by (sensitivity × 1e-10)², 1e-18 on the 100-link frame of examples/frames (2.5e-19
+#: with its footings); without them its links on almost massless feet chatter when they reverse
+#: and the same change moves it by 3.5e-7.
+ROUNDING_WARN = 1e-12
 #: The integrators whose step the step-halving check halves.
 STEPPED_NONLINEAR = ("nonlinear", "implicit")
 
@@ -295,6 +308,39 @@ def step_halving(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
     return {**record, "nmse": nmse if math.isfinite(nmse) else math.inf}
 
 
+def rounding_check(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
+    """The rounding check of one trial at ``values``: φ of its prediction against the one with
+    every parameter moved by :data:`ROUNDING_STEP` of itself (the error function's weights),
+    two simulations. ``nmse`` is NaN when either fails (its ``failure`` says why)."""
+    from femupdate.errors import SimulationError
+
+    moved = {name: value * (1.0 + ROUNDING_STEP) if value else ROUNDING_STEP
+             for name, value in values.items()}
+    record: dict[str, Any] = {"trial": trial.name, "step": ROUNDING_STEP}
+    try:
+        here, there = (trial.model.simulate(v, trial._ag, trial.experiment.dt)
+                       for v in (values, moved))
+    except SimulationError as exc:
+        return {**record, "nmse": math.nan, "failure": str(exc)}
+    if here.diverged or there.diverged:
+        return {**record, "nmse": math.nan, "failure": "the simulation diverged"}
+    return {**record, "nmse": trial.phi_against(trial.scored(trial.prediction(here)),
+                                                trial.scored(trial.prediction(there)))}
+
+
+def warn_rounding(label: str, worst: Mapping[str, Any]) -> None:
+    """FemupdateWarning when the worst trial's rounding check exceeds ROUNDING_WARN."""
+    if not worst["nmse"] > ROUNDING_WARN:  # NaN (a failed check) is said by the step check
+        return
+    warnings.warn(f"{label}: simulation: moving every parameter by {worst['step']:g} of itself "
+                  f"moves the prediction by NMSE {worst['nmse']:.2g} at the nominal point "
+                  f"(trial {worst['trial']!r}), above {ROUNDING_WARN:g}: the response is not "
+                  "smooth at rounding level, so the search's finite differences see noise; "
+                  "hysteretic links or sliders on DOFs with almost no mass chatter when they "
+                  "reverse: give those DOFs their mass (a footing)", FemupdateWarning,
+                  stacklevel=4)
+
+
 def warn_step_halving(label: str, worst: Mapping[str, Any]) -> None:
     """FemupdateWarning when the worst trial's step-halving check exceeds STEP_HALVING_WARN."""
     if worst["nmse"] <= STEP_HALVING_WARN:
@@ -332,6 +378,11 @@ def nonlinear_record(problem: Any) -> dict[str, Any]:
     record["step_halving"] = {**worst, "at": "the nominal point", "warn_above": STEP_HALVING_WARN,
                               "trials": checks}
     warn_step_halving(problem.case.label, worst)
+    checks = [rounding_check(t, values) for t in problem.fitted]
+    worst = max(checks, key=lambda c: -math.inf if math.isnan(c["nmse"]) else c["nmse"])
+    record["rounding"] = {**worst, "at": "the nominal point", "warn_above": ROUNDING_WARN,
+                          "trials": checks}
+    warn_rounding(problem.case.label, worst)
     return record
 
 
@@ -433,6 +484,10 @@ def describe_nonlinear(record: Mapping[str, Any], dofs: str) -> str:
                  f"{fine:,} substeps")
         if len(check.get("trials", ())) > 1:
             line += f" (trial {check['trial']!r}, the largest)"
+    rounding = record.get("rounding")
+    if rounding is not None and math.isfinite(rounding["nmse"]):
+        line += (f"; rounding check: NMSE {rounding['nmse']:.2g} for parameters moved by "
+                 f"{rounding['step']:g}")
     return line
 
 
