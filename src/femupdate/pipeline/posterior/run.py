@@ -515,11 +515,13 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
     undetermined = [n for n, s in zip(names, spread, strict=True) if s >= 0.5]
     corr = np.corrcoef(search, rowvar=False) if len(names) > 1 else np.ones((1, 1))
     log_z = np.array([float(e["log_evidence"]) for e in extras])
+    fell = sum(any(s.get("fallback") for s in e.get("stages", [])) for e in extras)
     record = PosteriorRecord(
         **common, samples=search.shape[0], reached=True,
         message=f"β = 1 reached by {len(outcomes)} independent run(s) in "
                 f"{'–'.join(sorted({str(len(e['stages'])) for e in extras}, key=int))} stages"
-                f"{fallback_words(extras)}",
+                + (f"; {fell} of them by moves to β = 1: importance sampling's weights were "
+                   "too uneven" if fell else ""),
         # the mean of the runs' unbiased estimates of Z
         log_evidence=float(logsumexp(log_z) - math.log(log_z.size)),
         log_evidence_runs=log_z.tolist(), ess=float(np.min(agreement.ess)),
@@ -528,17 +530,6 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
         params=marginals(physical, names), correlations=correlation_rows(np.atleast_2d(corr)),
         undetermined=undetermined, sentences=words)
     return record, physical
-
-
-def fallback_words(extras: Sequence[dict[str, Any]]) -> str:
-    """"; k of them by moves …" when importance sampling at β = 1 fell back to moves in some
-    runs (its weights degenerate: :func:`~femupdate.inference.tmcmc.importance_degenerate`),
-    else nothing."""
-    fell = sum(any(s.get("fallback") for s in e.get("stages", [])) for e in extras)
-    if not fell:
-        return ""
-    return (f"; {fell} of them by moves to β = 1: importance sampling's weights were too "
-            "uneven")
 
 
 def short_advice(short: Sequence[RunOutcome]) -> str:
