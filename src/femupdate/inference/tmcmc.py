@@ -88,11 +88,11 @@ FINAL_STEPS = 12  # default moves at β = 1: they decorrelate the final resample
 FINAL_INFLATE = 1.3
 #: Importance sampling at β = 1 falls back to moves when, after any batch that counts, the
 #: least parameter's effective samples (or Kish's) per draw is below this: on issue 36's
-#: viscous bridge the first such batch gave 0.14–0.23, on its Rayleigh-damped building
-#: 0.007–0.10, falling further as batches were added (docs/posterior.md)
+#: viscous bridge the first such batch gave 0.14–0.23 (0.15–0.19 after three), on its
+#: Rayleigh-damped building 0.015–0.10 (0.003–0.029 after three; docs/posterior.md)
 FALLBACK_EFFICIENCY = 0.05
 #: ... or when one draw holds more than this share of the normalised weight (0.010–0.021 on
-#: the bridge's first batch that counts, 0.03–0.2 on the building's)
+#: the bridge's first batch that counts, 0.03–0.10 on the building's, up to 0.31 later)
 FALLBACK_WEIGHT = 0.1
 #: The mixture proposal's k-means clusters: on the viscous bridge 16 mixed better per
 #: evaluation than 8 or 32 (docs/posterior.md, "Effective samples, measured across seeds")
