@@ -4,6 +4,7 @@ analytic check, repeatable and resumable bit for bit."""
 
 from __future__ import annotations
 
+import math
 import pickle
 
 import numpy as np
@@ -12,6 +13,7 @@ from scipy.stats import norm
 
 from femupdate.errors import ConfigError
 from femupdate.inference.analytic import Residuals, exact_log_evidence, linear_gaussian
+from femupdate.inference.error_models import error_model
 from femupdate.inference.importance import (
     TMixture,
     defensive_mixture,
@@ -19,7 +21,8 @@ from femupdate.inference.importance import (
     kish_ess,
     resampled_ess,
 )
-from femupdate.inference.tmcmc import make_tmcmc, run_tmcmc, safe_cholesky
+from femupdate.inference.priors import Prior
+from femupdate.inference.tmcmc import importance_degenerate, make_tmcmc, run_tmcmc, safe_cholesky
 from femupdate.optimize.minimize import MinimizeState
 
 CASE = linear_gaussian()
@@ -130,3 +133,92 @@ def test_importance_from_a_tempered_population_meets_the_analytic_check() -> Non
     assert post.log_evidence == pytest.approx(exact_log_evidence(CASE), abs=0.15)
     with pytest.raises(ConfigError, match="importance_from"):
         _importance(3, importance_from=1.5)
+
+
+def test_weights_too_uneven_are_called_degenerate() -> None:
+    x = np.random.default_rng(4).standard_normal((1000, 2))
+    even = np.zeros(1000)
+    assert not importance_degenerate(importance_ess(x, even), even, 1000)
+    # every draw weighs alike but most fell outside the cube: 1,000 of 30,000 draws
+    assert importance_degenerate(importance_ess(x, even), even, 30_000)
+    one = np.zeros(1000)
+    one[3] = np.log(150.0)  # a fifth of the weight on one draw, Kish's ESS still 40 %
+    assert kish_ess(one) > 0.05 * 1000
+    assert importance_degenerate(importance_ess(x, one), one, 1000)
+    assert not importance_degenerate(importance_ess(x, one), one, 1000, weight=0.5)
+
+
+def _banana(width: float, n: int = 2):
+    """θ_0 ~ N(0, 1) and θ_k ~ N(θ_0², width²), k ≥ 1, under uniform priors (their bounds
+    leave out less than 1e-4 of it): the residuals, the prior, the error model (known σ = 1;
+    a third residual row is zero) and log Z in closed form."""
+    prior = Prior([f"p{k}" for k in range(n)], [-4.0] + [-2.0] * (n - 1),
+                  [4.0] + [16.0] * (n - 1))
+    model = error_model([slice(0, n + 1)], "known", sigma=1.0)
+
+    def residuals(theta: np.ndarray) -> np.ndarray:
+        return np.concatenate([[theta[0]], (theta[1:] - theta[0] ** 2) / width, [0.0]])
+
+    log_z = (n - 1) * math.log(width / 18.0) - math.log(8.0) - 0.5 * math.log(2 * math.pi)
+    return residuals, prior, model, log_z
+
+
+def test_a_forced_fallback_keeps_the_analytic_check() -> None:
+    """``fallback = 1``: importance sampling is dropped after its first batch that counts;
+    the tempering goes on by moves from the β it had reached, and the posterior and log Z
+    still pass the analytic check."""
+    post, _ = _importance(3, ess=1500, importance_from=0.3, fallback=1.0)
+    fell = [s for s in post.stages if s.get("fallback")]
+    assert post.reached and len(fell) == 1 and fell[0]["beta"] < 1.0
+    assert fell[0]["draws"] == 1000 and fell[0]["evaluations"] > 1000
+    assert post.stages[-1]["beta"] == 1.0 and "draws" not in post.stages[-1]
+    x = CASE.prior.to_search(post.samples)
+    sd = np.sqrt(np.diag(CASE.cov))
+    assert np.all(np.abs(x.mean(axis=0) - CASE.mean) <= 0.1 * sd)
+    s = np.sqrt(np.diag(np.cov(x.T)))
+    assert np.all(np.abs(s / sd - 1) <= 0.08)  # three standard errors at its ESS (≈ 860)
+    assert post.log_evidence == pytest.approx(exact_log_evidence(CASE), abs=0.15)
+    # by default the Gaussian's weights are even enough: no fallback, fewer evaluations
+    kept, _ = _importance(3, ess=1500, importance_from=0.3)
+    assert not any(s.get("fallback") for s in kept.stages)
+    assert kept.evaluations < post.evaluations
+
+
+def test_a_forced_fallback_on_a_banana_keeps_its_moments_and_evidence() -> None:
+    residuals, prior, model, log_z = _banana(0.05)
+    post, _ = run_tmcmc(residuals, prior, model, seed=2, population=1000, final="importance",
+                        importance_from=0.3, fallback=1.0)
+    assert post.reached and any(s.get("fallback") for s in post.stages)
+    x = prior.to_search(post.samples)
+    assert abs(x[:, 0].mean()) <= 0.1 and abs(x[:, 0].std() - 1.0) <= 0.08
+    assert abs(x[:, 1].mean() - 1.0) <= 0.15  # E θ_1 = E θ_0² = 1 (sd 1.4)
+    assert post.log_evidence == pytest.approx(log_z, abs=0.2)
+
+
+def test_a_curved_banana_falls_back_by_default_and_costs_less() -> None:
+    """In three dimensions the banana's importance weights are degenerate (a few % of the
+    draws count): the run falls back after its first batch that counts, where importance
+    sampling alone draws batches to its cap; both reach β = 1."""
+    residuals, prior, model, _ = _banana(0.02, 3)
+    options = dict(seed=0, population=1000, final="importance", importance_from=0.3, ess=500)
+    post, _ = run_tmcmc(residuals, prior, model, **options)
+    kept, _ = run_tmcmc(residuals, prior, model, fallback=0.0, **options)
+    fell = [s for s in post.stages if s.get("fallback")]
+    assert post.reached and kept.reached and len(fell) == 1
+    assert fell[0]["efficiency"] < 0.05 and fell[0]["draws"] == 1000
+    assert not any(s.get("fallback") for s in kept.stages)
+    assert post.evaluations < kept.evaluations
+    again, _ = run_tmcmc(residuals, prior, model, **options)
+    assert again.samples.tobytes() == post.samples.tobytes()
+    assert again.log_evidence == post.log_evidence
+    # pickled just after it fell back (a checkpoint) and continued: the same samples
+    options.pop("seed")
+    sampler = make_tmcmc(3, np.random.default_rng(0), error_model=model, prior=prior, **options)
+    state = MinimizeState(sampler, "tmcmc", prior.search_low, prior.search_high, 1_000_000,
+                          None, residuals=True)
+    while sampler.phase != "mcmc" or not sampler._fell_back:
+        state.step(residuals)
+    state = pickle.loads(pickle.dumps(state))
+    while not state.done:
+        state.step(residuals)
+    assert state.optimizer.posterior().samples.tobytes() == post.samples.tobytes()

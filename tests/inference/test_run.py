@@ -416,3 +416,13 @@ def test_the_importance_stage_runs_through_the_posterior(case_path: Path, tmp_pa
     assert got.record.reached and got.samples.shape[0] > 2 * 200
     assert got.samples.tobytes() == again.samples.tobytes()
     assert all(v is not None and v > 0 for v in got.record.ess_params.values())
+
+
+@pytest.mark.slow
+def test_runs_that_fall_back_to_moves_say_so(case_path: Path, tmp_path: Path) -> None:
+    """Importance sampling dropped for moves (forced: ``fallback = 1``) in every run: the
+    runs still reach β = 1, and the message says how many fell back."""
+    got = run_posterior(load_case(case_path), tmp_path / "moves", runs=2, max_runs=2,
+                        recentre=0, tmcmc={"fallback": 1.0})
+    assert got.record.reached and got.samples.shape[0] == 2 * 200
+    assert "2 of them by moves to β = 1" in got.record.message

@@ -165,6 +165,7 @@ def test_reported_ess_matches_the_variance_of_the_mean_across_seeds() -> None:
     ({"proposal": "hmc"}, r"'proposal' of method 'tmcmc' must be one of rw, independent, mixture"),
     ({"speed": 2}, r"unknown option\(s\) 'speed' for method 'tmcmc'"),
     ({"components": 0}, r"'components' of method 'tmcmc' must be in \[1, 1000\], got 0"),
+    ({"fallback": 1.5}, r"'fallback' of method 'tmcmc' must be in \[0, 1\], got 1.5"),
     ({"reference": (np.full(3, 0.5), 1e2 * np.eye(3))}, r"less than 1 % of the Gaussian"),
 ])
 def test_bad_options(options: dict, match: str) -> None:

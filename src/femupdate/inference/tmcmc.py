@@ -30,7 +30,11 @@ few stages. Each stage:
 With ``final = "importance"`` the last stage draws batches from a defensive mixture (the
 clusters beside a Student-t of the whole population) and weighs them by π/q instead
 (:mod:`femupdate.inference.importance`); the weighted draws say where the moves' population
-was too narrow.
+was too narrow. Where the weights degenerate (a curved posterior the mixture does not cover:
+the least effective samples per draw below :data:`FALLBACK_EFFICIENCY`, or one draw holding
+more than :data:`FALLBACK_WEIGHT` of the weight), the run falls back: it drops the draws
+(their evaluations stay counted), takes up the population at the β it reached and goes on
+tempering by moves to β = 1 and its final moves, as ``final = "moves"`` does.
 
 Every step's candidates are one population (``ask`` → (k, n)), evaluated by the loop's
 batches, workers or Dask; proposals outside the cube are rejected without evaluation. A
@@ -68,7 +72,7 @@ from femupdate.optimize.base import StepTrace, check_option_names, int_option, r
 
 OPTIONS = ("population", "cov_target", "steps", "proposal", "reference", "inflate",
            "max_stages", "final_steps", "components", "final", "ess", "final_inflate",
-           "importance_from")
+           "importance_from", "fallback")
 PROPOSALS = ("rw", "independent", "mixture")
 #: What the last stage (β = 1) does: importance sampling from a defensive mixture fitted to
 #: the population (:mod:`femupdate.inference.importance`), or ``final_steps`` sweeps of moves
@@ -82,6 +86,14 @@ TARGET_ACCEPTANCE = 0.25
 FINAL_STEPS = 12  # default moves at β = 1: they decorrelate the final resampled copies
 #: The widening of the importance proposal's clusters at β = 1 (module importance)
 FINAL_INFLATE = 1.3
+#: Importance sampling at β = 1 falls back to moves when, after any batch that counts, the
+#: least parameter's effective samples (or Kish's) per draw is below this: on issue 36's
+#: viscous bridge the first such batch gave 0.14–0.23 (0.15–0.19 after three), on its
+#: Rayleigh-damped building 0.015–0.10 (0.003–0.029 after three; docs/posterior.md)
+FALLBACK_EFFICIENCY = 0.05
+#: ... or when one draw holds more than this share of the normalised weight (0.010–0.021 on
+#: the bridge's first batch that counts, 0.03–0.10 on the building's, up to 0.31 later)
+FALLBACK_WEIGHT = 0.1
 #: The mixture proposal's k-means clusters: on the viscous bridge 16 mixed better per
 #: evaluation than 8 or 32 (docs/posterior.md, "Effective samples, measured across seeds")
 COMPONENTS = 16
@@ -148,6 +160,17 @@ def next_beta(loglike_ratio: np.ndarray, beta: float, cov_target: float) -> floa
         else:
             low = mid
     return beta + max(low, 1e-12)
+
+
+def importance_degenerate(ess: np.ndarray, log_w: np.ndarray, drawn: int,
+                          efficiency: float = FALLBACK_EFFICIENCY,
+                          weight: float = FALLBACK_WEIGHT) -> bool:
+    """Whether importance weights are too uneven to go on with: the least of the parameters'
+    effective samples ``ess`` and Kish's, per draw (``drawn``, those outside the cube
+    included), is below ``efficiency``, or the largest normalised weight of ``log_w`` is above
+    ``weight`` (a few draws decide every estimate, and the ESS itself is a guess)."""
+    least = min(float(np.min(ess)), kish_ess(log_w))
+    return least < efficiency * drawn or float(np.max(normalised_weights(log_w))) > weight
 
 
 def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -298,6 +321,13 @@ class TMCMC:
         the population).
     final_inflate : float
         With ``final = "importance"``: the widening of the proposal's clusters.
+    importance_from : float
+        With ``final = "importance"``: a stage whose β reaches this goes to β = 1 by importance
+        sampling at once (1: only the stage that reaches β = 1).
+    fallback : float
+        With ``final = "importance"``: the least effective samples per draw below which (or
+        one draw holding more than :data:`FALLBACK_WEIGHT` of the weight) importance sampling
+        is dropped for moves to β = 1 (:func:`importance_degenerate`); 0 never drops it.
     """
 
     needs_residuals = True
@@ -310,7 +340,8 @@ class TMCMC:
                  inflate: float = INFLATE, max_stages: int = 100,
                  components: int = COMPONENTS, final: str = "moves",
                  ess: int | None = None, final_inflate: float = FINAL_INFLATE,
-                 importance_from: float = 1.0) -> None:
+                 importance_from: float = 1.0,
+                 fallback: float = FALLBACK_EFFICIENCY) -> None:
         method = "tmcmc"
         if not isinstance(error_model, ErrorModel):
             raise ConfigError(f"option 'error_model' of method 'tmcmc' must be an ErrorModel, "
@@ -347,6 +378,7 @@ class TMCMC:
                                                100.0, low_open=True))
         self.importance_from = float(real_option(method, "importance_from", importance_from,
                                                  0.0, 1.0, low_open=True))
+        self.fallback = float(real_option(method, "fallback", fallback, 0.0, 1.0))
         self._trace = StepTrace()
         self.phase = "init"
         self.beta = 0.0
@@ -384,6 +416,7 @@ class TMCMC:
         self._jumped_from: float | None = None  # the β importance sampling went to 1 from
         self._pool_x = np.empty((0, n))  # the adapting batches' draws and log-weights
         self._pool_log_w = np.empty(0)
+        self._fell_back = False  # importance sampling degenerated: moves to β = 1 instead
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # a checkpoint written before the ancestry was kept: ancestry from the resume on
@@ -396,6 +429,9 @@ class TMCMC:
         state.setdefault("_jumped_from", None)
         state.setdefault("_ess", None)
         state.setdefault("_adapt_left", 0)
+        # and before it could fall back to moves
+        state.setdefault("_fell_back", False)
+        state.setdefault("fallback", 0.0)
         self.__dict__.update(state)
 
     # -- the reference density ----------------------------------------------------------------
@@ -569,7 +605,8 @@ class TMCMC:
             return
         beta = next_beta(g, self.beta, self.cov_target)
         # importance sampling takes the population at β ≥ importance_from to β = 1 at once
-        jump = self.final == "importance" and self.importance_from <= beta < 1.0
+        importance = self.final == "importance" and not self._fell_back
+        jump = importance and self.importance_from <= beta < 1.0
         a = np.where(finite, (beta - self.beta) * g, -np.inf)
         log_mean = float(logsumexp(a) - math.log(a.size))
         self.log_evidence += log_mean
@@ -583,24 +620,29 @@ class TMCMC:
         self.x, self.ll, self.lp, self.lq = (self.x[idx].copy(), self.ll[idx].copy(),
                                              self.lp[idx].copy(), self.lq[idx].copy())
         self.beta = 1.0 if jump else beta
-        if self.beta >= 1.0 and self.final == "importance":
+        if self.beta >= 1.0 and importance:
             self._move = defensive_mixture(self.x, self.components, self.final_inflate,
                                            self.rng, safe_cholesky)
-        elif self.proposal == "rw":
-            self._move = (mean, safe_cholesky(self.scale ** 2 * cov))
-        elif self.proposal == "mixture":
-            self._move = fit_mixture(self.x, self.components, self.inflate, self.rng,
-                                     safe_cholesky)
         else:
-            self._move = (mean, safe_cholesky(self.inflate ** 2 * cov))
+            self._move = self._moves(mean, cov)
         self.stages.append({"beta": self.beta, "weights_ess": ess_of_weights(w),
                             "scale": self.scale, "log_evidence": self.log_evidence,
                             "acceptance": math.nan, "evaluations": 0, "failures": 0})
-        self.phase = "importance" if self.beta >= 1.0 and self.final == "importance" else "mcmc"
+        self.phase = "importance" if self.beta >= 1.0 and importance else "mcmc"
         self._jumped_from = beta if jump else None
         self._stage_step = 0
         self._stage_accepted = self._stage_proposed = 0
         self._stage_evaluations = self._stage_failures = 0
+
+    def _moves(self, mean: np.ndarray, cov: np.ndarray) -> GaussianMixture | tuple[
+            np.ndarray, np.ndarray]:
+        """The proposal of the moves from the population ``self.x`` (its weighted ``mean``
+        and ``cov`` for the single Gaussian and the random walk)."""
+        if self.proposal == "rw":
+            return mean, safe_cholesky(self.scale ** 2 * cov)
+        if self.proposal == "mixture":
+            return fit_mixture(self.x, self.components, self.inflate, self.rng, safe_cholesky)
+        return mean, safe_cholesky(self.inflate ** 2 * cov)
 
     # -- importance sampling at β = 1 (femupdate.inference.importance) -------------------------
 
@@ -643,6 +685,9 @@ class TMCMC:
                            weights_ess=float(np.min(ess)), log_evidence=self.log_evidence,
                            evaluations=float(self.evaluations))
         if np.min(ess) < self.ess_target and batches < MAX_BATCHES:
+            if self.fallback > 0 and importance_degenerate(ess, self._log_w, self._drawn,
+                                                           self.fallback):
+                self._fall_back()
             return
         count = self._draws.shape[0]
         idx = systematic_resample(normalised_weights(self._log_w), self.rng)
@@ -657,6 +702,28 @@ class TMCMC:
                                efficiency=kish_ess(self._log_w) / self._drawn)
         self.phase = "done"
         self.stopped = {"beta_reached": 1.0}
+
+    def _fall_back(self) -> None:
+        """Leave importance sampling for moves: the population (resampled at the β the
+        tempering reached, not yet moved) takes up that stage's moves, and the tempering goes
+        on to β = 1 by moves. log Z is the tempering's sum to that β, which the later stages
+        continue; the draws are dropped, their evaluations stay in the stage's count."""
+        stage = self.stages[-1]
+        stage.update(fallback=1.0, draws=float(self._drawn),
+                     efficiency=kish_ess(self._log_w) / max(self._drawn, 1))
+        if self._jumped_from is not None:
+            self.beta = self._jumped_from
+            stage["beta"] = self.beta
+        self._fell_back = True
+        self._jumped_from = None
+        self._draws, self._log_w, self._draws_ll = (np.empty((0, self.n)), np.empty(0),
+                                                    np.empty(0))
+        self._pool_x, self._pool_log_w = np.empty((0, self.n)), np.empty(0)
+        self._move = self._moves(*weighted_moments(self.x, np.full(self.population,
+                                                                    1.0 / self.population)))
+        self.phase = "mcmc"
+        self._stage_step = 0
+        self._stage_accepted = self._stage_proposed = 0
 
     # -- the protocol's rest --------------------------------------------------------------------
 

@@ -515,10 +515,13 @@ def posterior_record(problem: UpdateProblem, prior: Prior, outcomes: Sequence[Ru
     undetermined = [n for n, s in zip(names, spread, strict=True) if s >= 0.5]
     corr = np.corrcoef(search, rowvar=False) if len(names) > 1 else np.ones((1, 1))
     log_z = np.array([float(e["log_evidence"]) for e in extras])
+    fell = sum(any(s.get("fallback") for s in e.get("stages", [])) for e in extras)
     record = PosteriorRecord(
         **common, samples=search.shape[0], reached=True,
         message=f"β = 1 reached by {len(outcomes)} independent run(s) in "
-                f"{'–'.join(sorted({str(len(e['stages'])) for e in extras}, key=int))} stages",
+                f"{'–'.join(sorted({str(len(e['stages'])) for e in extras}, key=int))} stages"
+                + (f"; {fell} of them by moves to β = 1: importance sampling's weights were "
+                   "too uneven" if fell else ""),
         # the mean of the runs' unbiased estimates of Z
         log_evidence=float(logsumexp(log_z) - math.log(log_z.size)),
         log_evidence_runs=log_z.tolist(), ess=float(np.min(agreement.ess)),
