@@ -131,9 +131,9 @@ def recorded_motion(path: Path, *, rate: float, length_scale: float = 1 / 50,
     for t, ag in parts:
         inside = (t >= start - 1e-9) & (t < end - 1e-9)
         if np.count_nonzero(inside) < 2:
-            raise ConfigError(f"--motion-start {start:g}, --motion-seconds {seconds}: the window "
-                              f"holds no samples of {what} (allowed: a window inside its "
-                              f"{t[-1]:g} s)")
+            length = "to the end" if seconds is None else f"--motion-seconds {seconds:g}"
+            raise ConfigError(f"--motion-start {start:g}, {length}: the window holds no "
+                              f"samples of {what} (allowed: a window inside its {t[-1]:g} s)")
         t_model = synth.scale_time(t[inside] - t[inside][0], length_scale)
         columns.append(io.resample(t_model, scale * ag[inside], rate)[1])
     n = min(c.size for c in columns)
