@@ -81,9 +81,9 @@ STEP_HALVING_WARN = 1e-4
 #: difference steps (1e-3 of a range), far above rounding (1e-16).
 ROUNDING_STEP = 1e-10
 #: A prediction that moves by more than this NMSE under ROUNDING_STEP is warned about: a smooth
-#: model moves by (sensitivity × 1e-10)², 1e-18 on the 100-link frame of examples/frames (2.5e-19
-#: with its footings); without them its links on almost massless feet chatter when they reverse
-#: and the same change moves it by 3.5e-7.
+#: model moves by about (sensitivity × 1e-10)², 2.5e-19 on the 100-link frame of examples/frames;
+#: without its footings its links on almost massless feet chatter when they reverse and the
+#: same change moves it by 3.5e-7 (tests/problem/test_integrator_choice.py).
 ROUNDING_WARN = 1e-12
 #: The integrators whose step the step-halving check halves.
 STEPPED_NONLINEAR = ("nonlinear", "implicit")
