@@ -329,21 +329,14 @@ def test_reduced_path_takes_the_components():
 def test_example_isolated_frame_under_the_recorded_components(tmp_path):
     """examples/frames: the two free-field components of Meloland 1979 read by the network
     reader drive the hysteretic frame; noise-free records are fitted exactly at the truth."""
-    import importlib.util
     import json
     import shutil
-    from pathlib import Path
 
     from femupdate.problem.update import TrialProblem
     from femupdate.trials.experiment import load_experiment
     from femupdate.trials.virtual import virtual_experiment
 
-    folder = Path(__file__).resolve().parents[2] / "examples" / "frames"
-    spec = importlib.util.spec_from_file_location("make_records", folder / "make_records.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    if not (script.DATA / script.EVENT).exists():
-        pytest.skip(f"the Meloland records are not in {script.DATA}")
+    folder, script = _make_records_script()
     motion = script.free_field(script.DATA, start=3.0, seconds=3.0, scale=10.0)
     assert motion.ag.shape == (300, 2) and motion.dt == 0.01
     shutil.copy(folder / "isolated-frame.toml", tmp_path)
@@ -497,22 +490,15 @@ def test_example_frame_on_100_links_under_the_recorded_components(tmp_path):
     the whole box; noise-free records of its truth are fitted at the truth; its response is
     smooth in the parameters (a change of 1e-12 moves it by rounding only, as footings under
     the links make it: on feet without mass it jumped by NMSE 3e-6)."""
-    import importlib.util
     import json
     import shutil
-    from pathlib import Path
 
     from femupdate.problem.update import TrialProblem
     from femupdate.simulate.implicit import explicit_stable_step
     from femupdate.trials.experiment import load_experiment
     from femupdate.trials.virtual import virtual_experiment
 
-    folder = Path(__file__).resolve().parents[2] / "examples" / "frames"
-    spec = importlib.util.spec_from_file_location("make_records", folder / "make_records.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    if not (script.DATA / script.EVENT).exists():
-        pytest.skip(f"the Meloland records are not in {script.DATA}")
+    folder, script = _make_records_script()
     shutil.copy(folder / "links-frame-100.toml", tmp_path)
     case = load_case(tmp_path / "links-frame-100.toml")
     truth = json.loads((folder / "links-frame-100-truth.json").read_text())
@@ -566,3 +552,18 @@ def test_synth_shakes_the_frame_with_two_channels_of_a_network_archive(tmp_path)
         recorded_motion(archive, rate=100.0, length_scale=1.0)
     with pytest.raises(ConfigError, match="the window holds no samples"):
         recorded_motion(archive, rate=100.0, length_scale=1.0, channels=(15,), start=1e4)
+
+
+def _make_records_script():
+    """(examples/frames, its make_records.py as a module); skips without the Meloland
+    records."""
+    import importlib.util
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[2] / "examples" / "frames"
+    spec = importlib.util.spec_from_file_location("make_records", folder / "make_records.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    if not (script.DATA / script.EVENT).exists():
+        pytest.skip(f"the Meloland records are not in {script.DATA}")
+    return folder, script

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import threading
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -284,48 +284,67 @@ def trial_truncation(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
             "phi_reduced": phi_reduced, "phi_full": phi_full}
 
 
-def step_halving(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
-    """The step-halving check of one trial (a ``femupdate.problem.update.TrialProblem``) at
-    ``values``: φ of its prediction at the case's substeps against the prediction at twice as
-    many as the measured target (the error function's own weights and normalisation), two
-    simulations on the integrator the trial holds. ``nmse`` is inf when either fails (its
-    ``failure`` says why)."""
+def _compared(trial: Any, simulations: Callable[[], tuple[Any, Any]], failed: float
+              ) -> dict[str, Any]:
+    """``{"nmse": …}`` of the trial's prediction from the second of ``simulations()`` against
+    the first's (the error function's weights and normalisation), or ``failed`` with the
+    ``failure`` when a simulation raises or diverges."""
     from femupdate.errors import SimulationError
 
-    model = trial.model
-    dt = trial.experiment.dt
-    record: dict[str, Any] = {"trial": trial.name, "substeps": [model.substeps,
-                                                                2 * model.substeps]}
     try:
-        coarse = model.simulate(values, trial._ag, dt)
-        fine = model.with_substeps(2 * model.substeps).simulate(values, trial._ag, dt)
+        first, second = simulations()
     except SimulationError as exc:
-        return {**record, "nmse": math.inf, "failure": str(exc)}
-    if coarse.diverged or fine.diverged:
-        return {**record, "nmse": math.inf, "failure": "the simulation diverged"}
-    nmse = trial.phi_against(trial.scored(trial.prediction(coarse)),
-                             trial.scored(trial.prediction(fine)))
-    return {**record, "nmse": nmse if math.isfinite(nmse) else math.inf}
+        return {"nmse": failed, "failure": str(exc)}
+    if first.diverged or second.diverged:
+        return {"nmse": failed, "failure": "the simulation diverged"}
+    nmse = trial.phi_against(trial.scored(trial.prediction(first)),
+                             trial.scored(trial.prediction(second)))
+    return {"nmse": nmse if math.isfinite(nmse) else failed}
 
 
-def rounding_check(trial: Any, values: Mapping[str, float]) -> dict[str, Any]:
-    """The rounding check of one trial at ``values``: φ of its prediction against the one with
-    every parameter moved by :data:`ROUNDING_STEP` of itself (the error function's weights),
-    two simulations. ``nmse`` is NaN when either fails (its ``failure`` says why)."""
+def _nominal_response(trial: Any, values: Mapping[str, float]) -> Any:
+    """The trial's response at ``values``, or None when it fails (each check then simulates
+    again and says why)."""
     from femupdate.errors import SimulationError
 
+    try:
+        return trial.model.simulate(values, trial._ag, trial.experiment.dt)
+    except SimulationError:
+        return None
+
+
+def _simulated(trial: Any, values: Mapping[str, float], response: Any = None) -> Any:
+    """The trial's response at ``values`` (``response`` when the caller has it)."""
+    if response is not None:
+        return response
+    return trial.model.simulate(values, trial._ag, trial.experiment.dt)
+
+
+def step_halving(trial: Any, values: Mapping[str, float], nominal: Any = None
+                 ) -> dict[str, Any]:
+    """The step-halving check of one trial (a ``femupdate.problem.update.TrialProblem``) at
+    ``values``: φ of its prediction at the case's substeps (``nominal``, its response there,
+    when the caller has it) against the prediction at twice as many as the measured target,
+    on the integrator the trial holds. ``nmse`` is inf when either fails (its ``failure``
+    says why)."""
+    model = trial.model
+    twice = model.with_substeps(2 * model.substeps)
+    return {"trial": trial.name, "substeps": [model.substeps, 2 * model.substeps],
+            **_compared(trial, lambda: (_simulated(trial, values, nominal), twice.simulate(
+                values, trial._ag, trial.experiment.dt)), math.inf)}
+
+
+def rounding_check(trial: Any, values: Mapping[str, float], nominal: Any = None
+                   ) -> dict[str, Any]:
+    """The rounding check of one trial at ``values``: φ of its prediction (``nominal``, its
+    response there, when the caller has it) against the one with every parameter moved by
+    :data:`ROUNDING_STEP` of itself. ``nmse`` is NaN when either fails (its ``failure`` says
+    why)."""
     moved = {name: value * (1.0 + ROUNDING_STEP) if value else ROUNDING_STEP
              for name, value in values.items()}
-    record: dict[str, Any] = {"trial": trial.name, "step": ROUNDING_STEP}
-    try:
-        here, there = (trial.model.simulate(v, trial._ag, trial.experiment.dt)
-                       for v in (values, moved))
-    except SimulationError as exc:
-        return {**record, "nmse": math.nan, "failure": str(exc)}
-    if here.diverged or there.diverged:
-        return {**record, "nmse": math.nan, "failure": "the simulation diverged"}
-    return {**record, "nmse": trial.phi_against(trial.scored(trial.prediction(here)),
-                                                trial.scored(trial.prediction(there)))}
+    return {"trial": trial.name, "step": ROUNDING_STEP,
+            **_compared(trial, lambda: (_simulated(trial, values, nominal),
+                                        _simulated(trial, moved)), math.nan)}
 
 
 def warn_rounding(label: str, worst: Mapping[str, Any]) -> None:
@@ -373,12 +392,13 @@ def nonlinear_record(problem: Any) -> dict[str, Any]:
     if len(methods) > 1:  # trials sampled at different rates may take different integrators
         record["trial_methods"] = {t.name: t.model.method for t in problem.fitted}
     values = problem.case.nominal()
-    checks = [step_halving(t, values) for t in problem.fitted]
+    nominal = [_nominal_response(t, values) for t in problem.fitted]  # shared by both checks
+    checks = [step_halving(t, values, r) for t, r in zip(problem.fitted, nominal, strict=True)]
     worst = max(checks, key=lambda c: c["nmse"])
     record["step_halving"] = {**worst, "at": "the nominal point", "warn_above": STEP_HALVING_WARN,
                               "trials": checks}
     warn_step_halving(problem.case.label, worst)
-    checks = [rounding_check(t, values) for t in problem.fitted]
+    checks = [rounding_check(t, values, r) for t, r in zip(problem.fitted, nominal, strict=True)]
     worst = max(checks, key=lambda c: -math.inf if math.isnan(c["nmse"]) else c["nmse"])
     record["rounding"] = {**worst, "at": "the nominal point", "warn_above": ROUNDING_WARN,
                           "trials": checks}
