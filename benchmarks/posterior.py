@@ -25,11 +25,17 @@ Sections (``--only`` takes a comma-separated list):
   Laplace record gives it) and TMCMC's for ``--tmcmc-kinds``; the share of
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
+  ``--case-search`` fits each replicate with the example's own ``[search]`` instead (as
+  ``femupdate run`` ends on it), ``--truth FILE`` fixes the truth (only the noise fresh).
   ``--product`` runs each replicate through ``femupdate posterior`` itself instead (the
   case's search of ``--fit-runs`` runs of ``--fit-evals`` evaluations, or with ``--fit-runs
   0`` the example's own ``[search]`` as a user runs it, then the default
   ``[posterior]``, without re-centring and with ``--recentre``), and prints the start's
   verdict beside the runs'.
+- ``rayleigh`` (not in the default list): a 3-storey shear building with Rayleigh damping
+  at its truth, 2 % noise on every record (the table's too): ``femupdate posterior``'s
+  intervals over ``--replicates``, or with ``--rayleigh-kinds`` the Laplace intervals of
+  those error model kinds and of the sandwich at the search's best fit.
 - ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
   scatter of its estimate? The truth's Mahalanobis distance on the first replicates, with
   the table's record noisy and clean, and the scatter over noise draws at one truth
@@ -108,6 +114,8 @@ FIT_EVALS = 2000
 #: (benchmarks/error_models)
 REGISTRY = registry()
 KINDS = ("neff", "neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "eiv")
+#: The kinds that take their count from the Jacobian at the best fit
+ADJUSTED = ("adjusted", "adjusted-least")
 #: Not an error model: the Gaussian at the best fit with the sandwich covariance of the
 #: least-squares estimate (benchmarks/error_models/sandwich.py), measured beside them
 SANDWICH = "sandwich"
@@ -259,7 +267,7 @@ def laplace_of(problem: UpdateProblem, unit: np.ndarray, r: np.ndarray, kind: st
     # steps of 1 % of each range: the slope of the kp1 valley, not of one of its ripples
     jac = jacobian_unit(problem.residuals_batch, unit, prior, step=1e-2)
     # "adjusted" takes its count from this Jacobian (k does not depend on its coordinates)
-    model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None,
+    model = problem_error_model(problem, r, kind, jac if kind in ADJUSTED else None,
                                 point=prior.to_search(unit))
     return laplace(jac, r, unit, model, prior), model, prior
 
@@ -289,62 +297,116 @@ def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
     return out
 
 
+def two_scale_quantiles(coarse: Any, local: Any) -> np.ndarray:
+    """The Laplace record's two scales (femupdate.inference.best_fit.two_scale_record): the
+    quantiles (3, n) of the Gaussian over the local Jacobian (steps of 1e-4 of each range),
+    but the one over 1 % of each range (the kp1 valley's slope, not a ripple's) where that
+    one says undetermined, or is NOT_QUADRATIC_RATIO times wider."""
+    q = local.quantiles.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        widening = coarse.spread / local.spread
+    use = (coarse.undetermined & ~local.undetermined) | (
+        ~coarse.undetermined & (widening >= NOT_QUADRATIC_RATIO))
+    q[:, use] = coarse.quantiles[:, use]
+    return q
+
+
+def secant_widening(problem: UpdateProblem, r: np.ndarray, unit: np.ndarray,
+                    coarse_jac: np.ndarray, local_jac: np.ndarray, prior: Prior) -> list[float]:
+    """Per parameter, the 90 % interval of the Gaussian over the 1 % secant (the Jacobian of
+    steps UNIT_STEP) over that of the local one, under the i.i.d. likelihood's shape (the
+    same for any count per channel): well above 1 where φ ripples along the parameter at a
+    scale between the two steps (the Laplace record's NOT_QUADRATIC_RATIO is 3)."""
+    model = problem_error_model(problem, r, "iid")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (laplace(coarse_jac, r, unit, model, prior).spread
+                / laplace(local_jac, r, unit, model, prior).spread).tolist()
+
+
+def distances(q: np.ndarray, truth: np.ndarray) -> list[float]:
+    """(truth − median) / σ per parameter, σ the 90 % interval's half-width over 1.645: the
+    truth's distance in the interval's own standard deviations (root mean square 1 over
+    replicates for calibrated Gaussian intervals; below 1 too wide, above too narrow)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return ((truth - q[1]) / ((q[2] - q[0]) / (2 * 1.6449))).tolist()
+
+
+def case_search_fit(spec: dict[str, Any], source: Path, seed: int
+                    ) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(best fit in the unit cube, its residuals, the verdict's converged) of the case's own
+    ``[search]`` (``f_target`` removed, ``seed`` given), run as ``femupdate run`` runs it."""
+    from femupdate.pipeline.run import run_case
+    from femupdate.runs import Execution
+
+    spec = dict(spec)
+    spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
+        "seed": seed}
+    case = parse_case(spec, source=source)
+    got = run_case(case, None, execution=Execution(quiet=True), sensitivities=False)
+    prior = Prior.from_case(case)
+    x = prior.physical_to_search(np.array([got.summary.best.params[n] for n in prior.names]))
+    verdict = got.summary.verdict
+    return prior.to_unit(x), got.problem.residuals(x), bool(verdict and verdict.converged)
+
+
 def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
               tmcmc_kinds: list[str], tmcmc_population: int, coarse_only: bool = False,
               clean_input: bool = False, ar_max_order: int = AR_MAX_ORDER,
               search_fit: bool = False, tmcmc_from_prior: bool = False,
               lowpass_hz: float | None = None, fit_evals: int = FIT_EVALS,
-              tmcmc_runs: int = 1) -> dict[str, Any]:
+              tmcmc_runs: int = 1, case_search: bool = False,
+              truth: dict[str, float] | None = None) -> dict[str, Any]:
     """One calibration replicate: truth from the prior, fresh noise, the best fit of a local
     search started at the truth, then per error model kind whether the Laplace (and, for
     ``tmcmc_kinds``, TMCMC's) 90 % interval of each parameter holds the truth. The Laplace of
     a whitening kind (``ar1``, ``arp``) is taken at that kind's own mode, climbed to from the
     least-squares fit (benchmarks/error_models/mode.py), as the product does; ``KIND@fit`` is the
-    same Gaussian centred at the least-squares fit instead."""
+    same Gaussian centred at the least-squares fit instead. ``case_search``: the fit of the
+    example's own ``[search]`` (:func:`case_search_fit`, seeded as :func:`product_replicate`
+    seeds it) instead; ``truth`` (physical values by name): every replicate has that truth,
+    only its noise fresh (the same records as :func:`product_replicate`'s)."""
     # the kinds of the library when these seeds were spawned (their order fixes them)
     ALL_KINDS = ("neff", "neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "known", "eiv")
     rng = np.random.default_rng(child)
     # TMCMC's seeds: one child per kind of the library, whichever kinds this run measures
     tm_seeds = dict(zip(ALL_KINDS, child.spawn(len(ALL_KINDS)), strict=True))
-    case = parse_case(bridge.bridge_case("viscous", "narrow", directory=str(root)),
-                      source=root / "viscous.toml")
-    prior = Prior.from_case(case)
-    truth_values = prior.sample(rng, 1)[1][0]
+    spec = bridge.bridge_case("viscous", "narrow", directory=str(root / f"replicate-{i}"))
+    prior = Prior.from_case(parse_case(spec, source=root / "viscous.toml"))
+    drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
+    truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
     truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
     problem = bridge_problem("viscous", truth, root / f"replicate-{i}",
                              int(rng.integers(2 ** 31)), clean_input, lowpass_hz)
-    if search_fit:  # as a user's update ends: multistart-lm from nowhere in particular
+    converged: bool | None = None
+    if case_search:  # as `femupdate run` ends on the example, with product_replicate's seed
+        search_seed = int(np.random.SeedSequence(
+            child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(1)[0])
+        unit, r, converged = case_search_fit(spec, root / f"replicate-{i}" / "viscous.toml",
+                                             search_seed)
+    elif search_fit:  # as a user's update ends: multistart-lm from nowhere in particular
         unit, r, _, converged = best_fit(problem, np.random.default_rng(
             np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 98))),
             max_evals=fit_evals)
     else:
         unit, r, _ = local_fit(problem, prior.from_physical(truth_values))
-        converged = None
-    # the Laplace record's two scales (femupdate.inference.best_fit.two_scale_record): the
-    # local Jacobian (steps of 1e-4 of each range) for the parameters it determines, the one
-    # over 1 % of each range (the kp1 valley's slope, not a ripple's) for those that one
-    # says the data do not determine; with ``coarse_only`` the 1 % one for every parameter
+    # the Laplace record's two scales (two_scale_quantiles); with ``coarse_only`` the 1 % one
+    # for every parameter
     jac = jacobian_unit(problem.residuals_batch, unit, prior, step=UNIT_STEP)
     jac_local = jac if coarse_only else jacobian_unit(problem.residuals_batch, unit, prior,
                                                       step=LOCAL_STEP)
     blocks = residual_blocks(problem)[0]
+    fit_error = (unit - prior.from_physical(truth_values)).tolist()
+    widening = secant_widening(problem, r, unit, jac, jac_local, prior)
 
     def two_scale(estimate: Any, jacobians: tuple[np.ndarray, np.ndarray] | None = None
                   ) -> tuple[Any, np.ndarray]:
         coarse_jac, local_jac = jacobians or (jac, jac_local)
-        coarse, local = estimate(coarse_jac), estimate(local_jac)
-        q = local.quantiles.copy()
-        # the product's rule (femupdate.inference.best_fit.two_scale_record): the coarse
-        # marginal where it says undetermined, or where it is NOT_QUADRATIC_RATIO times wider
-        with np.errstate(divide="ignore", invalid="ignore"):
-            widening = coarse.spread / local.spread
-        use = (coarse.undetermined & ~local.undetermined) | (
-            ~coarse.undetermined & (widening >= NOT_QUADRATIC_RATIO))
-        q[:, use] = coarse.quantiles[:, use]
-        return local, q
+        local = estimate(local_jac)
+        return local, two_scale_quantiles(estimate(coarse_jac), local)
 
-    out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
-                           "mode_evals": {}, "search_converged": converged}
+    out: dict[str, Any] = {"replicate": i, "laplace": {}, "distance": {}, "tmcmc": {},
+                           "tmcmc_evals": {}, "mode_evals": {}, "search_converged": converged,
+                           "fit_error": fit_error, "widening": widening}
     for kind in kinds:
         if kind == GLS_SANDWICH:
             model = problem_error_model(problem, r, "arp", ar_max_order=ar_max_order)
@@ -353,6 +415,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             _, q = two_scale(lambda j, m=model, c=centre, rc=r_c: gls_sandwich_laplace(
                 j, rc, c, m, prior, trial_groups(problem)), (coarse_c, local_c))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            out["distance"][kind] = distances(q, truth_values)
             out["mode_evals"][kind] = evals
             continue
         if kind == EIV_SANDWICH:
@@ -366,11 +429,13 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             by_jacobian = {id(coarse_c): gaussians[0], id(local_c): gaussians[1]}
             _, q = two_scale(lambda j, g=by_jacobian: g[id(j)], (coarse_c, local_c))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            out["distance"][kind] = distances(q, truth_values)
             out["mode_evals"][kind] = evals
             continue
         if kind == SANDWICH:
             _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
             out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+            out["distance"][kind] = distances(q, truth_values)
             continue
         if kind in (CURVATURE, CURVATURE_LOCAL):  # TMCMC only: its Laplace is the sandwich's
             j = jac if kind == CURVATURE else jac_local
@@ -387,7 +452,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             out["tmcmc"][kind] = ((q[0] <= truth_values) & (truth_values <= q[1])).tolist()
             out["tmcmc_evals"][kind] = post.evaluations
             continue
-        model = problem_error_model(problem, r, kind, jac if kind == "adjusted" else None,
+        model = problem_error_model(problem, r, kind, jac if kind in ADJUSTED else None,
                                     ar_max_order=ar_max_order, point=prior.to_search(unit))
         if kind in WHITENING_KINDS:
             # beside it, the same Gaussian at the least-squares fit, no step to the mode (as
@@ -409,6 +474,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
         inside = (q[0] <= truth_values) & (truth_values <= q[2])
         out["laplace"][kind] = inside.tolist()
+        out["distance"][kind] = distances(q, truth_values)
         if kind in tmcmc_kinds:
             if kind == "eiv":  # as femupdate posterior samples it (sampling.run)
                 model = magnitude_adjusted(problem, model, prior.to_search(unit), r, coarse_c,
@@ -528,10 +594,13 @@ def rayleigh_spec(work: Path, fit_evals: int) -> dict[str, Any]:
 
 
 def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
-                       snr: float = 0.02) -> dict[str, Any]:
+                       snr: float = 0.02, laplace_kinds: list[str] | None = None
+                       ) -> dict[str, Any]:
     """One replicate of the Rayleigh building at its truth: fresh noise (``snr`` on every
     record, the table's too: ``femupdate synth --rate 200 --snr 0.02 --length-scale 1
-    --duration 20``), then ``femupdate posterior`` with every default."""
+    --duration 20``), then ``femupdate posterior`` with every default; with
+    ``laplace_kinds``, instead, the case's search and the Laplace intervals of those kinds
+    (and of the sandwich) at its best fit, with the counts N_c of each kind."""
     from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
     from femupdate.trials.virtual import virtual_experiment
@@ -546,6 +615,8 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
                        rate=200.0, duration=20.0, length_scale=1.0)
     names = tuple(RAYLEIGH_TRUTH)
     truth = np.array([RAYLEIGH_TRUTH[n] for n in names])
+    if laplace_kinds:
+        return rayleigh_laplaces(i, case, truth, laplace_kinds)
     got = run_posterior(case, work / "out", execution=Execution(quiet=True))
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
                            "tmcmc_unsettled": {}}
@@ -558,10 +629,42 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
     return out
 
 
-def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None = None
-             ) -> dict[str, Any]:
+def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
+                      ) -> dict[str, Any]:
+    """The case's search (``femupdate run``'s), then the Laplace record's intervals (its two
+    scales) of each of ``kinds`` and of the sandwich at its best fit: whether they hold
+    ``truth``, and each kind's counts N_c."""
+    from femupdate.pipeline.run import run_case
+    from femupdate.runs import Execution
+
+    got = run_case(case, None, execution=Execution(quiet=True), sensitivities=False)
+    problem, prior = got.problem, Prior.from_case(case)
+    x = prior.physical_to_search(np.array([got.summary.best.params[n] for n in prior.names]))
+    unit, r = prior.to_unit(x), got.problem.residuals(x)
+    jacobians = [jacobian_unit(problem.residuals_batch, unit, prior, step=step)
+                 for step in (UNIT_STEP, LOCAL_STEP)]
+    blocks = residual_blocks(problem)[0]
+    out: dict[str, Any] = {"replicate": i, "laplace": {}, "distance": {}, "tmcmc": {},
+                           "counts": {}, "fit_error": (unit - prior.from_physical(truth)).tolist(),
+                           "widening": secant_widening(problem, r, unit, *jacobians, prior)}
+    for kind in (*kinds, SANDWICH):
+        if kind == SANDWICH:
+            q = two_scale_quantiles(*(sandwich_laplace(j, r, unit, blocks, prior)
+                                      for j in jacobians))
+        else:
+            model = problem_error_model(problem, r, kind, jacobians[0])
+            q = two_scale_quantiles(*(laplace(j, r, unit, model, prior) for j in jacobians))
+            out["counts"][kind] = np.asarray(model.counts).tolist()
+        out["laplace"][kind] = ((q[0] <= truth) & (truth <= q[2])).tolist()
+        out["distance"][kind] = distances(q, truth)
+    return out
+
+
+def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None = None,
+             laplace_kinds: list[str] | None = None) -> dict[str, Any]:
     """Coverage of the Rayleigh building's 90 % intervals over ``replicates`` noise draws
-    (``hits_file``: JSON lines, resumable, as the calibration's)."""
+    (``hits_file``: JSON lines, resumable, as the calibration's), through ``femupdate
+    posterior``, or with ``laplace_kinds`` the Laplace intervals of those kinds."""
     children = np.random.SeedSequence(SEED + 3).spawn(replicates)
     done: dict[int, dict[str, Any]] = {}
     if hits_file is not None and hits_file.exists():
@@ -570,13 +673,16 @@ def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None
             done[row["replicate"]] = row
     print(f"\n## Coverage: 3-storey shear building, Rayleigh damping (ζ = 2 % at 2.94 and "
           f"11.26 Hz), 2 % noise on every record (the table's too), 200 Hz, 20 s, "
-          f"{replicates} replicates at the truth, through femupdate posterior (search: "
-          f"multistart-lm, {fit_evals:,} evaluations) with every default")
+          f"{replicates} replicates at the truth, "
+          + (f"Laplace intervals of {', '.join(laplace_kinds)} and the sandwich at the search's "
+             "best fit" if laplace_kinds else "through femupdate posterior")
+          + f" (search: multistart-lm, {fit_evals:,} evaluations)"
+          + ("" if laplace_kinds else " with every default"))
     start = time.perf_counter()
     for i, child in enumerate(children):
         if i in done:
             continue
-        row = rayleigh_replicate(i, child, root, fit_evals)
+        row = rayleigh_replicate(i, child, root, fit_evals, laplace_kinds=laplace_kinds)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -599,8 +705,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                 tmcmc_from_prior: bool = False, lowpass_hz: float | None = None,
                 fit_evals: int = FIT_EVALS, tmcmc_runs: int = 1, product: bool = False,
                 fit_runs: int = 1, recentre: int = 2,
-                truth: dict[str, float] | None = None, model: str = "viscous"
-                ) -> dict[str, Any]:
+                truth: dict[str, float] | None = None, model: str = "viscous",
+                case_search: bool = False) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -632,11 +738,14 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
               f"({searched}), then "
               f"the default [posterior], without re-centring and with recentre = {recentre}")
     else:
-        print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth from "
-              f"the prior, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
+        drawn = "from the prior" if truth is None else "fixed at the example's"
+        fitted = ("best fit of the example's own [search] (f_target removed)" if case_search
+                  else f"best fit of multistart-lm ({fit_evals:,} evaluations)" if search_fit
+                  else "best fit of a local least-squares search started at the truth")
+        print(f"\n## Calibration: viscous bridge, 2 % noise, {replicates} replicates (truth "
+              f"{drawn}, fresh noise), 90 % intervals (Laplace for {', '.join(kinds)}; TMCMC, "
               f"population {tmcmc_population}, for {', '.join(tmcmc_kinds) or 'none'}) at the "
-              + (f"best fit of multistart-lm ({fit_evals:,} evaluations)" if search_fit else
-                 "best fit of a local least-squares search started at the truth")
+              + fitted
               + f" (ar1, arp: at "
               f"their own mode from there; arp orders up to {ar_max_order})"
               + ("; the table's record without noise" if clean_input else "")
@@ -649,7 +758,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                                  (tmcmc_kinds or [None])[0], truth, model) if product
                else replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population,
                               coarse_only, clean_input, ar_max_order, search_fit,
-                              tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs))
+                              tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs,
+                              case_search, truth))
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -730,6 +840,35 @@ def coverage_table(rows: list[dict[str, Any]], names: tuple[str, ...]) -> dict[s
             out[label] = {"replicates": len(hits),
                           **{n: {"share": s, "ci95": [lo, hi]}
                              for n, (s, lo, hi) in zip(names, cov, strict=True)}}
+    kinds = sorted({k for row in rows for k in row.get("distance", {})})
+    if kinds:
+        print("\nThe truth's distance from the Laplace median in its interval's standard "
+              "deviations (half-width / 1.645), root mean square over the replicates: 1 for "
+              "calibrated Gaussian intervals, below 1 too wide, above 1 too narrow")
+        for kind in kinds:
+            d = np.array([row["distance"][kind] for row in rows if kind in row["distance"]])
+            rms = np.sqrt(np.nanmean(d ** 2, axis=0))
+            print(f"{'laplace ' + kind:14s} {len(d):3d} " + " ".join(f"{v:9.2f}" for v in rms))
+            out[f"distance {kind}"] = dict(zip(names, rms.tolist(), strict=True))
+    fitted = [row for row in rows if "fit_error" in row]
+    if fitted:
+        error = np.array([row["fit_error"] for row in fitted])
+        widening = np.array([row["widening"] for row in fitted])
+        spread = error.std(axis=0)
+        # the parameter along which φ ripples most: the others' errors follow its valley
+        lead = int(np.nanargmax(np.nanmedian(widening, axis=0)))
+        correlation = np.corrcoef(error.T)[lead]
+        print(f"\nThe fit's error (fit − truth in the unit cube) over the {len(fitted)} "
+              "replicates: its standard deviation, the 1 % secant's interval over the local "
+              "one's (i.i.d. shape), least and largest, and the error's correlation with "
+              f"{names[lead]}'s (the widest secant)")
+        for label, values in (("sd", spread), ("secant least", np.nanmin(widening, axis=0)),
+                              ("secant largest", np.nanmax(widening, axis=0)),
+                              (f"corr {names[lead]}", correlation)):
+            print(f"{label:18s} " + " ".join(f"{v:9.3g}" for v in values))
+        out["fit error"] = {"sd": spread.tolist(), "correlation": correlation.tolist(),
+                            "secant": [np.nanmin(widening, axis=0).tolist(),
+                                       np.nanmax(widening, axis=0).tolist()]}
     return out
 
 
@@ -1150,6 +1289,9 @@ def main() -> None:
     parser.add_argument("--search-fit", action="store_true",
                         help="calibration: the best fit of multistart-lm (2,000 evaluations) "
                         "instead of a local search started at the truth")
+    parser.add_argument("--case-search", action="store_true",
+                        help="calibration: the best fit of the example's own [search] "
+                        "(f_target removed), as `femupdate run` ends on it")
     parser.add_argument("--fit-evals", type=int, default=FIT_EVALS,
                         help="calibration with --search-fit: multistart-lm's budget")
     parser.add_argument("--product", action="store_true",
@@ -1157,7 +1299,7 @@ def main() -> None:
                              "(the case's search, default [posterior] but its error model, the "
                              "first of --tmcmc-kinds), without and with re-centring")
     parser.add_argument("--truth", type=Path, default=None,
-                        help="with --product: a JSON file of the truth (by parameter name) "
+                        help="calibration: a JSON file of the truth (by parameter name) "
                         "every replicate has (only the noise fresh), e.g. "
                         "examples/bridge/truth-viscous.json")
     parser.add_argument("--bridge-model", choices=("viscous", "friction"), default="viscous",
@@ -1169,6 +1311,9 @@ def main() -> None:
                         "own [search], f_target removed, as a user runs it)")
     parser.add_argument("--recentre", type=int, default=2,
                         help="with --product: [posterior] recentre of the second pass")
+    parser.add_argument("--rayleigh-kinds", default="",
+                        help="rayleigh: instead of femupdate posterior, the Laplace intervals "
+                        "of these kinds (and 'sandwich') at the search's best fit")
     parser.add_argument("--tmcmc-from-prior", action="store_true",
                         help="calibration: TMCMC's first population from the prior, not from "
                         "the Laplace Gaussian")
@@ -1228,9 +1373,10 @@ def main() -> None:
                 fit_evals=args.fit_evals, tmcmc_runs=args.tmcmc_runs, product=args.product,
                 fit_runs=args.fit_runs, recentre=args.recentre,
                 truth=None if args.truth is None else json.loads(args.truth.read_text()),
-                model=args.bridge_model)
+                model=args.bridge_model, case_search=args.case_search)
         if "rayleigh" in sections:
-            out["rayleigh"] = rayleigh(args.replicates, root, args.fit_evals, args.hits)
+            out["rayleigh"] = rayleigh(args.replicates, root, args.fit_evals, args.hits,
+                                       [k for k in args.rayleigh_kinds.split(",") if k])
         if "real" in sections:
             out["real"] = real_trials(["neff"])
         if "ripples" in sections:

@@ -3,8 +3,10 @@
 ``"neff-integrated"`` (``"neff"``'s counts, the variance integrated out), ``"iid"``
 (N_c = N), ``"tau"`` (N/τ, τ the integrated autocorrelation time), ``"ar1"`` (the innovations
 of a fixed AR(1)), ``"arp"`` (of a fixed AR(p), p by BIC), ``"adjusted"`` (the i.i.d.
-likelihood tempered by the sandwich's magnitude adjustment) and ``"eiv"`` (errors in the
-variables: the table's noise whitened in the frequency domain, :mod:`input_noise`).
+likelihood tempered by the sandwich's magnitude adjustment), ``"adjusted-least"`` (tempered by
+the least power nowhere sharper than the sandwich), ``"eiv"`` (errors in the variables: the
+table's noise whitened in the frequency domain, :mod:`input_noise`) and ``"spectral"`` (the
+periodogram's degrees of freedom as the count).
 :func:`registry` adds them, explicitly, to a copy of the product's registry; nothing here is
 registered by importing it.
 """
@@ -29,8 +31,8 @@ from femupdate.inference.neff import effective_count
 #: The largest order kind ``"arp"`` considers (the bridge's residuals choose 20–32).
 AR_MAX_ORDER = 32
 #: The kinds here, in the order the benchmark prints them.
-KINDS: tuple[str, ...] = ("neff-integrated", "tau", "iid", "ar1", "arp", "adjusted", "eiv",
-                          "spectral")
+KINDS: tuple[str, ...] = ("neff-integrated", "tau", "iid", "ar1", "arp", "adjusted",
+                          "adjusted-least", "eiv", "spectral")
 
 
 def autocorrelation_count(r: np.ndarray) -> float:
@@ -226,9 +228,13 @@ class Adjusted(ErrorModelKind):
 
     name = "adjusted"
 
-    def build(self, fit: FitResiduals) -> ErrorModel:
+    @staticmethod
+    def adjustment(jac: np.ndarray, r: np.ndarray, blocks: list[slice]) -> float:
         from error_models.sandwich import magnitude_adjustment
 
+        return magnitude_adjustment(jac, r, blocks)
+
+    def build(self, fit: FitResiduals) -> ErrorModel:
         _unknown_variance(self.name, fit)
         r = fit.need_residuals(self.name)
         if fit.jacobian is None or np.shape(fit.jacobian)[0] != fit.stops[-1]:
@@ -236,9 +242,22 @@ class Adjusted(ErrorModelKind):
                               f"({fit.stops[-1]} rows), got "
                               f"{None if fit.jacobian is None else np.shape(fit.jacobian)}")
         blocks = [slice(int(a), int(b)) for a, b in zip(fit.starts, fit.stops, strict=True)]
-        k = magnitude_adjustment(fit.jacobian, r, blocks)
+        k = self.adjustment(fit.jacobian, r, blocks)
         counts = np.maximum((fit.lengths - fit.removed) * k, 1.0)
         return ErrorModel(self.name, fit.starts, fit.stops, counts, fit.rho(r))
+
+
+class AdjustedLeast(Adjusted):
+    """``"adjusted"`` with k = 1/λ_max(H⁻¹M): the sharpest scalar power nowhere narrower than
+    the sandwich (:func:`~error_models.sandwich.least_adjustment`)."""
+
+    name = "adjusted-least"
+
+    @staticmethod
+    def adjustment(jac: np.ndarray, r: np.ndarray, blocks: list[slice]) -> float:
+        from error_models.sandwich import least_adjustment
+
+        return least_adjustment(jac, r, blocks)
 
 
 class EIV(ErrorModelKind):
@@ -304,8 +323,8 @@ class Spectral(ErrorModelKind):
 def registry() -> Registry:
     """The product's registry with the kinds here added."""
     out = ERROR_MODELS.copy()
-    for kind in (NEffIntegrated(), Tau(), IID(), AR1(), ARp(), Adjusted(), EIV(),
-                 Spectral()):
+    for kind in (NEffIntegrated(), Tau(), IID(), AR1(), ARp(), Adjusted(), AdjustedLeast(),
+                 EIV(), Spectral()):
         out.register(kind)
     return out
 

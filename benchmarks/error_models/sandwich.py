@@ -104,6 +104,17 @@ def magnitude_adjustment(jac: np.ndarray, residuals: np.ndarray,
     return float(n / np.trace(np.linalg.pinv(sensitivity, hermitian=True) @ variability))
 
 
+def least_adjustment(jac: np.ndarray, residuals: np.ndarray,
+                     blocks: tuple[slice, ...] | list[slice]) -> float:
+    """k = 1 / λ_max(H⁻¹ M): the largest power of the i.i.d. likelihood (H, M as
+    :func:`magnitude_adjustment`'s) whose curvature is nowhere sharper than the sandwich's,
+    in any direction of the parameters (its covariance H⁻¹/k ⪰ H⁻¹MH⁻¹): the most a single
+    scalar can give without being too narrow where the sandwich is right."""
+    sensitivity, variability = _sensitivity_variability(jac, residuals, blocks)
+    ratios = np.linalg.eigvals(np.linalg.pinv(sensitivity, hermitian=True) @ variability).real
+    return float(1.0 / ratios.max())
+
+
 def _psd_power(a: np.ndarray, power: float) -> np.ndarray:
     """A symmetric positive semi-definite matrix to a power, its eigenvalues below 1e-12 of
     the largest taken as that floor."""

@@ -8,6 +8,7 @@ from error_models.kinds import error_model
 from error_models.sandwich import (
     andrews_bandwidth,
     curvature_adjustment,
+    least_adjustment,
     magnitude_adjustment,
     sandwich_covariance,
     tapered_autocovariance,
@@ -79,6 +80,31 @@ def test_sandwich_of_a_linear_fit_with_ar1_errors_matches_the_closed_form() -> N
     assert adjusted.counts == pytest.approx([(n - 2) * k] * 2, rel=1e-12)
     with pytest.raises(ConfigError, match="'adjusted' needs the Jacobian"):
         error_model(blocks, "adjusted", best_residuals=r)
+
+
+def test_the_least_adjustment_is_nowhere_sharper_than_the_sandwich() -> None:
+    """Regressors of unlike frequencies under AR(1) errors: the sandwich widens the slow one
+    most. k = 1/λ_max(H⁻¹M) tempers the i.i.d. likelihood just enough that H⁻¹/k − H⁻¹MH⁻¹
+    is positive semi-definite with a zero eigenvalue (tight in one direction), and it is
+    below the average adjustment n/tr(H⁻¹M), whose covariance is sharper than the sandwich's
+    in that direction."""
+    rng = np.random.default_rng(4)
+    n, rho = 2000, 0.9
+    t = np.linspace(0.0, 1.0, n)
+    design = np.column_stack([np.sin(2 * np.pi * 2 * t), np.sin(2 * np.pi * 150 * t), t])
+    noise = lfilter([1.0], [1.0, -rho], rng.standard_normal(n))
+    theta = np.linalg.lstsq(design, design @ np.ones(3) + noise, rcond=None)[0]
+    r = design @ theta - design @ np.ones(3) - noise
+    blocks = [slice(0, n)]
+    k_least, k_average = least_adjustment(design, r, blocks), magnitude_adjustment(
+        design, r, blocks)
+    assert 0 < k_least < 0.9 * k_average
+    tempered = np.linalg.inv(design.T @ design) * (r @ r) / n / k_least
+    gap = np.linalg.eigvalsh(tempered - sandwich_covariance(design, r, blocks))
+    assert gap.min() == pytest.approx(0.0, abs=1e-9 * gap.max())
+    assert gap.min() > -1e-9 * gap.max()
+    average = np.linalg.inv(design.T @ design) * (r @ r) / n / k_average
+    assert np.linalg.eigvalsh(average - sandwich_covariance(design, r, blocks)).min() < 0
 
 
 def test_the_curvature_adjusted_likelihood_has_the_sandwich_covariance() -> None:
