@@ -4,7 +4,7 @@
 (N_c = N), ``"tau"`` (N/τ, τ the integrated autocorrelation time), ``"ar1"`` (the innovations
 of a fixed AR(1)), ``"arp"`` (of a fixed AR(p), p by BIC), ``"adjusted"`` (the i.i.d.
 likelihood tempered by the sandwich's magnitude adjustment), ``"adjusted-least"`` (tempered by
-the least power nowhere sharper than the sandwich), ``"eiv"`` (errors in the variables: the
+the largest power nowhere sharper than the sandwich), ``"eiv"`` (errors in the variables: the
 table's noise whitened in the frequency domain, :mod:`input_noise`) and ``"spectral"`` (the
 periodogram's degrees of freedom as the count).
 :func:`registry` adds them, explicitly, to a copy of the product's registry; nothing here is
@@ -230,6 +230,7 @@ class Adjusted(ErrorModelKind):
 
     @staticmethod
     def adjustment(jac: np.ndarray, r: np.ndarray, blocks: list[slice]) -> float:
+        """k, the power of the i.i.d. likelihood: the counts are k·(N − removed)."""
         from error_models.sandwich import magnitude_adjustment
 
         return magnitude_adjustment(jac, r, blocks)

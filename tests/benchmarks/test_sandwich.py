@@ -102,7 +102,6 @@ def test_the_least_adjustment_is_nowhere_sharper_than_the_sandwich() -> None:
     tempered = np.linalg.inv(design.T @ design) * (r @ r) / n / k_least
     gap = np.linalg.eigvalsh(tempered - sandwich_covariance(design, r, blocks))
     assert gap.min() == pytest.approx(0.0, abs=1e-9 * gap.max())
-    assert gap.min() > -1e-9 * gap.max()
     average = np.linalg.inv(design.T @ design) * (r @ r) / n / k_average
     assert np.linalg.eigvalsh(average - sandwich_covariance(design, r, blocks)).min() < 0
 
