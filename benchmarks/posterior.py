@@ -95,7 +95,7 @@ from femupdate.case.posterior_section import DEFAULT_POSTERIOR
 from femupdate.errors import FemupdateError
 from femupdate.inference import Prior, jacobian_unit, laplace
 from femupdate.inference.analytic import Residuals, exact_log_evidence, linear_gaussian
-from femupdate.inference.best_fit import NOT_QUADRATIC_RATIO, centred
+from femupdate.inference.best_fit import centred, coarse_choices
 from femupdate.inference.error_models import DEFAULT_KIND
 from femupdate.inference.error_models import problem_error_model as product_error_model
 from femupdate.inference.jacobian import LOCAL_STEP, UNIT_STEP
@@ -298,16 +298,13 @@ def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
 
 
 def two_scale_quantiles(coarse: Any, local: Any) -> np.ndarray:
-    """The Laplace record's two scales (femupdate.inference.best_fit.two_scale_record): the
+    """The Laplace record's two scales (femupdate.inference.best_fit.coarse_choices): the
     quantiles (3, n) of the Gaussian over the local Jacobian (steps of 1e-4 of each range),
     but the one over 1 % of each range (the kp1 valley's slope, not a ripple's) where that
     one says undetermined, or is NOT_QUADRATIC_RATIO times wider."""
+    undetermined, not_quadratic, _ = coarse_choices(local, coarse)
     q = local.quantiles.copy()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        widening = coarse.spread / local.spread
-    use = (coarse.undetermined & ~local.undetermined) | (
-        ~coarse.undetermined & (widening >= NOT_QUADRATIC_RATIO))
-    q[:, use] = coarse.quantiles[:, use]
+    q[:, undetermined | not_quadratic] = coarse.quantiles[:, undetermined | not_quadratic]
     return q
 
 
@@ -318,9 +315,8 @@ def secant_widening(problem: UpdateProblem, r: np.ndarray, unit: np.ndarray,
     same for any count per channel): well above 1 where φ ripples along the parameter at a
     scale between the two steps (the Laplace record's NOT_QUADRATIC_RATIO is 3)."""
     model = problem_error_model(problem, r, "iid")
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return (laplace(coarse_jac, r, unit, model, prior).spread
-                / laplace(local_jac, r, unit, model, prior).spread).tolist()
+    return coarse_choices(laplace(local_jac, r, unit, model, prior),
+                          laplace(coarse_jac, r, unit, model, prior))[2].tolist()
 
 
 def distances(q: np.ndarray, truth: np.ndarray) -> list[float]:
@@ -331,22 +327,28 @@ def distances(q: np.ndarray, truth: np.ndarray) -> list[float]:
         return ((truth - q[1]) / ((q[2] - q[0]) / (2 * 1.6449))).tolist()
 
 
-def case_search_fit(spec: dict[str, Any], source: Path, seed: int
-                    ) -> tuple[np.ndarray, np.ndarray, bool]:
-    """(best fit in the unit cube, its residuals, the verdict's converged) of the case's own
-    ``[search]`` (``f_target`` removed, ``seed`` given), run as ``femupdate run`` runs it."""
+def case_fit(case: Any) -> tuple[UpdateProblem, np.ndarray, np.ndarray, bool]:
+    """(problem, best fit in the unit cube, its residuals, the verdict's converged) of the
+    case's ``[search]``, run as ``femupdate run`` runs it (nothing written)."""
     from femupdate.pipeline.run import run_case
     from femupdate.runs import Execution
 
-    spec = dict(spec)
-    spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
-        "seed": seed}
-    case = parse_case(spec, source=source)
     got = run_case(case, None, execution=Execution(quiet=True), sensitivities=False)
     prior = Prior.from_case(case)
     x = prior.physical_to_search(np.array([got.summary.best.params[n] for n in prior.names]))
     verdict = got.summary.verdict
-    return prior.to_unit(x), got.problem.residuals(x), bool(verdict and verdict.converged)
+    return (got.problem, prior.to_unit(x), got.problem.residuals(x),
+            bool(verdict and verdict.converged))
+
+
+def case_search_fit(spec: dict[str, Any], source: Path, seed: int
+                    ) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(best fit in the unit cube, its residuals, the verdict's converged) of the case's own
+    ``[search]`` (``f_target`` removed, ``seed`` given): :func:`case_fit`."""
+    spec = dict(spec)
+    spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
+        "seed": seed}
+    return case_fit(parse_case(spec, source=source))[1:]
 
 
 def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str],
@@ -407,6 +409,10 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "distance": {}, "tmcmc": {},
                            "tmcmc_evals": {}, "mode_evals": {}, "search_converged": converged,
                            "fit_error": fit_error, "widening": widening}
+
+    def record(kind: str, q: np.ndarray) -> None:
+        out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
+        out["distance"][kind] = distances(q, truth_values)
     for kind in kinds:
         if kind == GLS_SANDWICH:
             model = problem_error_model(problem, r, "arp", ar_max_order=ar_max_order)
@@ -414,8 +420,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                 problem, prior, model, unit, r, jac_local)
             _, q = two_scale(lambda j, m=model, c=centre, rc=r_c: gls_sandwich_laplace(
                 j, rc, c, m, prior, trial_groups(problem)), (coarse_c, local_c))
-            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
-            out["distance"][kind] = distances(q, truth_values)
+            record(kind, q)
             out["mode_evals"][kind] = evals
             continue
         if kind == EIV_SANDWICH:
@@ -428,14 +433,12 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                                               [(r_c, coarse_c), (r_c, local_c)], centre, prior)
             by_jacobian = {id(coarse_c): gaussians[0], id(local_c): gaussians[1]}
             _, q = two_scale(lambda j, g=by_jacobian: g[id(j)], (coarse_c, local_c))
-            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
-            out["distance"][kind] = distances(q, truth_values)
+            record(kind, q)
             out["mode_evals"][kind] = evals
             continue
         if kind == SANDWICH:
             _, q = two_scale(lambda j: sandwich_laplace(j, r, unit, blocks, prior))
-            out["laplace"][kind] = ((q[0] <= truth_values) & (truth_values <= q[2])).tolist()
-            out["distance"][kind] = distances(q, truth_values)
+            record(kind, q)
             continue
         if kind in (CURVATURE, CURVATURE_LOCAL):  # TMCMC only: its Laplace is the sandwich's
             j = jac if kind == CURVATURE else jac_local
@@ -472,9 +475,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                                (coarse_c, local_c))
         else:
             lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
-        inside = (q[0] <= truth_values) & (truth_values <= q[2])
-        out["laplace"][kind] = inside.tolist()
-        out["distance"][kind] = distances(q, truth_values)
+        record(kind, q)
         if kind in tmcmc_kinds:
             if kind == "eiv":  # as femupdate posterior samples it (sampling.run)
                 model = magnitude_adjusted(problem, model, prior.to_search(unit), r, coarse_c,
@@ -634,13 +635,8 @@ def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
     """The case's search (``femupdate run``'s), then the Laplace record's intervals (its two
     scales) of each of ``kinds`` and of the sandwich at its best fit: whether they hold
     ``truth``, and each kind's counts N_c."""
-    from femupdate.pipeline.run import run_case
-    from femupdate.runs import Execution
-
-    got = run_case(case, None, execution=Execution(quiet=True), sensitivities=False)
-    problem, prior = got.problem, Prior.from_case(case)
-    x = prior.physical_to_search(np.array([got.summary.best.params[n] for n in prior.names]))
-    unit, r = prior.to_unit(x), got.problem.residuals(x)
+    problem, unit, r, _ = case_fit(case)
+    prior = Prior.from_case(case)
     jacobians = [jacobian_unit(problem.residuals_batch, unit, prior, step=step)
                  for step in (UNIT_STEP, LOCAL_STEP)]
     blocks = residual_blocks(problem)[0]

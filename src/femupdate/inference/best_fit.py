@@ -72,6 +72,19 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
     return two_scale_record(results[0], results[1], prior, kind, nfev)
 
 
+def coarse_choices(local: LaplaceResult, coarse: LaplaceResult
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which parameters take the 1 % secant's marginal (:func:`two_scale_record`):
+    ``(undetermined, not_quadratic, widening)``, the first two boolean per parameter (the
+    coarse one says undetermined where the local one does not; determined at both scales and
+    NOT_QUADRATIC_RATIO times wider or more), the last the coarse interval over the local."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        widening = coarse.spread / local.spread
+    undetermined = coarse.undetermined & ~local.undetermined
+    not_quadratic = ~coarse.undetermined & (widening >= NOT_QUADRATIC_RATIO)
+    return undetermined, not_quadratic, widening
+
+
 def two_scale_record(local: LaplaceResult, coarse: LaplaceResult, prior: Prior, kind: str,
                      nfev: int) -> LaplaceRecord:
     """The record of the local Laplace approximation, but for the parameters that the one
@@ -97,13 +110,12 @@ def two_scale_record(local: LaplaceResult, coarse: LaplaceResult, prior: Prior, 
     """
     record = record_of(local, prior, kind, nfev)
     coarse_record = record_of(coarse, prior, kind, nfev)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        widening = coarse.spread / local.spread
+    undetermined, not_quadratic, widening = coarse_choices(local, coarse)
     for i, name in enumerate(record.names):
-        if coarse.undetermined[i] and not local.undetermined[i]:
+        if undetermined[i]:
             record.params[name] = coarse_record.params[name]
             record.sentences[i] = coarse_record.sentences[i]
-        elif not coarse.undetermined[i] and widening[i] >= NOT_QUADRATIC_RATIO:
+        elif not_quadratic[i]:
             record.params[name] = coarse_record.params[name]
             record.sentences[i] = (
                 f"{name}: the Gaussian at the best fit does not describe it (its 90 % interval "
