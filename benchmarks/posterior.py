@@ -633,8 +633,9 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
 def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
                       ) -> dict[str, Any]:
     """The case's search (``femupdate run``'s), then the Laplace record's intervals (its two
-    scales) of each of ``kinds`` and of the sandwich at its best fit: whether they hold
-    ``truth``, and each kind's counts N_c."""
+    scales) of each of ``kinds`` and of the sandwich at its best fit (a whitening kind's at
+    its own mode, climbed to from there): whether they hold ``truth``, and each kind's counts
+    N_c."""
     problem, unit, r, _ = case_fit(case)
     prior = Prior.from_case(case)
     jacobians = [jacobian_unit(problem.residuals_batch, unit, prior, step=step)
@@ -647,6 +648,13 @@ def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
         if kind == SANDWICH:
             q = two_scale_quantiles(*(sandwich_laplace(j, r, unit, blocks, prior)
                                       for j in jacobians))
+        elif kind in WHITENING_KINDS:  # at the kind's own mode, as the bridge's calibration
+            model = problem_error_model(problem, r, kind, point=prior.to_search(unit))
+            centre, ((r_c, local_c), (_, coarse_c)), _ = mode_jacobians(
+                problem, prior, model, unit, r, jacobians[1])
+            q = two_scale_quantiles(*(laplace(j, r_c, centre, model, prior)
+                                      for j in (coarse_c, local_c)))
+            out["counts"][kind] = np.asarray(model.counts).tolist()
         else:
             model = problem_error_model(problem, r, kind, jacobians[0])
             q = two_scale_quantiles(*(laplace(j, r, unit, model, prior) for j in jacobians))

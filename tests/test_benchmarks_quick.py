@@ -60,6 +60,7 @@ def _module_missing(*modules: str) -> str | None:
 
 #: script -> (a line its output must contain, what to check for a skip)
 QUICK = {
+    "agreement_stop.py": ("runs needed over the 1 records", lambda: None),
     "bridge_posterior.py": ("emcee's evaluations per effective sample over the default's",
                             lambda: _module_missing("emcee", "arviz")),
     "bouc_wen_degradation.py": ("vs OpenSees", _opensees_missing),

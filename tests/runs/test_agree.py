@@ -16,7 +16,13 @@ from femupdate.optimize.multistart import PATIENCE_TOL
 from femupdate.runs.progress import RunProgress
 from femupdate.runs.runner import check_agree
 from femupdate.runs.store import ResultsStore
-from femupdate.runs.verdict import runs_agreeing, runs_needed, same_phi_level, verdict_of
+from femupdate.runs.verdict import (
+    runs_agreeing,
+    runs_needed,
+    same_phi_level,
+    unseen_share,
+    verdict_of,
+)
 
 BOUNDS = [(0.0, 1.0)] * 3
 A = np.array([[1.0, 0.2, 0.0], [0.0, 1.0, 0.3], [0.1, 0.0, 1.0], [1.0, 1.0, 1.0]])
@@ -69,6 +75,37 @@ def test_runs_that_never_evaluated_agree_with_nothing() -> None:
 
 def test_agree_one_needs_one_run() -> None:
     assert runs_needed([0.7, None, None], 1) == 1
+
+
+#: Each run's φ, by index, of the friction bridge's own search on a record of its truth with
+#: 2 % noise (benchmarks/posterior.py's calibration replicate 14 of 20, agree = 0)
+RUGGED = [0.03743, 0.04545, 0.006936, 0.002128, 0.002123, 0.0003785, 0.000344, 0.04546,
+          0.04075, 0.002278, 0.0003355, 0.04538, 0.0454, 0.0003365, 0.0455, 0.0003346,
+          0.0003429, 0.0455, 0.006504, 0.0003402, 0.03901, 0.03736, 0.04526, 0.04537, 0.037]
+
+
+def test_runs_that_each_end_alone_in_a_minimum_are_not_done() -> None:
+    # runs 3 and 4 agree, but runs 0, 1 and 2 each ended alone: another run more likely than
+    # not ends in a minimum none has found (Good–Turing)
+    assert unseen_share(RUGGED[:5]) == pytest.approx(0.6)
+    assert runs_needed([*RUGGED[:5], None], 2) is None
+    # a sixth at a φ already found leaves two of six alone: done
+    assert runs_needed([*RUGGED[:5], RUGGED[1]], 2) == 6
+    # the record's own runs: 14 needed, at φ 0.3 % above the best of all 25, where the stop
+    # on agreement alone ended at run 5, at 6.3 times it
+    needed = runs_needed(RUGGED, 2)
+    assert needed == 14
+    assert min(RUGGED[:needed]) <= min(RUGGED) * (1 + PATIENCE_TOL)
+    assert min(RUGGED[:5]) > 6 * min(RUGGED)
+
+
+def test_the_verdict_keeps_the_share_of_runs_alone_at_their_phi() -> None:
+    positions = np.array([[0.5, 0.5], [0.5, 0.5], [0.1, 0.1], [0.2, 0.9], [0.9, 0.3]])
+    v = verdict_of([0.2, 0.2001, 0.5, 0.6, 0.7], positions, [{}] * 5)
+    assert v.converged and v.unseen == pytest.approx(0.6)
+    # two runs at one φ with their parameters apart: two minima, one φ level
+    flat = verdict_of([0.2, 0.2001, 0.5, 0.5001, 0.7], positions, [{}] * 5)
+    assert flat.minima == 4 and flat.unseen == pytest.approx(0.2)
 
 
 @pytest.mark.parametrize("value", [-1, 1.5, "2", True])

@@ -160,6 +160,8 @@ class VerdictRecord(_Record):
     words: str
     #: Runs asked for, when the agreement stop left some not needed (None: every run ran).
     planned: int | None = None
+    #: The Good–Turing share: about how often another run would end at a φ none reached.
+    unseen: float = 0.0
 
 
 class DefectRecord(_Record):

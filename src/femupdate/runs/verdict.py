@@ -8,10 +8,16 @@ group, or when the best run's own searches found it again (multistart-lm's ``pat
 that many searches of the run ended at its best φ). Otherwise the runs ended in m different
 minima, whose φ range it gives. docs/verdicts.md says what success then means.
 
+Agreement alone is not enough where most runs end at a φ no other run reaches: there the
+next run would likely end at a φ not yet seen, perhaps a lower one. The share of runs that
+each ended alone at their φ (the best's aside) is the Good–Turing estimate of that chance
+(Good 1953): :func:`unseen_share`, in the verdict as ``unseen``.
+
 :func:`runs_needed` is the run-level stop (``[search] agree``): on such records, once
 ``agree`` runs, taken in index order, have ended at their best φ (within multistart-lm's own
-``patience`` tolerance) the runs after them are not needed; the verdict then says how many of
-the planned runs were.
+``patience`` tolerance), and no more than :data:`UNSEEN_SHARE` of them each ended alone at
+another φ, the runs after them are not needed; the verdict then says how many of the planned
+runs were.
 """
 
 from __future__ import annotations
@@ -39,6 +45,10 @@ MIN_AGREE = 2
 AGREE = 2
 #: φ is an NMSE (a fraction): at 1 (100 %) the model is no better than predicting zero.
 NO_FIT = 1.0
+#: The largest share of runs that may each have ended alone at a φ other than the best's
+#: when the runs are done: beyond it another run more likely than not ends at a φ none has
+#: reached (its Good–Turing estimate, :func:`unseen_share`).
+UNSEEN_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -66,6 +76,9 @@ class Verdict:
     planned : int or None
         Runs the case asked for, when the agreement stop (``[search] agree``) left some of
         them not needed; None when every planned run ran.
+    unseen : float
+        :func:`unseen_share` of the runs: about how often another run would end at a φ none
+        of them reached.
     """
 
     converged: bool
@@ -76,6 +89,7 @@ class Verdict:
     fits: bool
     words: str
     planned: int | None = None
+    unseen: float = 0.0
 
 
 def same_phi_level(best: float) -> float:
@@ -84,9 +98,12 @@ def same_phi_level(best: float) -> float:
     return best + max(PATIENCE_TOL * abs(best), SAME_PHI_FLOOR)
 
 
-def runs_needed(phis: Sequence[float | None], agree: int) -> int | None:
-    """How many runs are needed: the smallest k such that runs 0 … k − 1 have all ended and
-    ``agree`` of them ended at their best φ (:func:`same_phi_level`); None while no such k.
+def runs_needed(phis: Sequence[float | None], agree: int, unseen: float = UNSEEN_SHARE
+                ) -> int | None:
+    """How many runs are needed: the smallest k such that runs 0 … k − 1 have all ended,
+    ``agree`` of them ended at their best φ (:func:`same_phi_level`), and no more than
+    ``unseen`` of them each ended alone at another φ (:func:`unseen_share`); None while no
+    such k.
 
     Runs are taken in index order, never in the order they happen to end, so the answer is
     the same with any number of workers and after any interruption.
@@ -98,18 +115,49 @@ def runs_needed(phis: Sequence[float | None], agree: int) -> int | None:
         (a run that never evaluated the model) ends but agrees with nothing.
     agree : int
         Runs that must agree (≥ 1).
+    unseen : float
+        The largest share of runs alone at their φ (:data:`UNSEEN_SHARE`; 1: agreement
+        alone, as the stop was before it).
     """
-    best = math.inf
     for k, phi in enumerate(phis, start=1):
         if phi is None:
             return None
-        if math.isfinite(phi):
-            best = min(best, phi)
-        if math.isfinite(best):
-            level = same_phi_level(best)
-            if sum(1 for p in phis[:k] if p is not None and p <= level) >= agree:
-                return k
+        ended = np.asarray(phis[:k], dtype=float)
+        finite = ended[np.isfinite(ended)]
+        if (finite.size and np.sum(finite <= same_phi_level(finite.min())) >= agree
+                and unseen_share(ended) <= unseen):
+            return k
     return None
+
+
+def alone(phis: Sequence[float] | np.ndarray) -> np.ndarray:
+    """Whether each run ended alone at its φ: no other run's φ within :func:`same_phi_level`'s
+    tolerance of it (False for a non-finite φ). Parameters are not compared: what a better fit
+    needs is a lower φ, and runs at one φ with their parameters apart (a flat direction) say
+    the same of it."""
+    phis = np.asarray(phis, dtype=float)
+    out = np.zeros(phis.size, dtype=bool)
+    finite = np.flatnonzero(np.isfinite(phis))
+    order = finite[np.argsort(phis[finite], kind="stable")]
+    ranked = phis[order]
+    close = np.diff(ranked) <= np.maximum(PATIENCE_TOL * np.abs(ranked[:-1]), SAME_PHI_FLOOR)
+    near = np.zeros(ranked.size, dtype=bool)
+    near[:-1] |= close
+    near[1:] |= close
+    out[order] = ~near
+    return out
+
+
+def unseen_share(phis: Sequence[float] | np.ndarray) -> float:
+    """The share of the runs with a finite φ that each ended alone (:func:`alone`) above the
+    best's level (:func:`same_phi_level`): the Good–Turing estimate (Good 1953) of how often
+    another run would end at a φ none of them reached. 0 for no such run."""
+    phis = np.asarray(phis, dtype=float)
+    finite = np.isfinite(phis)
+    if not finite.any():
+        return 0.0
+    lone = alone(phis) & (phis > same_phi_level(float(phis[finite].min())))
+    return float(lone.sum() / finite.sum())
 
 
 def minimum_groups(phis: np.ndarray, positions: np.ndarray, same_phi: float = SAME_PHI,
@@ -194,10 +242,12 @@ def verdict_of(phis: Sequence[float], positions: np.ndarray,
         # not confirm
         words += (f"; {runs} of {planned} runs were needed: {runs_agreeing(phis_arr)} ended "
                   f"at the same best φ (within {PATIENCE_TOL:.1%})")
+    unseen = unseen_share(phis_arr)
     if not fits:
         words += (f"; the best fit is no fit: NMSE {100 * lo:.3g} % ≥ {100 * NO_FIT:.0f} % "
                   f"(no better than predicting zero)")
-    return Verdict(converged, agreeing, confirmations, minima, (lo, hi), fits, words, planned)
+    return Verdict(converged, agreeing, confirmations, minima, (lo, hi), fits, words, planned,
+                   unseen)
 
 
 def runs_agreeing(phis: Sequence[float]) -> int:
