@@ -17,6 +17,7 @@ from femupdate.runs.progress import RunProgress
 from femupdate.runs.runner import check_agree
 from femupdate.runs.store import ResultsStore
 from femupdate.runs.verdict import (
+    alone,
     runs_agreeing,
     runs_needed,
     same_phi_level,
@@ -84,9 +85,9 @@ RUGGED = [0.03743, 0.04545, 0.006936, 0.002128, 0.002123, 0.0003785, 0.000344, 0
           0.0003429, 0.0455, 0.006504, 0.0003402, 0.03901, 0.03736, 0.04526, 0.04537, 0.037]
 
 
-def test_runs_that_each_end_alone_in_a_minimum_are_not_done() -> None:
+def test_runs_that_each_end_alone_at_their_phi_are_not_done() -> None:
     # runs 3 and 4 agree, but runs 0, 1 and 2 each ended alone: another run more likely than
-    # not ends in a minimum none has found (Good–Turing)
+    # not ends at a φ none has reached (Good–Turing)
     assert unseen_share(RUGGED[:5]) == pytest.approx(0.6)
     assert runs_needed([*RUGGED[:5], None], 2) is None
     # a sixth at a φ already found leaves two of six alone: done
@@ -94,7 +95,7 @@ def test_runs_that_each_end_alone_in_a_minimum_are_not_done() -> None:
     # the record's own runs: 14 needed, at φ 0.3 % above the best of all 25, where the stop
     # on agreement alone ended at run 5, at 6.3 times it
     needed = runs_needed(RUGGED, 2)
-    assert needed == 14
+    assert needed == 14 and runs_needed(RUGGED, 2, unseen=1.0) == 5
     assert min(RUGGED[:needed]) <= min(RUGGED) * (1 + PATIENCE_TOL)
     assert min(RUGGED[:5]) > 6 * min(RUGGED)
 
@@ -106,6 +107,9 @@ def test_the_verdict_keeps_the_share_of_runs_alone_at_their_phi() -> None:
     # two runs at one φ with their parameters apart: two minima, one φ level
     flat = verdict_of([0.2, 0.2001, 0.5, 0.5001, 0.7], positions, [{}] * 5)
     assert flat.minima == 4 and flat.unseen == pytest.approx(0.2)
+    # a run that never evaluated the model is neither alone nor counted
+    assert alone([math.inf, 0.3, 0.5]).tolist() == [False, True, True]
+    assert unseen_share([math.inf, 0.3, 0.3, 0.5]) == pytest.approx(1 / 3)
 
 
 @pytest.mark.parametrize("value", [-1, 1.5, "2", True])
