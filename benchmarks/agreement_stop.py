@@ -24,11 +24,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from posterior import SEED, bridge_problem
+from posterior import SEED, bridge_replicate, own_search, replicate_seeds
 
 from femupdate.case import parse_case
-from femupdate.inference import Prior
-from femupdate.paper.problems import bridge
 from femupdate.pipeline.run import run_case
 from femupdate.runs import Execution
 from femupdate.runs.verdict import AGREE, UNSEEN_SHARE, runs_needed
@@ -39,19 +37,12 @@ def all_runs(model: str, i: int, root: Path, prior_truth: bool, runs: int | None
     """Each run's φ, by index, of replicate ``i``'s own search with every planned run
     (``runs``: that many instead of the example's)."""
     child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
-    rng = np.random.default_rng(child)
     work = root / f"replicate-{i}"
-    spec = bridge.bridge_case(model, "narrow", directory=str(work))
-    prior = Prior.from_case(parse_case(spec, source=work / f"{model}.toml"))
-    drawn = prior.sample(rng, 1)[1][0]  # drawn either way, as product_replicate draws it
     truth_file = Path(__file__).parents[1] / "examples" / "bridge" / f"truth-{model}.json"
-    truth = (dict(zip(prior.names, drawn.tolist(), strict=True)) if prior_truth
-             else json.loads(truth_file.read_text()))
-    bridge_problem(model, truth, work, int(rng.integers(2 ** 31)))
-    search_seed = int(np.random.SeedSequence(
-        child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2)[0])
-    spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
-        "seed": search_seed, "agree": 0} | ({} if runs is None else {"runs": runs})
+    spec, _, _ = bridge_replicate(model, child, work,
+                                  None if prior_truth else json.loads(truth_file.read_text()))
+    spec["search"] = own_search(spec["search"], replicate_seeds(child)[0], agree=0,
+                                **({} if runs is None else {"runs": runs}))
     case = parse_case(spec, source=work / f"{model}.toml")
     result = run_case(case, work / "out", execution=Execution(quiet=True), sensitivities=False)
     return [float(o.fun) for o in result.outcomes]

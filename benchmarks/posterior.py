@@ -341,13 +341,40 @@ def case_fit(case: Any) -> tuple[UpdateProblem, np.ndarray, np.ndarray, bool]:
             bool(verdict and verdict.converged))
 
 
+def own_search(search: dict[str, Any], seed: int, **settings: Any) -> dict[str, Any]:
+    """The example's ``[search]`` as a user runs it on noisy records: ``f_target`` removed,
+    ``seed`` (and any other ``settings``) given."""
+    return {k: v for k, v in search.items() if k != "f_target"} | {"seed": seed, **settings}
+
+
+def replicate_seeds(child: np.random.SeedSequence) -> tuple[int, int]:
+    """(search seed, posterior seed) of a replicate: the case's ``[search]`` and
+    ``[posterior]`` seeds, the same in every flow that runs the replicate's own search."""
+    search, posterior = np.random.SeedSequence(
+        child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2)
+    return int(search), int(posterior)
+
+
+def bridge_replicate(model: str, child: np.random.SeedSequence, work: Path,
+                     truth: dict[str, float] | None = None
+                     ) -> tuple[dict[str, Any], Prior, np.ndarray]:
+    """A calibration replicate's case (spec), prior and truth (drawn from the prior, or
+    ``truth`` by parameter name), its noisy records written in ``work``."""
+    rng = np.random.default_rng(child)
+    spec = bridge.bridge_case(model, "narrow", directory=str(work))
+    prior = Prior.from_case(parse_case(spec, source=work / f"{model}.toml"))
+    drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
+    truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
+    bridge_problem(model, dict(zip(prior.names, truth_values.tolist(), strict=True)), work,
+                   int(rng.integers(2 ** 31)))
+    return spec, prior, truth_values
+
+
 def case_search_fit(spec: dict[str, Any], source: Path, seed: int
                     ) -> tuple[np.ndarray, np.ndarray, bool]:
     """(best fit in the unit cube, its residuals, the verdict's converged) of the case's own
-    ``[search]`` (``f_target`` removed, ``seed`` given): :func:`case_fit`."""
-    spec = dict(spec)
-    spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
-        "seed": seed}
+    ``[search]`` (:func:`own_search`): :func:`case_fit`."""
+    spec = dict(spec, search=own_search(spec["search"], seed))
     return case_fit(parse_case(spec, source=source))[1:]
 
 
@@ -381,10 +408,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                              int(rng.integers(2 ** 31)), clean_input, lowpass_hz)
     converged: bool | None = None
     if case_search:  # as `femupdate run` ends on the example, with product_replicate's seed
-        search_seed = int(np.random.SeedSequence(
-            child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(1)[0])
         unit, r, converged = case_search_fit(spec, root / f"replicate-{i}" / "viscous.toml",
-                                             search_seed)
+                                             replicate_seeds(child)[0])
     elif search_fit:  # as a user's update ends: multistart-lm from nowhere in particular
         unit, r, _, converged = best_fit(problem, np.random.default_rng(
             np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 98))),
@@ -528,22 +553,14 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
 
-    rng = np.random.default_rng(child)
     work = root / f"replicate-{i}"
-    spec = bridge.bridge_case(model, "narrow", directory=str(work))
-    prior = Prior.from_case(parse_case(spec, source=work / f"{model}.toml"))
-    drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
-    truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
-    truth = dict(zip(prior.names, truth_values.tolist(), strict=True))
-    bridge_problem(model, truth, work, int(rng.integers(2 ** 31)))
-    search_seed, posterior_seed = (int(v) for v in np.random.SeedSequence(
-        child.entropy, spawn_key=(*child.spawn_key, 96)).generate_state(2))
+    spec, prior, truth_values = bridge_replicate(model, child, work, truth)
+    search_seed, posterior_seed = replicate_seeds(child)
     if fit_runs:
         spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
                           "max_evals": fit_evals}
-    else:  # the case's own search, as a user runs it on noisy records: no f_target
-        spec["search"] = {k: v for k, v in spec["search"].items() if k != "f_target"} | {
-            "seed": search_seed}
+    else:  # the case's own search, as a user runs it on noisy records
+        spec["search"] = own_search(spec["search"], search_seed)
     spec["posterior"] = {"seed": posterior_seed} | (
         {} if error_model is None else {"error_model": error_model})
     sampled = error_model or DEFAULT_KIND
@@ -654,10 +671,10 @@ def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
                 problem, prior, model, unit, r, jacobians[1])
             q = two_scale_quantiles(*(laplace(j, r_c, centre, model, prior)
                                       for j in (coarse_c, local_c)))
-            out["counts"][kind] = np.asarray(model.counts).tolist()
         else:
             model = problem_error_model(problem, r, kind, jacobians[0])
             q = two_scale_quantiles(*(laplace(j, r, unit, model, prior) for j in jacobians))
+        if kind != SANDWICH:
             out["counts"][kind] = np.asarray(model.counts).tolist()
         out["laplace"][kind] = ((q[0] <= truth) & (truth <= q[2])).tolist()
         out["distance"][kind] = distances(q, truth)
