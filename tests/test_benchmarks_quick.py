@@ -89,6 +89,7 @@ QUICK = {
     "optimizer_overhead.py": ("scipy-lsq", lambda: None),
     "posterior.py": ("evaluations per effective sample, emcee / TMCMC",
                      lambda: _module_missing("emcee", "arviz")),
+    "ripple_weighing.py": ("share holding the truth", lambda: None),
     "reduced_case.py": ("exact/reduced", lambda: None),
     "report_speed.py": ("10 parameters: report in", lambda: None),
     "scale.py": ("peak memory of a 48-parameter multistart-lm run", _opensees_missing),
