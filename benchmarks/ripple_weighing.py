@@ -17,8 +17,7 @@ or with ``--prior`` at a truth drawn from the prior), fitted by the example's ow
    of its range the others are refitted (Gauss–Newton over the 1 % secant Jacobian,
    ``NEWTON_STEPS`` steps) until the log-posterior has fallen ``DROP`` below the profile's
    highest, each side. The profile weighs every ripple by its own height (a 1-D mixture, as
-   INLA integrates a
-   hyperparameter): the rippled parameter's interval from the weights, each other
+   INLA integrates a hyperparameter): the rippled parameter's interval from the weights, each other
    parameter's from a mixture of Gaussians at the refitted points, of the count's own
    conditional spread (``within = kind``) or of the sandwich's (``within = sandwich``, the
    noise's own scatter of the estimate within a ripple). Counts: ``neff`` (the product's)
