@@ -27,6 +27,7 @@ import numpy as np
 from posterior import SEED, bridge_replicate, own_search, replicate_seeds
 
 from femupdate.case import parse_case
+from femupdate.paper.problems import bridge
 from femupdate.pipeline.run import run_case
 from femupdate.runs import Execution
 from femupdate.runs.verdict import AGREE, UNSEEN_SHARE, runs_needed
@@ -38,9 +39,7 @@ def all_runs(model: str, i: int, root: Path, prior_truth: bool, runs: int | None
     (``runs``: that many instead of the example's)."""
     child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
     work = root / f"replicate-{i}"
-    truth_file = Path(__file__).parents[1] / "examples" / "bridge" / f"truth-{model}.json"
-    spec, _, _ = bridge_replicate(model, child, work,
-                                  None if prior_truth else json.loads(truth_file.read_text()))
+    spec, _, _ = bridge_replicate(model, child, work, None if prior_truth else bridge.truth(model))
     spec["search"] = own_search(spec["search"], replicate_seeds(child)[0], agree=0,
                                 **({} if runs is None else {"runs": runs}))
     case = parse_case(spec, source=work / f"{model}.toml")

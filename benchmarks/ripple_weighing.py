@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from error_models.mode import log_posterior
 from error_models.sandwich import sandwich_covariance
 from posterior import (
     SEED,
@@ -81,12 +82,9 @@ def profile(problem: UpdateProblem, prior: Prior, model: ErrorModel, unit: np.nd
     profile along parameter ``j`` from the fit ``unit``."""
     free = [k for k in range(unit.size) if k != j]
 
-    def log_post(u: np.ndarray, r: np.ndarray) -> float:
-        return model.loglike(r) + float(prior.logpdf_unit(u[None])[0])
-
     def refit(u: np.ndarray) -> tuple[float, np.ndarray, int]:
         r = problem.residuals(prior.to_search(u))
-        best, evals = (log_post(u, r), u, r), 1
+        best, evals = (log_posterior(r, u, model, prior), u, r), 1
         for _ in range(NEWTON_STEPS):
             precision, gradient = gaussian_precision(jac, best[2], model)
             step = np.linalg.solve(precision[np.ix_(free, free)], gradient[free])
@@ -94,7 +92,7 @@ def profile(problem: UpdateProblem, prior: Prior, model: ErrorModel, unit: np.nd
             trial[free] = np.clip(trial[free] + step, 0.0, 1.0)
             r_trial = problem.residuals(prior.to_search(trial))
             evals += 1
-            value = log_post(trial, r_trial)
+            value = log_posterior(r_trial, trial, model, prior)
             improved = value > best[0] + 1e-3
             if value > best[0]:
                 best = (value, trial, r_trial)
@@ -131,9 +129,9 @@ def mixture_interval(means: np.ndarray, sd: float, log_weights: np.ndarray,
             float(np.interp((1 + level) / 2, cdf, grid)))
 
 
-def conditional_sd(cov: np.ndarray, j: int) -> np.ndarray:
-    """Each parameter's sd given parameter j (0 for j)."""
-    return np.sqrt(np.maximum(np.diag(cov) - cov[:, j] ** 2 / cov[j, j], 0.0))
+def given(cov: np.ndarray, j: int) -> np.ndarray:
+    """The covariance (n, n) of the parameters given parameter j (row and column j zero)."""
+    return cov - np.outer(cov[:, j], cov[j, :]) / cov[j, j]
 
 
 def profile_intervals(grid: np.ndarray, log_post: np.ndarray, points: np.ndarray, j: int,
@@ -180,8 +178,7 @@ def hop_bootstrap(problem: UpdateProblem, prior: Prior, unit: np.ndarray, r: np.
     pick = np.argmin(np.hstack([np.zeros((draws, 1)), score]), axis=1)
     estimates = np.vstack([unit[None, :], points])[pick]
     free = [k for k in range(unit.size) if k != j]
-    within = (sandwich[np.ix_(free, free)]
-              - np.outer(sandwich[free, j], sandwich[j, free]) / sandwich[j, j])
+    within = given(sandwich, j)[np.ix_(free, free)]
     estimates[:, free] += rng.standard_normal((draws, len(free))) @ np.linalg.cholesky(
         within + 1e-30 * np.eye(len(free))).T
     return np.quantile(estimates, [0.05, 0.95], axis=0)
@@ -226,7 +223,8 @@ def replicate(i: int, root: Path, prior_truth: bool, reach: float, draws: int
         hit(f"{kind} profile, within = kind", profile_intervals(
             grid, log_post, points, j, own_within))
         hit(f"{kind} profile, within = sandwich", profile_intervals(
-            grid, log_post, points, j, conditional_sd(sandwich, j)))
+            grid, log_post, points, j,
+            np.sqrt(np.maximum(np.diag(given(sandwich, j)), 0.0))))
         hit(f"{kind} Laplace (local)", unit + np.array([[-Z90], [Z90]])
             * np.sqrt(np.diag(own)))
         if kind == KINDS[0]:

@@ -76,7 +76,8 @@ class ModeResult:
     converged: bool
 
 
-def _log_posterior(r: np.ndarray, unit: np.ndarray, model: ErrorModel, prior: Prior) -> float:
+def log_posterior(r: np.ndarray, unit: np.ndarray, model: ErrorModel, prior: Prior) -> float:
+    """log L(r) + log p(unit), −inf outside the prior's support."""
     lp = float(prior.logpdf_unit(unit[None, :])[0])
     return lp + model.loglike(r) if np.isfinite(lp) else -np.inf
 
@@ -169,7 +170,7 @@ def whitened_mode(residuals_batch: Callable[[np.ndarray], np.ndarray], prior: Pr
         r, jac = jacobian_at(unit)
     else:
         r, jac = np.asarray(residuals, dtype=float), np.asarray(jacobian, dtype=float)
-    start_value = value = _log_posterior(r, unit, model, prior)
+    start_value = value = log_posterior(r, unit, model, prior)
     if not np.isfinite(value):
         raise DataError("mode: the log-posterior at the start is not finite")
     iterations, converged, damping = 0, False, 0.0
@@ -181,7 +182,7 @@ def whitened_mode(residuals_batch: Callable[[np.ndarray], np.ndarray], prior: Pr
             r_trial = np.asarray(residuals_batch(prior.to_search(trial)[None, :])[0],
                                  dtype=float)
             evaluations += 1
-            trial_value = (_log_posterior(r_trial, trial, model, prior)
+            trial_value = (log_posterior(r_trial, trial, model, prior)
                            if np.all(np.isfinite(r_trial)) else -np.inf)
             if trial_value >= value:
                 break

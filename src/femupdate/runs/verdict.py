@@ -92,10 +92,11 @@ class Verdict:
     unseen: float = 0.0
 
 
-def same_phi_level(best: float) -> float:
-    """The largest φ that counts as "ended at the best φ" ``best``: within the fraction
-    PATIENCE_TOL (multistart-lm's ``patience`` tolerance), or SAME_PHI_FLOOR at φ ≈ 0."""
-    return best + max(PATIENCE_TOL * abs(best), SAME_PHI_FLOOR)
+def same_phi_level(best: float | np.ndarray) -> float | np.ndarray:
+    """The largest φ that counts as "ended at the best φ" ``best`` (each, for an array):
+    within the fraction PATIENCE_TOL (multistart-lm's ``patience`` tolerance), or
+    SAME_PHI_FLOOR at φ ≈ 0."""
+    return best + np.maximum(PATIENCE_TOL * np.abs(best), SAME_PHI_FLOOR)
 
 
 def runs_needed(phis: Sequence[float | None], agree: int, unseen: float = UNSEEN_SHARE
@@ -122,10 +123,8 @@ def runs_needed(phis: Sequence[float | None], agree: int, unseen: float = UNSEEN
     for k, phi in enumerate(phis, start=1):
         if phi is None:
             return None
-        ended = np.asarray(phis[:k], dtype=float)
-        finite = ended[np.isfinite(ended)]
-        if (finite.size and np.sum(finite <= same_phi_level(finite.min())) >= agree
-                and unseen_share(ended) <= unseen):
+        ended = [float(p) for p in phis[:k] if p is not None]
+        if runs_agreeing(ended) >= agree and unseen_share(ended) <= unseen:
             return k
     return None
 
@@ -140,7 +139,7 @@ def alone(phis: Sequence[float] | np.ndarray) -> np.ndarray:
     finite = np.flatnonzero(np.isfinite(phis))
     order = finite[np.argsort(phis[finite], kind="stable")]
     ranked = phis[order]
-    close = np.diff(ranked) <= np.maximum(PATIENCE_TOL * np.abs(ranked[:-1]), SAME_PHI_FLOOR)
+    close = ranked[1:] <= same_phi_level(ranked[:-1])
     near = np.zeros(ranked.size, dtype=bool)
     near[:-1] |= close
     near[1:] |= close
