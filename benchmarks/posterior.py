@@ -400,6 +400,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     # TMCMC's seeds: one child per kind of the library, whichever kinds this run measures
     tm_seeds = dict(zip(ALL_KINDS, child.spawn(len(ALL_KINDS)), strict=True))
     spec = bridge.bridge_case("viscous", "narrow", directory=str(root / f"replicate-{i}"))
+    if lowpass_hz is not None:  # the case's own search on the low-passed records too
+        spec["preprocess"]["lowpass_hz"] = lowpass_hz
     prior = Prior.from_case(parse_case(spec, source=root / "viscous.toml"))
     drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
     truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
@@ -538,8 +540,8 @@ def inside(marginals: dict[str, Any], names: tuple[str, ...], truth: np.ndarray
 
 def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
                       fit_runs: int, recentre: int, error_model: str | None = None,
-                      truth: dict[str, float] | None = None, model: str = "viscous"
-                      ) -> dict[str, Any]:
+                      truth: dict[str, float] | None = None, model: str = "viscous",
+                      lowpass_hz: float | None = None) -> dict[str, Any]:
     """One calibration replicate through ``femupdate posterior`` itself (``run_posterior``):
     the truth and noise of :func:`replicate`, the case's search (multistart-lm, ``fit_runs``
     runs of ``fit_evals`` evaluations, seeded from the replicate), the default
@@ -549,13 +551,16 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     resuming both stores, with ``recentre`` (``tmcmc`` KIND-recentred: the same samples
     unless the sampler found a better fit than the search's). With ``truth`` (physical values
     by name) every replicate has that truth and only its noise is fresh. ``model``: the
-    bridge's ``"viscous"`` or ``"friction"`` model class."""
+    bridge's ``"viscous"`` or ``"friction"`` model class; ``lowpass_hz``: the case's
+    ``[preprocess] lowpass_hz``."""
     from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
 
     work = root / f"replicate-{i}"
     spec, prior, truth_values = bridge_replicate(model, child, work, truth)
     search_seed, posterior_seed = replicate_seeds(child)
+    if lowpass_hz is not None:
+        spec["preprocess"]["lowpass_hz"] = lowpass_hz
     if fit_runs:
         spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
                           "max_evals": fit_evals}
@@ -757,7 +762,9 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
         print(f"\n## Calibration: {model} bridge, 2 % noise, {replicates} replicates (truth "
               f"{drawn}, fresh noise), through femupdate posterior: the case's search "
               f"({searched}), then "
-              f"the default [posterior], without re-centring and with recentre = {recentre}")
+              f"the default [posterior], without re-centring and with recentre = {recentre}"
+              + (f"; records and prediction low-passed at {lowpass_hz:g} Hz" if lowpass_hz
+                 else ""))
     else:
         drawn = "from the prior" if truth is None else "fixed at the example's"
         fitted = ("best fit of the example's own [search] (f_target removed)" if case_search
@@ -776,7 +783,7 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
         if i < first or i in done:
             continue
         row = (product_replicate(i, child, root, fit_evals, fit_runs, recentre,
-                                 (tmcmc_kinds or [None])[0], truth, model) if product
+                                 (tmcmc_kinds or [None])[0], truth, model, lowpass_hz) if product
                else replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population,
                               coarse_only, clean_input, ar_max_order, search_fit,
                               tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs,
