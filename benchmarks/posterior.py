@@ -216,16 +216,22 @@ def analytic(population: int) -> dict[str, Any]:
 # -------------------------------------------------------------------------------- the bridge
 
 
+def bridge_spec(model: str, work: Path, lowpass_hz: float | None = None) -> dict[str, Any]:
+    """The bridge's narrow-band case on the records in ``work``, its records and prediction
+    low-passed at ``lowpass_hz`` when given (``[preprocess] lowpass_hz``)."""
+    spec = bridge.bridge_case(model, "narrow", directory=str(work))
+    if lowpass_hz is not None:
+        spec["preprocess"]["lowpass_hz"] = lowpass_hz
+    return spec
+
+
 def bridge_problem(model: str, truth: dict[str, float], work: Path, seed: int,
                    clean_input: bool = False, lowpass_hz: float | None = None
                    ) -> UpdateProblem:
     """The bridge's update problem on a virtual experiment of ``truth`` with 2 % noise (on
-    the outputs only with ``clean_input``), its records low-passed at ``lowpass_hz`` when
-    given (``[preprocess] lowpass_hz``)."""
-    spec = bridge.bridge_case(model, "narrow", directory=str(work))
-    if lowpass_hz is not None:
-        spec["preprocess"]["lowpass_hz"] = lowpass_hz
-    case = parse_case(spec, source=work / f"{model}.toml")
+    the outputs only with ``clean_input``), low-passed at ``lowpass_hz`` when given
+    (:func:`bridge_spec`)."""
+    case = parse_case(bridge_spec(model, work, lowpass_hz), source=work / f"{model}.toml")
     bridge.ensure_records(case, truth, work, seed=seed, snr=0.02, clean_input=clean_input)
     return UpdateProblem(case, load_experiment(case))
 
@@ -356,12 +362,13 @@ def replicate_seeds(child: np.random.SeedSequence) -> tuple[int, int]:
 
 
 def bridge_replicate(model: str, child: np.random.SeedSequence, work: Path,
-                     truth: dict[str, float] | None = None
+                     truth: dict[str, float] | None = None, lowpass_hz: float | None = None
                      ) -> tuple[dict[str, Any], Prior, np.ndarray]:
-    """A calibration replicate's case (spec), prior and truth (drawn from the prior, or
-    ``truth`` by parameter name), its noisy records written in ``work``."""
+    """A calibration replicate's case (spec, low-passed at ``lowpass_hz`` when given), prior
+    and truth (drawn from the prior, or ``truth`` by parameter name), its noisy records
+    written in ``work``."""
     rng = np.random.default_rng(child)
-    spec = bridge.bridge_case(model, "narrow", directory=str(work))
+    spec = bridge_spec(model, work, lowpass_hz)
     prior = Prior.from_case(parse_case(spec, source=work / f"{model}.toml"))
     drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
     truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
@@ -399,9 +406,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
     rng = np.random.default_rng(child)
     # TMCMC's seeds: one child per kind of the library, whichever kinds this run measures
     tm_seeds = dict(zip(ALL_KINDS, child.spawn(len(ALL_KINDS)), strict=True))
-    spec = bridge.bridge_case("viscous", "narrow", directory=str(root / f"replicate-{i}"))
-    if lowpass_hz is not None:  # the case's own search on the low-passed records too
-        spec["preprocess"]["lowpass_hz"] = lowpass_hz
+    # the case's own search runs on the low-passed records too
+    spec = bridge_spec("viscous", root / f"replicate-{i}", lowpass_hz)
     prior = Prior.from_case(parse_case(spec, source=root / "viscous.toml"))
     drawn = prior.sample(rng, 1)[1][0]  # drawn either way: the noise seed is the same
     truth_values = drawn if truth is None else np.array([truth[n] for n in prior.names])
@@ -557,10 +563,8 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     from femupdate.runs import Execution
 
     work = root / f"replicate-{i}"
-    spec, prior, truth_values = bridge_replicate(model, child, work, truth)
+    spec, prior, truth_values = bridge_replicate(model, child, work, truth, lowpass_hz)
     search_seed, posterior_seed = replicate_seeds(child)
-    if lowpass_hz is not None:
-        spec["preprocess"]["lowpass_hz"] = lowpass_hz
     if fit_runs:
         spec["search"] = {"method": "multistart-lm", "runs": fit_runs, "seed": search_seed,
                           "max_evals": fit_evals}

@@ -215,16 +215,10 @@ def replicate(i: int, root: Path, prior_truth: bool, reach: float, draws: int
         model = problem_error_model(problem, r, kind, jac)
         grid, log_post, points, evals = profile(problem, prior, model, unit, j, jac, reach)
         out["evals"][kind] = evals
-        precision = gaussian_precision(jac_local, r, model)[0] - prior_curvature
-        own = np.linalg.inv(precision)
-        free = [k for k in range(unit.size) if k != j]
-        own_within = np.zeros(unit.size)
-        own_within[free] = np.sqrt(np.diag(np.linalg.inv(precision[np.ix_(free, free)])))
-        hit(f"{kind} profile, within = kind", profile_intervals(
-            grid, log_post, points, j, own_within))
-        hit(f"{kind} profile, within = sandwich", profile_intervals(
-            grid, log_post, points, j,
-            np.sqrt(np.maximum(np.diag(given(sandwich, j)), 0.0))))
+        own = np.linalg.inv(gaussian_precision(jac_local, r, model)[0] - prior_curvature)
+        for within, cov in (("kind", own), ("sandwich", sandwich)):
+            hit(f"{kind} profile, within = {within}", profile_intervals(
+                grid, log_post, points, j, np.sqrt(np.maximum(np.diag(given(cov, j)), 0.0))))
         hit(f"{kind} Laplace (local)", unit + np.array([[-Z90], [Z90]])
             * np.sqrt(np.diag(own)))
         if kind == KINDS[0]:

@@ -123,7 +123,7 @@ def runs_needed(phis: Sequence[float | None], agree: int, unseen: float = UNSEEN
     for k, phi in enumerate(phis, start=1):
         if phi is None:
             return None
-        ended = [float(p) for p in phis[:k] if p is not None]
+        ended = [float(p) for p in phis[:k]]  # none is None: the loop returns at the first
         if runs_agreeing(ended) >= agree and unseen_share(ended) <= unseen:
             return k
     return None
