@@ -125,6 +125,8 @@ GLS_SANDWICH = "gls-sandwich"
 #: eiv's Gaussian at its mode with the covariance of its score under its own noise model
 #: (benchmarks/error_models/input_noise.py, eiv_sandwich_laplaces)
 EIV_SANDWICH = "eiv-sandwich"
+#: The errors-in-variables kinds: over every frequency, and up to the case's low-pass
+EIV_KINDS = ("eiv", "eiv-band")
 #: The i.i.d. likelihood with the curvature adjustment (benchmarks/error_models/sandwich.py):
 #: sampled by TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction).
 #: Measured too narrow (docs/history.md, "The curvature adjustment, tried")
@@ -138,7 +140,7 @@ def problem_error_model(problem: UpdateProblem, r: np.ndarray, kind: str,
                         ar_max_order: int = AR_MAX_ORDER, *,
                         point: np.ndarray | None = None) -> ErrorModel:
     """The product's ``problem_error_model`` over this benchmark's registry."""
-    options = {"ar_max_order": ar_max_order} if kind in ("arp", "eiv") else {}
+    options = {"ar_max_order": ar_max_order} if kind in ("arp", *EIV_KINDS) else {}
     return product_error_model(problem, r, kind, jacobian, point=point, registry=REGISTRY,
                                **options)
 
@@ -510,7 +512,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
         record(kind, q)
         if kind in tmcmc_kinds:
-            if kind == "eiv":  # as femupdate posterior samples it (sampling.run)
+            if kind in EIV_KINDS:  # magnitude-adjusted, as the lab has always sampled it
                 model = magnitude_adjusted(problem, model, prior.to_search(unit), r, coarse_c,
                                            r_c)
                 lap = centred(laplace(coarse_c, r_c, centre, model, prior), centre, prior)
@@ -519,7 +521,9 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             reference, _ = start_reference(*reference, np.random.default_rng(
                 np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 97))))
             # one run on the kind's own seed, or, as femupdate posterior, runs on its children
-            seeds = [tm_seeds[kind]] if tmcmc_runs == 1 else tm_seeds[kind].spawn(tmcmc_runs)
+            # a kind added after these seeds were spawned takes its parent kind's
+            seed = tm_seeds["eiv" if kind in EIV_KINDS else kind]
+            seeds = [seed] if tmcmc_runs == 1 else seed.spawn(tmcmc_runs)
             posts = [run_tmcmc(problem.residuals, prior, model, seed=seed,
                                population=tmcmc_population,
                                reference=None if tmcmc_from_prior else reference, **MOVES)[0]

@@ -60,6 +60,7 @@ def _module_missing(*modules: str) -> str | None:
 
 #: script -> (a line its output must contain, what to check for a skip)
 QUICK = {
+    "abutment_line.py": ("fit excluded (Δℓ > 10)", lambda: None),
     "agreement_stop.py": ("runs needed over the 1 records", lambda: None),
     "bridge_posterior.py": ("emcee's evaluations per effective sample over the default's",
                             lambda: _module_missing("emcee", "arviz")),

@@ -388,12 +388,14 @@ def _prewhitened(blocks: np.ndarray, ar: np.ndarray) -> np.ndarray:
 
 
 def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
-                    residuals: np.ndarray, order: int) -> tuple[TrialWhitening, np.ndarray]:
+                    residuals: np.ndarray, order: int, max_hz: float | None = None
+                    ) -> tuple[TrialWhitening, np.ndarray]:
     """The whitening of one trial (module docstring) from its residual blocks at the best
     fit, ``residuals`` (N, C), and the AR prewhitening filters (C, ``order``) it uses: those
     that flatten the processing of each channel's own noise (least squares on the impulse
     response of that path), so that they do not notch the resonances, where the table's noise
-    and the information are."""
+    and the information are. With ``max_hz`` only the frequencies up to it are kept (a
+    low-pass does not leave them out: the whitening divides it back out)."""
     from error_models.kinds import ar_fit
 
     structure = trial.model.structure
@@ -427,6 +429,8 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
     bins = np.arange(1, (n + 1) // 2)  # not 0 nor n/2: their coefficients are real
     relative_gain = output_gain[bins] / output_gain[bins].max(axis=0)
     bins = bins[np.all(relative_gain >= GAIN_RANGE, axis=1)]
+    if max_hz is not None:
+        bins = bins[bins / (n * trial.experiment.dt) <= max_hz]
     # twice: fit the noise levels, then leave out the frequencies where, with those levels,
     # leakage rules (the second pass refits without the first's)
     for _ in range(2):
@@ -458,11 +462,13 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
 
 
 def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray,
-                          starts: np.ndarray, stops: np.ndarray, order: int
+                          starts: np.ndarray, stops: np.ndarray, order: int,
+                          max_hz: float | None = None
                           ) -> tuple[tuple[TrialWhitening, ...], np.ndarray]:
     """The spectral whitening of every fitted trial of an UpdateProblem at search point
     ``point`` (the best fit) and its residual vector there ``residuals`` (blocks ``starts``
-    to ``stops``), and the blocks' AR prewhitening filters (c, ``order``)."""
+    to ``stops``), and the blocks' AR prewhitening filters (c, ``order``); frequencies up to
+    ``max_hz`` only, when given."""
     from error_models.gls_sandwich import trial_groups
 
     values = problem.values(np.asarray(point, dtype=float))
@@ -470,7 +476,7 @@ def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray
     whitenings, filters = [], np.zeros((len(starts), order))
     for trial, group in zip(problem.fitted, trial_groups(problem), strict=True):
         raw = np.column_stack([r[starts[b]:stops[b]] for b in group])
-        whitening, ar = trial_whitening(trial, values, group, raw, order)
+        whitening, ar = trial_whitening(trial, values, group, raw, order, max_hz)
         whitenings.append(whitening)
         filters[group] = ar
     return tuple(whitenings), filters

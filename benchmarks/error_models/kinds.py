@@ -5,7 +5,8 @@
 of a fixed AR(1)), ``"arp"`` (of a fixed AR(p), p by BIC), ``"adjusted"`` (the i.i.d.
 likelihood tempered by the sandwich's magnitude adjustment), ``"adjusted-least"`` (tempered by
 the largest power nowhere sharper than the sandwich), ``"eiv"`` (errors in the variables: the
-table's noise whitened in the frequency domain, :mod:`input_noise`) and ``"spectral"`` (the
+table's noise whitened in the frequency domain, :mod:`input_noise`), ``"eiv-band"`` (the same
+up to the case's low-pass) and ``"spectral"`` (the
 periodogram's degrees of freedom as the count).
 :func:`registry` adds them, explicitly, to a copy of the product's registry; nothing here is
 registered by importing it.
@@ -32,7 +33,7 @@ from femupdate.inference.neff import effective_count
 AR_MAX_ORDER = 32
 #: The kinds here, in the order the benchmark prints them.
 KINDS: tuple[str, ...] = ("neff-integrated", "tau", "iid", "ar1", "arp", "adjusted",
-                          "adjusted-least", "eiv", "spectral")
+                          "adjusted-least", "eiv", "eiv-band", "spectral")
 
 
 def autocorrelation_count(r: np.ndarray) -> float:
@@ -280,12 +281,33 @@ class EIV(ErrorModelKind):
         pre = typing.cast(WhitenedModel, ARp().build(fit))
         r = fit.need_residuals(self.name)
         spectral, ar = input_noise_whitening(fit.problem, fit.point, r, pre.starts, pre.stops,
-                                             pre.lag)
+                                             pre.lag, self.band(fit.problem))
         counts = np.array([max(t.size - fit.removed[list(t.blocks)].sum()
                                - (0 if t.nuisance is None else t.nuisance.shape[1]), 1.0)
                            for t in spectral])
         return dataclasses.replace(pre, kind=self.name, counts=counts, ar=ar,
                                    spectral=spectral)
+
+    def band(self, problem: Any) -> float | None:
+        """The highest frequency the likelihood weighs: every one the processing passes."""
+        return None
+
+
+class EIVBand(EIV):
+    """``"eiv"`` over the frequencies up to the case's ``[preprocess] lowpass_hz`` only: the
+    whitening divides a low-pass back out, so without this the band a user trusts does not
+    bound what the likelihood weighs (on the viscous bridge, the abutment modes' line at
+    226 Hz: docs/history.md, "What the records say about kp1")."""
+
+    name = "eiv-band"
+
+    def band(self, problem: Any) -> float | None:
+        bands = {trial.case.preprocess.lowpass_hz for trial in problem.fitted}
+        if None in bands or len(bands) != 1:
+            raise ConfigError("error model 'eiv-band' needs one [preprocess] lowpass_hz for "
+                              f"every fitted trial, got {sorted(map(str, bands))} (allowed: a "
+                              "frequency in Hz; or error model 'eiv')")
+        return float(bands.pop())
 
 
 def spectral_count(r: np.ndarray, half_width: int = 3) -> float:
@@ -325,7 +347,7 @@ def registry() -> Registry:
     """The product's registry with the kinds here added."""
     out = ERROR_MODELS.copy()
     for kind in (NEffIntegrated(), Tau(), IID(), AR1(), ARp(), Adjusted(), AdjustedLeast(),
-                 EIV(), Spectral()):
+                 EIV(), EIVBand(), Spectral()):
         out.register(kind)
     return out
 

@@ -174,6 +174,31 @@ def test_eiv_needs_the_problem_and_its_point(problem: UpdateProblem,
         problem_error_model(problem, r, "eiv")
 
 
+def test_eiv_band_weighs_the_frequencies_up_to_the_low_pass_only(
+        tmp_path: Path, problem: UpdateProblem) -> None:
+    """The same records low-passed at 10 Hz: ``eiv`` still weighs frequencies above it (its
+    whitening divides the filter back out), ``eiv-band`` none."""
+    spec = two_storey_spec(tmp_path)
+    spec["preprocess"]["lowpass_hz"] = 10.0
+    case = parse_case(spec, source=tmp_path / "case.toml")
+    virtual_experiment(case, TRUTH, tmp_path, seed=4, rate=100.0, duration=6.0, snr=0.03)
+    low = UpdateProblem(case, load_experiments(case))
+    x = low.case.to_search(TRUTH)
+    r = low.residuals(x)
+    n = r.size // 2 - problem_error_model(low, r, "eiv", point=x).lag  # one trial, 2 channels
+    dt = low.fitted[0].experiment.dt
+
+    def top_hz(kind: str) -> float:
+        (trial,) = problem_error_model(low, r, kind, point=x).spectral
+        return float(trial.bins.max() / (n * dt))
+
+    assert top_hz("eiv") > 10.0 >= top_hz("eiv-band") > 9.0
+    unfiltered = problem.case.to_search(TRUTH)
+    with pytest.raises(ConfigError, match="lowpass_hz"):
+        problem_error_model(problem, problem.residuals(unfiltered), "eiv-band",
+                            point=unfiltered)
+
+
 def test_a_nonlinear_model_is_refused(tmp_path: Path) -> None:
     case = parse_case(bridge.bridge_case("friction", "narrow", directory=str(tmp_path)),
                       source=tmp_path / "case.toml")
