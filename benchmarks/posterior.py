@@ -522,8 +522,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                 np.random.SeedSequence(child.entropy, spawn_key=(*child.spawn_key, 97))))
             # one run on the kind's own seed, or, as femupdate posterior, runs on its children
             # a kind added after these seeds were spawned takes its parent kind's
-            seed = tm_seeds["eiv" if kind in EIV_KINDS else kind]
-            seeds = [seed] if tmcmc_runs == 1 else seed.spawn(tmcmc_runs)
+            kind_seed = tm_seeds["eiv" if kind in EIV_KINDS else kind]
+            seeds = [kind_seed] if tmcmc_runs == 1 else kind_seed.spawn(tmcmc_runs)
             posts = [run_tmcmc(problem.residuals, prior, model, seed=seed,
                                population=tmcmc_population,
                                reference=None if tmcmc_from_prior else reference, **MOVES)[0]

@@ -304,9 +304,10 @@ class EIVBand(EIV):
     def band(self, problem: Any) -> float | None:
         bands = {trial.case.preprocess.lowpass_hz for trial in problem.fitted}
         if None in bands or len(bands) != 1:
+            given = ", ".join("none" if b is None else f"{b:g} Hz" for b in bands)
             raise ConfigError("error model 'eiv-band' needs one [preprocess] lowpass_hz for "
-                              f"every fitted trial, got {sorted(map(str, bands))} (allowed: a "
-                              "frequency in Hz; or error model 'eiv')")
+                              f"every fitted trial, got {given} (allowed: a frequency in Hz; "
+                              "or error model 'eiv')")
         return float(bands.pop())
 
 
