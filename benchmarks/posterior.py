@@ -35,7 +35,8 @@ Sections (``--only`` takes a comma-separated list):
 - ``rayleigh`` (not in the default list): a 3-storey shear building with Rayleigh damping
   at its truth, 2 % noise on every record (the table's too): ``femupdate posterior``'s
   intervals over ``--replicates``, or with ``--rayleigh-kinds`` the Laplace intervals of
-  those error model kinds and of the sandwich at the search's best fit.
+  those error model kinds and of the sandwich at the search's best fit (and TMCMC's for
+  those of its whitening kinds also in ``--tmcmc-kinds``).
 - ``whitening`` (not in the default list): does ``arp``, centred at its own mode, fit the
   scatter of its estimate? The truth's Mahalanobis distance on the first replicates, with
   the table's record noisy and clean, and the scatter over noise draws at one truth
@@ -625,13 +626,14 @@ def rayleigh_spec(work: Path, fit_evals: int) -> dict[str, Any]:
 
 
 def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
-                       snr: float = 0.02, laplace_kinds: list[str] | None = None
-                       ) -> dict[str, Any]:
+                       snr: float = 0.02, laplace_kinds: list[str] | None = None,
+                       tmcmc_kinds: tuple[str, ...] = ()) -> dict[str, Any]:
     """One replicate of the Rayleigh building at its truth: fresh noise (``snr`` on every
     record, the table's too: ``femupdate synth --rate 200 --snr 0.02 --length-scale 1
     --duration 20``), then ``femupdate posterior`` with every default; with
     ``laplace_kinds``, instead, the case's search and the Laplace intervals of those kinds
-    (and of the sandwich) at its best fit, with the counts N_c of each kind."""
+    (and of the sandwich) at its best fit, with the counts N_c of each kind, and TMCMC's for
+    those of them in ``tmcmc_kinds``."""
     from femupdate.pipeline.posterior.run import run_posterior
     from femupdate.runs import Execution
     from femupdate.trials.virtual import virtual_experiment
@@ -647,7 +649,9 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
     names = tuple(RAYLEIGH_TRUTH)
     truth = np.array([RAYLEIGH_TRUTH[n] for n in names])
     if laplace_kinds:
-        return rayleigh_laplaces(i, case, truth, laplace_kinds)
+        return rayleigh_laplaces(i, case, truth, laplace_kinds, tmcmc_kinds,
+                                 np.random.SeedSequence(child.entropy,
+                                                        spawn_key=(*child.spawn_key, 95)))
     got = run_posterior(case, work / "out", execution=Execution(quiet=True))
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
                            "tmcmc_unsettled": {}}
@@ -660,12 +664,15 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
     return out
 
 
-def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
-                      ) -> dict[str, Any]:
+def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str],
+                      tmcmc_kinds: tuple[str, ...] = (),
+                      seed: np.random.SeedSequence | None = None) -> dict[str, Any]:
     """The case's search (``femupdate run``'s), then the Laplace record's intervals (its two
     scales) of each of ``kinds`` and of the sandwich at its best fit (a whitening kind's at
     its own mode, climbed to from there): whether they hold ``truth``, and each kind's counts
-    N_c."""
+    N_c; for the whitening kinds in ``tmcmc_kinds`` TMCMC's intervals too (one run of 1,000 on
+    ``seed``, from the Laplace Gaussian at the mode, the errors in the variables
+    magnitude-adjusted, as the bridge's calibration samples them)."""
     problem, unit, r, _ = case_fit(case)
     prior = Prior.from_case(case)
     jacobians = [jacobian_unit(problem.residuals_batch, unit, prior, step=step)
@@ -684,6 +691,9 @@ def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
                 problem, prior, model, unit, r, jacobians[1])
             q = two_scale_quantiles(*(laplace(j, r_c, centre, model, prior)
                                       for j in (coarse_c, local_c)))
+            if kind in tmcmc_kinds:
+                out["tmcmc"][kind], out.setdefault("tmcmc_evals", {})[kind] = rayleigh_tmcmc(
+                    problem, prior, model, kind, unit, r, centre, r_c, coarse_c, truth, seed)
         else:
             model = problem_error_model(problem, r, kind, jacobians[0])
             q = two_scale_quantiles(*(laplace(j, r, unit, model, prior) for j in jacobians))
@@ -694,8 +704,28 @@ def rayleigh_laplaces(i: int, case: Any, truth: np.ndarray, kinds: list[str]
     return out
 
 
+def rayleigh_tmcmc(problem: UpdateProblem, prior: Prior, model: ErrorModel, kind: str,
+                   unit: np.ndarray, r: np.ndarray, centre: np.ndarray, r_c: np.ndarray,
+                   jac: np.ndarray, truth: np.ndarray, seed: np.random.SeedSequence | None
+                   ) -> tuple[list[bool], int]:
+    """(whether TMCMC's 90 % intervals of a whitening ``kind`` hold ``truth``, evaluations):
+    one run of 1,000 from its Laplace Gaussian at its mode ``centre`` (residuals ``r_c``,
+    Jacobian ``jac`` there; ``unit``, ``r`` the least-squares fit the model was built at)."""
+    if kind in EIV_KINDS:
+        model = magnitude_adjusted(problem, model, prior.to_search(unit), r, jac, r_c)
+    reference = capped_reference(centred(laplace(jac, r_c, centre, model, prior), centre,
+                                         prior))
+    post, _ = run_tmcmc(problem.residuals, prior, model, seed=seed, population=1000,
+                        reference=reference, **MOVES)
+    if not post.reached:
+        raise RuntimeError(f"Rayleigh building: TMCMC ({kind}) did not reach β = 1")
+    q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
+    return ((q[0] <= truth) & (truth <= q[1])).tolist(), int(post.evaluations)
+
+
 def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None = None,
-             laplace_kinds: list[str] | None = None) -> dict[str, Any]:
+             laplace_kinds: list[str] | None = None, tmcmc_kinds: tuple[str, ...] = ()
+             ) -> dict[str, Any]:
     """Coverage of the Rayleigh building's 90 % intervals over ``replicates`` noise draws
     (``hits_file``: JSON lines, resumable, as the calibration's), through ``femupdate
     posterior``, or with ``laplace_kinds`` the Laplace intervals of those kinds."""
@@ -716,7 +746,8 @@ def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None
     for i, child in enumerate(children):
         if i in done:
             continue
-        row = rayleigh_replicate(i, child, root, fit_evals, laplace_kinds=laplace_kinds)
+        row = rayleigh_replicate(i, child, root, fit_evals, laplace_kinds=laplace_kinds,
+                                 tmcmc_kinds=tmcmc_kinds)
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -1314,7 +1345,8 @@ def main() -> None:
                         "and 'curvature', 'curvature-local' (TMCMC of the curvature-adjusted "
                         "i.i.d. likelihood, C from the 1 %% or the local Jacobian)")
     parser.add_argument("--tmcmc-kinds", default="",
-                        help="calibration: kinds whose TMCMC intervals are measured too")
+                        help="calibration (and rayleigh, with --rayleigh-kinds: its whitening "
+                        "kinds): kinds whose TMCMC intervals are measured too")
     parser.add_argument("--tmcmc-population", type=int, default=1000)
     parser.add_argument("--tmcmc-runs", type=int, default=1,
                         help="calibration: TMCMC runs per replicate, pooled, with the product's "
@@ -1412,7 +1444,8 @@ def main() -> None:
                 model=args.bridge_model, case_search=args.case_search)
         if "rayleigh" in sections:
             out["rayleigh"] = rayleigh(args.replicates, root, args.fit_evals, args.hits,
-                                       [k for k in args.rayleigh_kinds.split(",") if k])
+                                       [k for k in args.rayleigh_kinds.split(",") if k],
+                                       tuple(k for k in args.tmcmc_kinds.split(",") if k))
         if "real" in sections:
             out["real"] = real_trials(["neff"])
         if "ripples" in sections:
