@@ -40,16 +40,16 @@ from typing import Any
 import numpy as np
 from error_models.input_noise import (
     GAIN_RANGE,
-    NUISANCE_RANK_TOLERANCE,
     TrialWhitening,
-    _filtered,
     _prewhitened,
     block_scales,
     decayed_impulse_responses,
     fit_noise_levels,
-    folded_transfer,
+    noise_transfers,
     offset_regressors,
+    whitened_nuisance,
     whitening_matrices,
+    without_offsets,
 )
 from posterior import (
     SEED,
@@ -77,7 +77,8 @@ NEEDLE = (1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2)
 
 class Trial:
     """The one fitted trial of the bridge with the fixed parts of ``eiv`` built at the search's
-    fit (its frequencies, AR prewhitening and block scales)."""
+    fit (its AR prewhitening and block scales), the frequencies this likelihood weighs, and
+    the noise paths at each point it is evaluated at (built once a point)."""
 
     def __init__(self, problem: Any, fit_x: np.ndarray, fit_r: np.ndarray,
                  band_hz: float | None = None) -> None:
@@ -89,45 +90,50 @@ class Trial:
         self.ar = self.model.ar[self.blocks]
         self.starts = self.model.starts[self.blocks]
         self.stops = self.model.stops[self.blocks]
-        self.scales = block_scales(self.trial, problem.values(fit_x), self.raw(fit_r))
+        raw = self.raw(fit_r)
+        self.scales = block_scales(self.trial, problem.values(fit_x), raw)
         # every frequency eiv's gain rule keeps, not only those its leakage rule keeps at the
         # fit: there its fitted levels leave most of them out (see the module docstring)
-        samples = self.raw(fit_r).shape[0]
-        n = samples - self.ar.shape[1]
-        self.bins = np.arange(1, (n + 1) // 2)
-        gain = self.paths(problem.values(fit_x), samples)["gain"]
-        self.bins = self.bins[np.all(gain / gain.max(axis=0) >= GAIN_RANGE, axis=1)]
+        self.n = raw.shape[0] - self.ar.shape[1]
+        *_, centre = paths = decayed_impulse_responses(self.trial, problem.values(fit_x))
+        gain = noise_transfers(*paths[:2], centre, self.scales, self.ar, self.n)[3]
+        bins = np.arange(1, (self.n + 1) // 2)
+        bins = bins[np.all(gain[bins] / gain[bins].max(axis=0) >= GAIN_RANGE, axis=1)]
         if band_hz is not None:
-            self.bins = self.bins[self.bins / (n * self.trial.experiment.dt) <= band_hz]
+            bins = bins[bins / (self.n * self.trial.experiment.dt) <= band_hz]
+        self.bins = bins
         self.leakage_kept = fixed.bins.size
+        self._points: dict[bytes, dict[str, Any]] = {}
 
     def raw(self, r: np.ndarray) -> np.ndarray:
         """The trial's residual blocks (N, C) of a residual vector."""
         return np.column_stack([r[a:b] for a, b in zip(self.starts, self.stops, strict=True)])
 
-    def paths(self, values: dict[str, float], samples: int) -> dict[str, Any]:
-        """The noise paths at ``values``: the table's transfer and each sensor's gain at the
-        kept frequencies, through the prewhitening; the offsets' and drifts' responses."""
-        input_path, output_paths, centre = decayed_impulse_responses(self.trial, values)
-        n = samples - self.ar.shape[1]
-        bins = self.bins
-        transfer = folded_transfer(_filtered(input_path * self.scales, self.ar), centre, n)
-        gain = np.abs(folded_transfer(_filtered(output_paths * self.scales, self.ar), centre,
-                                      n)) ** 2
-        return {"n": n, "transfer": transfer[bins], "gain": gain[bins],
-                "regressors": offset_regressors(self.trial, values, self.scales, samples)}
+    def at(self, x: np.ndarray) -> dict[str, Any]:
+        """At search point ``x``: the prewhitened residual blocks, their transform less the
+        offsets' and drifts' fit, the table's transfer and each sensor's gain at the kept
+        frequencies through the prewhitening, and the offsets' and drifts' responses."""
+        key = np.asarray(x, dtype=float).tobytes()
+        if key not in self._points:
+            raw = self.raw(self.problem.residuals(x))
+            values = self.problem.values(x)
+            input_path, output_paths, centre = decayed_impulse_responses(self.trial, values)
+            _, _, transfer, gain = noise_transfers(input_path, output_paths, centre,
+                                                   self.scales, self.ar, self.n)
+            regressors = offset_regressors(self.trial, values, self.scales, raw.shape[0])
+            self._points[key] = {
+                "prewhitened": _prewhitened(raw, self.ar), "regressors": regressors,
+                "coefficients": np.fft.rfft(without_offsets(raw, regressors, self.ar),
+                                            axis=0)[self.bins],
+                "transfer": transfer[self.bins], "gain": gain[self.bins]}
+        return self._points[key]
 
     def levels(self, x: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, float]:
         """Noise levels (each sensor's, the table's) fitted by Whittle's likelihood to the
         residual at search point ``x`` over the kept frequencies, as ``eiv`` fits them."""
-        raw = self.raw(self.problem.residuals(x))
-        paths = self.paths(self.problem.values(x), raw.shape[0])
-        flat = paths["regressors"].reshape(raw.size, -1)
-        amplitudes = np.linalg.lstsq(flat, raw.reshape(-1), rcond=None)[0]
-        pre = _prewhitened(raw - (flat @ amplitudes).reshape(raw.shape), self.ar)
-        coefficients = np.fft.rfft(pre, axis=0)[self.bins]
-        return fit_noise_levels(coefficients[keep], paths["gain"][keep],
-                                paths["transfer"][keep], paths["n"])
+        point = self.at(x)
+        return fit_noise_levels(point["coefficients"][keep], point["gain"][keep],
+                                point["transfer"][keep], self.n)
 
     def loglike(self, x: np.ndarray, levels: tuple[np.ndarray, float]
                 ) -> tuple[float, np.ndarray]:
@@ -135,9 +141,8 @@ class Trial:
         ``levels``: −½‖P w‖² − Σ_k log det S_k − ½ log det(B_wᵀB_w), w the whitened residual, P
         the projection off the whitened offset and drift responses B_w, all built at ``x``."""
         sigma_outputs, sigma_input = levels
-        raw = self.raw(self.problem.residuals(x))
-        paths = self.paths(self.problem.values(x), raw.shape[0])
-        n, transfer, gain = paths["n"], paths["transfer"], paths["gain"]
+        point, n = self.at(x), self.n
+        transfer, gain = point["transfer"], point["gain"]
         whitening = TrialWhitening(
             tuple(self.blocks), self.bins,
             whitening_matrices(gain, transfer, sigma_outputs, sigma_input, n),
@@ -145,19 +150,14 @@ class Trial:
         d = n * sigma_outputs ** 2 * gain
         log_det = float(np.sum(np.log(d)) + np.sum(np.log1p(
             n * sigma_input ** 2 * np.sum(np.abs(transfer) ** 2 / d, axis=1))))
-        regressors = paths["regressors"]
-        pre = np.stack([_prewhitened(regressors[:, :, q], self.ar)
-                        for q in range(regressors.shape[2])])
-        white_regressors = whitening.apply([pre[:, :, c] for c in range(pre.shape[2])])
-        basis, singular, _ = np.linalg.svd(white_regressors.T, full_matrices=False)
-        kept = singular > NUISANCE_RANK_TOLERANCE * singular[0]
-        pre_r = _prewhitened(raw, self.ar)
-        w = whitening.apply([pre_r[:, c][None, :] for c in range(raw.shape[1])])[0]
-        w -= basis[:, kept] @ (basis[:, kept].T @ w)
-        channels, frequencies = raw.shape[1], self.bins.size
+        basis, singular = whitened_nuisance(whitening, point["regressors"], self.ar)
+        pre = point["prewhitened"]
+        w = whitening.apply([pre[:, c][None, :] for c in range(pre.shape[1])])[0]
+        w -= basis @ (basis.T @ w)
+        channels, frequencies = pre.shape[1], self.bins.size
         half = channels * frequencies
         power = (w[:half] ** 2 + w[half:] ** 2).reshape(channels, frequencies).sum(axis=0)
-        return (-0.5 * float(w @ w) - log_det - float(np.sum(np.log(singular[kept]))), power)
+        return -0.5 * float(w @ w) - log_det - float(np.sum(np.log(singular))), power
 
     def levels_without_lines(self, x: np.ndarray) -> tuple[np.ndarray, float]:
         """:meth:`levels` at ``x``, refitted with the frequencies where the whitened residual
@@ -201,9 +201,7 @@ def replicate(i: int, root: Path, prior_truth: bool, lowpass_hz: float | None,
         row["table_level"][way] = levels[1] / ways["oracle"][1]
         if way == "oracle":
             k = int(np.argmax(power))
-            row["line_hz"] = float(trial.bins[k]
-                                   / (trial.raw(r).shape[0] - trial.ar.shape[1])
-                                   / trial.trial.experiment.dt)
+            row["line_hz"] = float(trial.bins[k] / trial.n / trial.trial.experiment.dt)
             row["line_power"] = float(power[k])
     if needle:
         truth_unit = prior.from_physical(truth_values)

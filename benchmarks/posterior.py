@@ -292,6 +292,23 @@ def capped_reference(lap: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.clip(lap.mean_unit, 0.0, 1.0), lap.cov_unit * np.outer(cap, cap)
 
 
+def sampled_hits(samples: np.ndarray, prior: Prior, truth: np.ndarray) -> list[bool]:
+    """Whether each parameter's 90 % interval of posterior ``samples`` (unit cube) holds
+    ``truth`` (physical values)."""
+    q = np.quantile(prior.to_physical(samples), [0.05, 0.95], axis=0)
+    return ((q[0] <= truth) & (truth <= q[1])).tolist()
+
+
+def eiv_sampled(problem: UpdateProblem, prior: Prior, model: ErrorModel, unit: np.ndarray,
+                r: np.ndarray, centre: np.ndarray, r_c: np.ndarray, jac: np.ndarray
+                ) -> tuple[ErrorModel, Any]:
+    """(the errors-in-variables likelihood TMCMC samples, its Laplace Gaussian at its mode):
+    ``model`` (built at the least-squares fit ``unit``, residuals ``r``) magnitude-adjusted at
+    its mode ``centre`` (residuals ``r_c``, Jacobian ``jac`` there)."""
+    model = magnitude_adjusted(problem, model, prior.to_search(unit), r, jac, r_c)
+    return model, centred(laplace(jac, r_c, centre, model, prior), centre, prior)
+
+
 def coverage_row(hits: np.ndarray) -> list[tuple[float, float, float]]:
     """(share, low, high) per parameter of boolean hits (replicates, n): the share of
     replicates whose interval holds the truth and its 95 % Clopper–Pearson interval (the
@@ -487,8 +504,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                                 **MOVES)
             if not post.reached:
                 raise RuntimeError(f"replicate {i}: TMCMC ({kind}) did not reach β = 1")
-            q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
-            out["tmcmc"][kind] = ((q[0] <= truth_values) & (truth_values <= q[1])).tolist()
+            out["tmcmc"][kind] = sampled_hits(post.samples, prior, truth_values)
             out["tmcmc_evals"][kind] = post.evaluations
             continue
         model = problem_error_model(problem, r, kind, jac if kind in ADJUSTED else None,
@@ -513,10 +529,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             lap, q = two_scale(lambda j, m=model: laplace(j, r, unit, m, prior))
         record(kind, q)
         if kind in tmcmc_kinds:
-            if kind in EIV_KINDS:  # magnitude-adjusted, as the lab has always sampled it
-                model = magnitude_adjusted(problem, model, prior.to_search(unit), r, coarse_c,
-                                           r_c)
-                lap = centred(laplace(coarse_c, r_c, centre, model, prior), centre, prior)
+            if kind in EIV_KINDS:
+                model, lap = eiv_sampled(problem, prior, model, unit, r, centre, r_c, coarse_c)
             reference = capped_reference(lap)
             # as femupdate posterior: the prior where even the capped one is mostly outside
             reference, _ = start_reference(*reference, np.random.default_rng(
@@ -531,9 +545,8 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
                      for seed in seeds]
             if not all(post.reached for post in posts):
                 raise RuntimeError(f"replicate {i}: TMCMC ({kind}) did not reach β = 1")
-            pooled = np.vstack([post.samples for post in posts])
-            q = np.quantile(prior.to_physical(pooled), [0.05, 0.95], axis=0)
-            out["tmcmc"][kind] = ((q[0] <= truth_values) & (truth_values <= q[1])).tolist()
+            out["tmcmc"][kind] = sampled_hits(np.vstack([post.samples for post in posts]),
+                                              prior, truth_values)
             out["tmcmc_evals"][kind] = sum(post.evaluations for post in posts)
             if tmcmc_runs > 1:  # the product's verdict on them
                 out.setdefault("tmcmc_unsettled", {})[kind] = runs_agreement(
@@ -712,15 +725,14 @@ def rayleigh_tmcmc(problem: UpdateProblem, prior: Prior, model: ErrorModel, kind
     one run of 1,000 from its Laplace Gaussian at its mode ``centre`` (residuals ``r_c``,
     Jacobian ``jac`` there; ``unit``, ``r`` the least-squares fit the model was built at)."""
     if kind in EIV_KINDS:
-        model = magnitude_adjusted(problem, model, prior.to_search(unit), r, jac, r_c)
-    reference = capped_reference(centred(laplace(jac, r_c, centre, model, prior), centre,
-                                         prior))
+        model, lap = eiv_sampled(problem, prior, model, unit, r, centre, r_c, jac)
+    else:
+        lap = centred(laplace(jac, r_c, centre, model, prior), centre, prior)
     post, _ = run_tmcmc(problem.residuals, prior, model, seed=seed, population=1000,
-                        reference=reference, **MOVES)
+                        reference=capped_reference(lap), **MOVES)
     if not post.reached:
         raise RuntimeError(f"Rayleigh building: TMCMC ({kind}) did not reach β = 1")
-    q = np.quantile(prior.to_physical(post.samples), [0.05, 0.95], axis=0)
-    return ((q[0] <= truth) & (truth <= q[1])).tolist(), int(post.evaluations)
+    return sampled_hits(post.samples, prior, truth), int(post.evaluations)
 
 
 def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None = None,

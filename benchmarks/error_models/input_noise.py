@@ -415,16 +415,10 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
     ar = np.array([ar_fit(output_paths[:, c], order)[0] for c in range(n_channels)])
     regressors = offset_regressors(trial, values, scales, samples)
     # the noise levels are fitted to the residual less its offsets' and drifts' transients
-    flat = regressors.reshape(samples * n_channels, -1)
-    amplitudes = np.linalg.lstsq(flat, residuals.reshape(-1), rcond=None)[0]
-    prewhitened = _prewhitened(residuals - (flat @ amplitudes).reshape(samples, n_channels),
-                               ar)
+    prewhitened = without_offsets(residuals, regressors, ar)
     n = prewhitened.shape[0]
-    # the paths as the prewhitened residual sees them: scaled, then through each AR filter
-    input_path = _filtered(input_path * scales, ar)
-    output_paths = _filtered(output_paths * scales, ar)
-    input_transfer = folded_transfer(input_path, centre, n)
-    output_gain = np.abs(folded_transfer(output_paths, centre, n)) ** 2
+    input_path, output_paths, input_transfer, output_gain = noise_transfers(
+        input_path, output_paths, centre, scales, ar, n)
     coefficients = np.fft.rfft(prewhitened, axis=0)
     bins = np.arange(1, (n + 1) // 2)  # not 0 nor n/2: their coefficients are real
     relative_gain = output_gain[bins] / output_gain[bins].max(axis=0)
@@ -452,13 +446,43 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
                                   sigma_input, n)
     whitening = TrialWhitening(tuple(blocks), bins, matrices, sigma_outputs, sigma_input,
                                share)
-    prewhitened_regressors = np.stack([_prewhitened(regressors[:, :, q], ar)
-                                       for q in range(regressors.shape[2])])  # (q, n, C)
-    white_regressors = whitening.apply([prewhitened_regressors[:, :, c]
-                                        for c in range(n_channels)])
-    basis, singular, _ = np.linalg.svd(white_regressors.T, full_matrices=False)
-    nuisance = basis[:, singular > NUISANCE_RANK_TOLERANCE * singular[0]]
+    nuisance, _ = whitened_nuisance(whitening, regressors, ar)
     return dataclasses.replace(whitening, nuisance=nuisance), ar
+
+
+def without_offsets(residuals: np.ndarray, regressors: np.ndarray, ar: np.ndarray
+                    ) -> np.ndarray:
+    """The prewhitened blocks (N − p, C) of ``residuals`` (N, C) less their least-squares fit
+    by the offset and drift responses ``regressors`` (N, C, q) (:func:`offset_regressors`)."""
+    samples, n_channels = residuals.shape
+    flat = regressors.reshape(samples * n_channels, -1)
+    amplitudes = np.linalg.lstsq(flat, residuals.reshape(-1), rcond=None)[0]
+    return _prewhitened(residuals - (flat @ amplitudes).reshape(samples, n_channels), ar)
+
+
+def noise_transfers(input_path: np.ndarray, output_paths: np.ndarray, centre: int,
+                    scales: np.ndarray, ar: np.ndarray, n: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(input path, output paths, input transfer (n//2 + 1, C), output gains |·|²): the
+    impulse responses of :func:`decayed_impulse_responses` as the prewhitened residual of
+    n samples sees them, scaled, then through each block's AR filter, and their transforms."""
+    input_path = _filtered(input_path * scales, ar)
+    output_paths = _filtered(output_paths * scales, ar)
+    return (input_path, output_paths, folded_transfer(input_path, centre, n),
+            np.abs(folded_transfer(output_paths, centre, n)) ** 2)
+
+
+def whitened_nuisance(whitening: TrialWhitening, regressors: np.ndarray, ar: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(orthonormal basis (size, r), singular values (r,)) of the whitened offset and drift
+    responses ``regressors`` (N, C, q), those below :data:`NUISANCE_RANK_TOLERANCE` of the
+    largest left out."""
+    prewhitened = np.stack([_prewhitened(regressors[:, :, q], ar)
+                            for q in range(regressors.shape[2])])  # (q, n, C)
+    white = whitening.apply([prewhitened[:, :, c] for c in range(prewhitened.shape[2])])
+    basis, singular, _ = np.linalg.svd(white.T, full_matrices=False)
+    kept = singular > NUISANCE_RANK_TOLERANCE * singular[0]
+    return basis[:, kept], singular[kept]
 
 
 def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray,
