@@ -22,11 +22,11 @@ levels are fitted three ways (``--band-hz``: over the frequencies up to it only)
 
 Beside them, ``eiv`` itself as the lab builds it at the fit (fixed whitening, its own
 frequencies and levels). Prints per record kp1's error (share of its range), the frequencies
-``eiv`` keeps, the table noise level each way over the oracle's, Δℓ = ℓ(truth) − ℓ(fit) each
-way, and the strongest line of the fit's whitened residual under the oracle's levels; then
-the share of records whose Δℓ exceeds 10 (the fit e^10 times less likely than the truth) and,
-with ``--needle``, how far ℓ falls along kp1 from the truth under the oracle's levels (the
-width of its peak).
+this likelihood weighs and those ``eiv`` keeps, the table noise level each way over the
+oracle's, Δℓ = ℓ(truth) − ℓ(fit) each way, and the strongest line of the fit's whitened
+residual under the oracle's levels; then the share of records whose Δℓ exceeds 10 (the fit
+e^10 times less likely than the truth) and, with ``--needle``, how far ℓ falls along kp1 from
+the truth under the oracle's levels (the width of its peak).
 """
 
 from __future__ import annotations
@@ -261,8 +261,8 @@ def main() -> None:
             levels = ", ".join(f"{way} {value:.2f}" for way, value
                                in row["table_level"].items() if way != "oracle")
             kept, everyone = row["frequencies"][1], row["frequencies"][0]
-            print(f"replicate {i}: kp1's error {row['fit_error'][1]:+.4f} of its range; eiv "
-                  f"keeps {kept} of {everyone} frequencies; table noise level over the "
+            print(f"replicate {i}: kp1's error {row['fit_error'][1]:+.4f} of its range; "
+                  f"frequencies weighed {everyone}, by eiv {kept}; table noise level over the "
                   f"oracle's: {levels}; Δℓ: {deltas}; line {row['line_power']:.0f} at "
                   f"{row['line_hz']:.1f} Hz", flush=True)
             for offset, drops in row.get("needle", {}).items():
