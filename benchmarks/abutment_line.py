@@ -8,21 +8,21 @@ Each replicate is a record of benchmarks/posterior.py's product calibration (the
 noise and search seed), fitted by the example's own ``[search]`` (``f_target`` removed): least
 squares on the displacement records, as ``femupdate run`` ends. Then a likelihood that weighs
 each frequency by its noise is evaluated at that fit and at the truth: errors in the variables
-(benchmarks/error_models/input_noise.py), with the model's response to the table's noise
-rebuilt at each point, so that the whitening and its log-determinant follow θ (``eiv`` fixes
-them at the fit), over every frequency ``eiv``'s gain rule keeps (its leakage rule, applied
+(src/femupdate/inference/input_noise.py), with the model's response to the table's noise
+rebuilt at each point, so that the whitening and its log-determinant follow θ (``eiv-all`` fixes
+them at the fit), over every frequency ``eiv-all``'s gain rule keeps (its leakage rule, applied
 with the levels fitted at the search's fit, leaves most of them out on this bridge). Its noise
 levels are fitted three ways (``--band-hz``: over the frequencies up to it only):
 
-- ``at fit``: at the search's fit, as ``eiv`` fits them;
+- ``at fit``: at the search's fit, as ``eiv-all`` fits them;
 - ``lines out``: the same, with the frequencies where the fit's whitened residual holds a line
   (power beyond the 1e-3 tail of its χ², Bonferroni over the frequencies) left out of the
   fit of the levels, not of the likelihood: a deterministic misfit is not noise;
 - ``oracle``: at the truth.
 
-Beside them, ``eiv`` itself as the lab builds it at the fit (fixed whitening, its own
+Beside them, ``eiv-all`` itself as the lab builds it at the fit (fixed whitening, its own
 frequencies and levels). Prints per record kp1's error (share of its range), the frequencies
-this likelihood weighs and those ``eiv`` keeps, the table noise level each way over the
+this likelihood weighs and those ``eiv-all`` keeps, the table noise level each way over the
 oracle's, Δℓ = ℓ(truth) − ℓ(fit) each way, and the strongest line of the fit's whitened
 residual under the oracle's levels; then the share of records whose Δℓ exceeds 10 (the fit
 e^10 times less likely than the truth) and, with ``--needle``, how far ℓ falls along kp1 from
@@ -38,7 +38,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from error_models.input_noise import (
+from posterior import (
+    SEED,
+    bridge_replicate,
+    case_fit,
+    own_search,
+    problem_error_model,
+    replicate_seeds,
+)
+from scipy.stats import chi2
+
+from femupdate.case import parse_case
+from femupdate.inference.input_noise import (
     GAIN_RANGE,
     TrialWhitening,
     _prewhitened,
@@ -51,17 +62,6 @@ from error_models.input_noise import (
     whitening_matrices,
     without_offsets,
 )
-from posterior import (
-    SEED,
-    bridge_replicate,
-    case_fit,
-    own_search,
-    problem_error_model,
-    replicate_seeds,
-)
-from scipy.stats import chi2
-
-from femupdate.case import parse_case
 from femupdate.paper.problems import bridge
 
 #: A frequency of the fit's whitened residual is a line when its power is beyond this tail of
@@ -76,7 +76,7 @@ NEEDLE = (1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2)
 
 
 class Trial:
-    """The one fitted trial of the bridge with the fixed parts of ``eiv`` built at the search's
+    """The one fitted trial of the bridge with the fixed parts of ``eiv-all`` built at the search's
     fit (its AR prewhitening and block scales), the frequencies this likelihood weighs, and
     the noise paths at each point it is evaluated at (built once a point)."""
 
@@ -84,7 +84,7 @@ class Trial:
                  band_hz: float | None = None) -> None:
         (self.trial,) = problem.fitted
         self.problem = problem
-        self.model = problem_error_model(problem, fit_r, "eiv", point=fit_x)
+        self.model = problem_error_model(problem, fit_r, "eiv-all", point=fit_x)
         (fixed,) = self.model.spectral
         self.blocks = list(fixed.blocks)
         self.ar = self.model.ar[self.blocks]
@@ -130,7 +130,7 @@ class Trial:
 
     def levels(self, x: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, float]:
         """Noise levels (each sensor's, the table's) fitted by Whittle's likelihood to the
-        residual at search point ``x`` over the kept frequencies, as ``eiv`` fits them."""
+        residual at search point ``x`` over the kept frequencies, as ``eiv-all`` fits them."""
         point = self.at(x)
         return fit_noise_levels(point["coefficients"][keep], point["gain"][keep],
                                 point["transfer"][keep], self.n)

@@ -84,11 +84,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from error_models.gls_sandwich import gls_sandwich_laplace, trial_groups
-from error_models.input_noise import eiv_sandwich_laplaces, magnitude_adjusted
+from error_models.gls_sandwich import gls_sandwich_laplace
 from error_models.kinds import AR_MAX_ORDER, registry
 from error_models.mode import WHITENING_KINDS, mode_jacobians
-from error_models.sandwich import curvature_adjustment, sandwich_laplace
+from error_models.sandwich import curvature_adjustment, eiv_sandwich_laplaces, sandwich_laplace
 
 from femupdate import minimize
 from femupdate.case import parse_case
@@ -99,6 +98,7 @@ from femupdate.inference.analytic import Residuals, exact_log_evidence, linear_g
 from femupdate.inference.best_fit import centred, coarse_choices
 from femupdate.inference.error_models import DEFAULT_KIND
 from femupdate.inference.error_models import problem_error_model as product_error_model
+from femupdate.inference.input_noise import magnitude_adjusted, trial_groups
 from femupdate.inference.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.inference.likelihood import ErrorModel, residual_blocks
 from femupdate.inference.tmcmc import run_tmcmc
@@ -124,10 +124,10 @@ SANDWICH = "sandwich"
 #: when the whitening leaves the errors coloured (benchmarks/error_models/gls_sandwich.py)
 GLS_SANDWICH = "gls-sandwich"
 #: eiv's Gaussian at its mode with the covariance of its score under its own noise model
-#: (benchmarks/error_models/input_noise.py, eiv_sandwich_laplaces)
+#: (``eiv-all``'s, benchmarks/error_models/sandwich.py, eiv_sandwich_laplaces)
 EIV_SANDWICH = "eiv-sandwich"
 #: The errors-in-variables kinds: over every frequency, and up to the case's low-pass
-EIV_KINDS = ("eiv", "eiv-band")
+EIV_KINDS = ("eiv", "eiv-all")
 #: The i.i.d. likelihood with the curvature adjustment (benchmarks/error_models/sandwich.py):
 #: sampled by TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction).
 #: Measured too narrow (docs/history.md, "The curvature adjustment, tried")
@@ -478,7 +478,7 @@ def replicate(i: int, child: np.random.SeedSequence, root: Path, kinds: list[str
             continue
         if kind == EIV_SANDWICH:
             point = prior.to_search(unit)
-            model = problem_error_model(problem, r, "eiv", point=point)
+            model = problem_error_model(problem, r, "eiv-all", point=point)
             centre, ((r_c, local_c), (_, coarse_c)), evals = mode_jacobians(
                 problem, prior, model, unit, r, jac_local)
             # both scales' Gaussians in one pass over the noise paths, then the product's rule
@@ -640,10 +640,12 @@ def rayleigh_spec(work: Path, fit_evals: int) -> dict[str, Any]:
 
 def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
                        snr: float = 0.02, laplace_kinds: list[str] | None = None,
-                       tmcmc_kinds: tuple[str, ...] = ()) -> dict[str, Any]:
+                       tmcmc_kinds: tuple[str, ...] = (), error_model: str | None = None
+                       ) -> dict[str, Any]:
     """One replicate of the Rayleigh building at its truth: fresh noise (``snr`` on every
     record, the table's too: ``femupdate synth --rate 200 --snr 0.02 --length-scale 1
-    --duration 20``), then ``femupdate posterior`` with every default; with
+    --duration 20``), then ``femupdate posterior`` with every default (but ``[posterior]
+    error_model = error_model``, when given); with
     ``laplace_kinds``, instead, the case's search and the Laplace intervals of those kinds
     (and of the sandwich) at its best fit, with the counts N_c of each kind, and TMCMC's for
     those of them in ``tmcmc_kinds``."""
@@ -656,6 +658,8 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
     spec = rayleigh_spec(work, fit_evals)
     search_seed, noise_seed = (int(v) for v in rng.integers(2 ** 31, size=2))
     spec["search"]["seed"] = search_seed
+    if error_model is not None:
+        spec["posterior"] = {"error_model": error_model}
     case = parse_case(spec, source=work / "case.toml")
     virtual_experiment(case, RAYLEIGH_TRUTH, work / "data", seed=noise_seed, snr=snr,
                        rate=200.0, duration=20.0, length_scale=1.0)
@@ -668,9 +672,10 @@ def rayleigh_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_ev
     got = run_posterior(case, work / "out", execution=Execution(quiet=True))
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
                            "tmcmc_unsettled": {}}
-    out["tmcmc"]["neff"] = inside(got.record.params, names, truth)
-    out["tmcmc_evals"]["neff"] = got.record.nfev
-    out["tmcmc_unsettled"]["neff"] = got.record.unsettled
+    kind = got.record.error_model
+    out["tmcmc"][kind] = inside(got.record.params, names, truth)
+    out["tmcmc_evals"][kind] = got.record.nfev
+    out["tmcmc_unsettled"][kind] = got.record.unsettled
     lap = got.summary.laplace
     if lap is not None and lap.params:
         out["laplace"][lap.error_model] = inside(lap.params, names, truth)
@@ -740,7 +745,8 @@ def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None
              ) -> dict[str, Any]:
     """Coverage of the Rayleigh building's 90 % intervals over ``replicates`` noise draws
     (``hits_file``: JSON lines, resumable, as the calibration's), through ``femupdate
-    posterior``, or with ``laplace_kinds`` the Laplace intervals of those kinds."""
+    posterior`` (its error model the first of ``tmcmc_kinds``, when given), or with
+    ``laplace_kinds`` the Laplace intervals of those kinds."""
     children = np.random.SeedSequence(SEED + 3).spawn(replicates)
     done: dict[int, dict[str, Any]] = {}
     if hits_file is not None and hits_file.exists():
@@ -753,13 +759,15 @@ def rayleigh(replicates: int, root: Path, fit_evals: int, hits_file: Path | None
           + (f"Laplace intervals of {', '.join(laplace_kinds)} and the sandwich at the search's "
              "best fit" if laplace_kinds else "through femupdate posterior")
           + f" (search: multistart-lm, {fit_evals:,} evaluations)"
-          + ("" if laplace_kinds else " with every default"))
+          + ("" if laplace_kinds else " with every default"
+             + (f" but error_model = {tmcmc_kinds[0]!r}" if tmcmc_kinds else "")))
     start = time.perf_counter()
     for i, child in enumerate(children):
         if i in done:
             continue
         row = rayleigh_replicate(i, child, root, fit_evals, laplace_kinds=laplace_kinds,
-                                 tmcmc_kinds=tmcmc_kinds)
+                                 tmcmc_kinds=tmcmc_kinds, error_model=None if laplace_kinds
+                                 or not tmcmc_kinds else tmcmc_kinds[0])
         done[i] = row
         if hits_file is not None:
             with hits_file.open("a") as f:
@@ -1358,7 +1366,9 @@ def main() -> None:
                         "i.i.d. likelihood, C from the 1 %% or the local Jacobian)")
     parser.add_argument("--tmcmc-kinds", default="",
                         help="calibration (and rayleigh, with --rayleigh-kinds: its whitening "
-                        "kinds): kinds whose TMCMC intervals are measured too")
+                        "kinds): kinds whose TMCMC intervals are measured too; with --product "
+                        "(rayleigh: without --rayleigh-kinds), the first is femupdate "
+                        "posterior's [posterior] error_model")
     parser.add_argument("--tmcmc-population", type=int, default=1000)
     parser.add_argument("--tmcmc-runs", type=int, default=1,
                         help="calibration: TMCMC runs per replicate, pooled, with the product's "

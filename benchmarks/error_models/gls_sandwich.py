@@ -46,18 +46,6 @@ SMOOTHING_BINS = 1
 MAX_LEVERAGE = 0.95
 
 
-def trial_groups(problem: object) -> list[list[int]]:
-    """The blocks of an UpdateProblem's residual vector grouped by trial (its channels share
-    the table's record, hence its noise), in the order of
-    :func:`~femupdate.inference.likelihood.residual_blocks`."""
-    groups, start = [], 0
-    for trial in problem.fitted:  # type: ignore[attr-defined]
-        channels = trial.objective.target.shape[1]
-        groups.append(list(range(start, start + channels)))
-        start += channels
-    return groups
-
-
 def _frequency_weights(length: int) -> np.ndarray:
     """How many of the full transform's coefficients each one of ``rfft`` stands for."""
     weights = np.full(length // 2 + 1, 2.0)

@@ -35,7 +35,7 @@ from femupdate.problem.update import UpdateProblem
 
 #: The error models whose likelihood maximum is not the least-squares best fit: they whiten
 #: the residual before weighing it.
-WHITENING_KINDS: tuple[str, ...] = ("ar1", "arp", "eiv", "eiv-band")
+WHITENING_KINDS: tuple[str, ...] = ("ar1", "arp", "eiv", "eiv-all")
 #: Stop when a step moves the point by less than this many posterior standard deviations.
 MODE_TOLERANCE = 1e-2
 MAX_ITERATIONS = 20

@@ -18,10 +18,13 @@ values, AR(1), AR(p)) are calibrated.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from scipy.linalg import matmul_toeplitz
 
+from femupdate.inference.input_noise import score_meats
 from femupdate.inference.laplace import LaplaceResult, checked_jacobian, summarize_gaussian
 from femupdate.inference.likelihood import lag1_autocorrelation
 from femupdate.inference.priors import Prior
@@ -133,3 +136,22 @@ def curvature_adjustment(jac: np.ndarray, residuals: np.ndarray,
     sensitivity, variability = _sensitivity_variability(jac, residuals, blocks)
     target = sensitivity @ np.linalg.pinv(variability, hermitian=True) @ sensitivity
     return _psd_power(sensitivity, -0.5) @ _psd_power(target, 0.5)
+
+
+def eiv_sandwich_laplaces(problem: Any, model: Any, point: np.ndarray,
+                          point_residuals: np.ndarray,
+                          at: Sequence[tuple[np.ndarray, np.ndarray]], mode_unit: np.ndarray,
+                          prior: Any) -> list[Any]:
+    """The Gaussian at the error model's mode ``mode_unit`` for each (residuals, Jacobian)
+    pair of ``at`` there, with the sandwich covariance B Var(score) B, B the inverse of the
+    Laplace precision (the likelihood's Gauss–Newton curvature less the prior's), Var(score)
+    by :func:`~femupdate.inference.input_noise.score_meats` (``model`` built at search
+    ``point``, ``point_residuals`` its residuals there): kind ``"eiv-sandwich"``."""
+    mode_unit = np.asarray(mode_unit, dtype=float).reshape(-1)
+    _, prior_hess = prior.curvature_unit(mode_unit)
+    out = []
+    for precision, meat in score_meats(problem, model, point, point_residuals, at):
+        bread = np.linalg.pinv(precision - np.diag(prior_hess), hermitian=True)
+        cov = bread @ meat @ bread
+        out.append(summarize_gaussian(mode_unit, 0.5 * (cov + cov.T), prior))
+    return out

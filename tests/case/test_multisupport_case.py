@@ -373,8 +373,7 @@ def test_one_recorded_motion_cannot_drive_several_groups(tmp_path):
 def test_the_report_lists_each_group_input_and_input_noise_refuses(tmp_path):
     from types import SimpleNamespace
 
-    from error_models.input_noise import path_responses  # a benchmark plug-in now
-
+    from femupdate.inference.input_noise import path_responses
     from femupdate.problem.update import TrialProblem
     from femupdate.report.sections_runs import _data_items
     from femupdate.trials.experiment import load_experiment

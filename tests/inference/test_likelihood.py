@@ -150,9 +150,9 @@ def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
     model = problem_error_model(problem, r)
     assert model.kind == "neff" and model.size == r.size
     assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
-    with pytest.raises(ConfigError, match=r"got 'tau' \(allowed: neff, known\)"):
+    with pytest.raises(ConfigError, match=r"got 'tau' \(allowed: neff, eiv, known\)"):
         problem_error_model(problem, r, "tau")
-    with pytest.raises(ConfigError, match="allowed: neff, known"):
+    with pytest.raises(ConfigError, match="allowed: neff, eiv, known"):
         error_model([slice(0, 5)], "gaussian")
     with pytest.raises(ConfigError, match="needs the residuals"):
         error_model([slice(0, 5)], "neff")
@@ -213,7 +213,7 @@ def test_the_models_round_trip_as_plain_data() -> None:
 
 
 def test_the_registry_holds_the_kinds_a_user_chooses_and_takes_others_explicitly() -> None:
-    assert ERROR_MODELS.names == ("neff", "known") and case_kinds() == ("neff",)
+    assert ERROR_MODELS.names == ("neff", "eiv", "known") and case_kinds() == ("neff", "eiv")
 
     class Halved(NEff):  # a plug-in: half of neff's counts
         name = "halved"

@@ -363,12 +363,12 @@ def test_the_error_model_is_chosen_on_the_command_line_among_the_case_kinds(
 
     from femupdate.cli.commands import app
 
-    with pytest.raises(ConfigError, match=r"error_model: got 'tau' \(allowed: neff\)"):
+    with pytest.raises(ConfigError, match=r"error_model: got 'tau' \(allowed: neff, eiv\)"):
         run_posterior(load_case(case_path), tmp_path / "tau", error_model="tau")
     assert not (tmp_path / "tau").exists()  # refused before anything is written
     got = CliRunner().invoke(app, ["posterior", str(case_path), "--out", str(tmp_path / "cli"),
-                                   "--error-model", "eiv"])
-    assert isinstance(got.exception, ConfigError) and "allowed: neff" in str(got.exception)
+                                   "--error-model", "adjusted"])
+    assert isinstance(got.exception, ConfigError) and "allowed: neff, eiv" in str(got.exception)
     assert "--error-model" in CliRunner().invoke(app, ["posterior", "--help"]).output
 
 

@@ -70,9 +70,10 @@ class PosteriorSection(Section):
     checks each parameter's effective samples (one run cannot check itself); ``max_runs``:
     while a parameter is unsettled, ``runs`` more are added, up to this many in all (none to
     one run);
-    ``error_model``: "neff" (the kinds of :mod:`femupdate.inference.error_models` but
-    "known", which needs the error's σ); unset, the default, "neff", for both the sampled
-    posterior and the Laplace record at the best fit;
+    ``error_model``: "neff" or "eiv" (the kinds of :mod:`femupdate.inference.error_models`
+    but "known", which needs the error's σ; "eiv" for a noisy table record on a linear model
+    of femupdate's own); unset, the default, "neff", for both the sampled posterior and the
+    Laplace record at the best fit;
     ``max_evals``: its budget (a run that cannot reach the posterior within it says so);
     ``modes_samples``: how many of the samples the modes and predictive bands are computed
     at; ``start``: the Gaussian at the best fit (Laplace, inflated) or the prior, as TMCMC's
@@ -87,7 +88,7 @@ class PosteriorSection(Section):
     runs: integer_field(ge=1, le=64) = 4
     ess: integer_field(ge=10, le=10_000_000) | None = None
     max_runs: integer_field(ge=1, le=256) = 12
-    error_model: Literal["neff"] | None = None
+    error_model: Literal["neff", "eiv"] | None = None
     seed: integer_field(ge=0, le=2**63 - 1) | None = None
     max_evals: integer_field(ge=1, le=10**9) = 1_000_000
     modes_samples: integer_field(ge=0, le=100_000) = 200

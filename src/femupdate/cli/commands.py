@@ -217,7 +217,8 @@ def posterior(
         "most to sample again from a better fit the sampler finds; 0: only say so).")] = None,
     error_model: Annotated[str | None, typer.Option(
         "--error-model", help="Override [posterior] error_model (the sampled posterior's "
-        "likelihood; allowed: the kinds a case may name, default neff).")] = None,
+        "likelihood; allowed: neff, the default, or eiv, errors in the variables for a noisy "
+        "table record on a linear model).")] = None,
     ess: Annotated[int | None, typer.Option(
         "--ess", min=10, max=10_000_000, help="Override [posterior] ess (the effective samples "
         "every parameter needs; runs are added until it has them, up to --max-runs).")

@@ -1,4 +1,5 @@
-"""The Laplace approximation at the best fit of an update, as ``summary.json`` records it.
+"""The Laplace approximation at the best fit of an update, as ``summary.json`` records it, and
+the Gaussian ``femupdate posterior`` starts from (:func:`best_fit_gaussian`).
 
 Every update ends with it (``Summary.laplace``): the residuals' Jacobian at the best point by
 one batch of 2n evaluations (:func:`~femupdate.inference.jacobian.residual_jacobian`), the
@@ -10,16 +11,18 @@ far from linear over its interval.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from femupdate.errors import FemupdateError
+from femupdate.errors import ConfigError, FemupdateError
 from femupdate.inference.error_models import DEFAULT_KIND, problem_error_model
 from femupdate.inference.jacobian import LOCAL_STEP, UNIT_STEP, residual_jacobian
 from femupdate.inference.laplace import LaplaceResult, laplace, summarize_gaussian
+from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.priors import Prior
 from femupdate.inference.records import LaplaceRecord, Marginal, correlation_rows
 from femupdate.problem.update import UpdateProblem
@@ -64,12 +67,51 @@ def laplace_record(problem: UpdateProblem, x: np.ndarray, *,
         jacobians = [residual_jacobian(problem.residuals_batch, problem.bounds, x, step=step)
                      for step in (LOCAL_STEP, UNIT_STEP)]
         model = problem_error_model(problem, r, kind, jacobians[1][1], point=x)
-        results = [centred(laplace(jac, r_x, best_unit, model, prior), best_unit, prior)
-                   for r_x, jac in jacobians]
+        results = [fit_gaussian(laplace(jac, r_x, best_unit, model, prior), best_unit, prior,
+                                model) for r_x, jac in jacobians]
     except FemupdateError as exc:
         return LaplaceRecord(error_model=kind, names=list(problem.names), nfev=nfev,
                              note=f"no Laplace approximation: {exc}")
     return two_scale_record(results[0], results[1], prior, kind, nfev)
+
+
+def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
+                      counts_from: ErrorModel | None = None
+                      ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
+    """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
+    and the Laplace Gaussian there, from the Jacobian over 1 % steps (None, with why, when
+    it cannot be had: TMCMC then starts from the prior); the kinds that use the Jacobian
+    (``"eiv"``'s magnitude adjustment) are given it."""
+    prior = case_priors(problem.case)
+    x = np.asarray(x, dtype=float)
+    r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
+    try:  # the Laplace step takes r from the Jacobian's own batch
+        r_jac, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+        why = None
+    except FemupdateError as exc:
+        r_jac, jac, why = None, None, str(exc)
+    model = problem_error_model(problem, r, kind, jac, point=x)
+    if counts_from is not None:
+        if type(model).whiten is not ErrorModel.whiten:
+            raise ConfigError(f"{problem.case.label}: error model {model.kind!r} whitens the "
+                              "residuals by each model class's own response, so the classes' "
+                              "evidences would not be of one likelihood (allowed: "
+                              f"error_model = {DEFAULT_KIND!r} for a comparison of classes)")
+        if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
+                or model.stops.tolist() != counts_from.stops.tolist()):
+            raise ConfigError(f"{problem.case.label}: the error model to share ({counts_from.kind}"
+                              f", {counts_from.starts.size} blocks) is not of this case's data "
+                              f"({model.kind}, {model.starts.size} blocks) (allowed: model "
+                              "classes of the same trials, channels and error model)")
+        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
+    if jac is None or r_jac is None:
+        return model, prior, None, why
+    best_unit = prior.to_unit(x)
+    try:
+        return model, prior, fit_gaussian(laplace(jac, r_jac, best_unit, model, prior),
+                                          best_unit, prior, model), None
+    except FemupdateError as exc:
+        return model, prior, None, str(exc)
 
 
 def coarse_choices(local: LaplaceResult, coarse: LaplaceResult
@@ -126,6 +168,17 @@ def two_scale_record(local: LaplaceResult, coarse: LaplaceResult, prior: Prior, 
     record.undetermined = [n for i, n in enumerate(record.names)
                            if local.undetermined[i] or coarse.undetermined[i]]
     return record
+
+
+def fit_gaussian(result: LaplaceResult, best_unit: np.ndarray, prior: Prior,
+                 model: ErrorModel) -> LaplaceResult:
+    """The Laplace Gaussian ``result`` of ``model`` at a least-squares fit: :func:`centred`
+    there, but for an error model that whitens the residuals (``"eiv"``), whose own mode is
+    not the least-squares fit (it weighs the frequencies by their noise): its Newton step
+    toward that mode is kept."""
+    if type(model).whiten is not ErrorModel.whiten:
+        return result
+    return centred(result, best_unit, prior)
 
 
 def centred(result: LaplaceResult, best_unit: np.ndarray, prior: Prior) -> LaplaceResult:

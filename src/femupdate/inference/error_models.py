@@ -2,7 +2,9 @@
 
 :data:`ERROR_MODELS` registers, explicitly, the kinds a user chooses on purpose:
 ``"neff"`` (:mod:`femupdate.inference.neff`, the default of the Laplace record and of the
-sampled posterior) and ``"known"`` (:mod:`femupdate.inference.known`, a given noise level).
+sampled posterior), ``"eiv"`` (:mod:`femupdate.inference.eiv`, errors in the variables: a
+noisy table record, linear models) and ``"known"`` (:mod:`femupdate.inference.known`, a given
+noise level).
 Other kinds register in a :meth:`~femupdate.inference.likelihood.Registry.copy` of it
 (``benchmarks/posterior.py`` does, for the kinds measured and set aside) and pass it as
 ``registry``.
@@ -14,12 +16,13 @@ from typing import Any
 
 import numpy as np
 
+from femupdate.inference.eiv import EIV
 from femupdate.inference.known import Known
 from femupdate.inference.likelihood import ErrorModel, Registry, fit_residuals, residual_blocks
 from femupdate.inference.neff import NEff
 
 #: The product's kinds (the default first).
-ERROR_MODELS = Registry(NEff(), Known())
+ERROR_MODELS = Registry(NEff(), EIV(), Known())
 #: The error model of the Laplace record and of the sampled posterior when the case names
 #: none (docs/posterior.md, "Calibration").
 DEFAULT_KIND = "neff"

@@ -185,6 +185,10 @@ class ErrorModel:
         return np.concatenate([np.full(b - a, w) for (a, b), w in
                                zip(self._white_blocks(), per_block, strict=True)])
 
+    def notes(self) -> list[str]:
+        """What the model left out of the records, in words (none here)."""
+        return []
+
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready description for the summary (kind, N_c, ρ_c, σ_c)."""
         return {"kind": self.kind, "counts": self.counts.tolist(), "rho": self.rho.tolist(),

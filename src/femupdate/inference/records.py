@@ -129,7 +129,9 @@ class PosteriorRecord(_Record):
     ``start_phi``: φ of the fit the error model and the first population come from (the
     search's best, or a better fit the sampler found: ``recentred`` times sampled again);
     ``start_warnings``: what the start's checks said, in words (the search's best not found
-    again, a better fit found, :mod:`femupdate.pipeline.posterior.start`).
+    again, a better fit found, :mod:`femupdate.pipeline.posterior.start`);
+    ``error_model_notes``: what the error model left out of the records, in words
+    (:meth:`~femupdate.inference.likelihood.ErrorModel.notes`).
     """
 
     method: str
@@ -164,6 +166,7 @@ class PosteriorRecord(_Record):
     start_phi: float | None = None
     recentred: int = 0
     start_warnings: list[str] = Field(default_factory=list)
+    error_model_notes: list[str] = Field(default_factory=list)
     surrogate: SurrogateCheckRecord | None = None
 
     def evidence_spread(self) -> str:

@@ -99,6 +99,8 @@ def section_posterior(ctx: Context, page: Page) -> str:
         out.append(note(record.agreement + "."))
     out.extend(warn(w[0].upper() + w[1:] + ".", f"posterior-start-{i}")
                for i, w in enumerate(record.start_warnings))
+    out.extend(warn(w[0].upper() + w[1:] + ".", f"posterior-error-model-{i}")
+               for i, w in enumerate(record.error_model_notes))
     out.append(pairs([
         ("sampler", esc(f"{record.method}, {record.runs} independent run(s), "
                         f"{record.samples:,} samples in all, error model "

@@ -100,6 +100,8 @@ def print_posterior(record: PosteriorRecord, out: Console) -> None:
                        style="bold yellow" if record.unsettled else "green"))
     for warning in record.start_warnings:
         out.print(Text(f"start: {warning}", style="bold yellow"))
+    for words in record.error_model_notes:
+        out.print(Text(words, style="bold yellow"))
     if record.failed_evaluations:
         out.print(Text(f"{record.failed_evaluations:,} evaluations failed (zero likelihood): "
                        f"{record.failure}"))

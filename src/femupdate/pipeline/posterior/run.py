@@ -43,11 +43,10 @@ from femupdate.case.posterior_section import (
     SAMPLES_PER_PARAMETER,
     PosteriorSection,
 )
-from femupdate.errors import ConfigError, DataError, FemupdateError
-from femupdate.inference.best_fit import case_priors, centred
-from femupdate.inference.error_models import DEFAULT_KIND, case_kinds, problem_error_model
-from femupdate.inference.jacobian import residual_jacobian
-from femupdate.inference.laplace import LaplaceResult, interval_spread, laplace, sentences
+from femupdate.errors import ConfigError, DataError
+from femupdate.inference.best_fit import best_fit_gaussian
+from femupdate.inference.error_models import DEFAULT_KIND, case_kinds
+from femupdate.inference.laplace import interval_spread, sentences
 from femupdate.inference.likelihood import ErrorModel
 from femupdate.inference.method import METHOD, SampledProblem, register, sampler_options
 from femupdate.inference.priors import Prior
@@ -132,33 +131,6 @@ def check_records(experiments: Sequence[Experiment], case: Case) -> None:
                             f"channel(s) {', '.join(zero)} is all zero, so no error variance "
                             "can be estimated (allowed: records with a response; drop the "
                             "channel from [[data.outputs]])")
-
-
-def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
-                      counts_from: ErrorModel | None = None
-                      ) -> tuple[ErrorModel, Prior, LaplaceResult | None, str | None]:
-    """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
-    and the Laplace Gaussian there, from the Jacobian over 1 % steps (None, with why, when
-    it cannot be had: TMCMC then starts from the prior)."""
-    prior = case_priors(problem.case)
-    x = np.asarray(x, dtype=float)
-    r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)
-    model = problem_error_model(problem, r, kind, point=x)
-    if counts_from is not None:
-        if (model.kind != counts_from.kind or model.starts.tolist() != counts_from.starts.tolist()
-                or model.stops.tolist() != counts_from.stops.tolist()):
-            raise ConfigError(f"{problem.case.label}: the error model to share ({counts_from.kind}"
-                              f", {counts_from.starts.size} blocks) is not of this case's data "
-                              f"({model.kind}, {model.starts.size} blocks) (allowed: model "
-                              "classes of the same trials, channels and error model)")
-        model = dataclasses.replace(model, counts=counts_from.counts, rho=counts_from.rho)
-    best_unit = prior.to_unit(x)
-    try:
-        r, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
-        return model, prior, centred(laplace(jac, r, best_unit, model, prior), best_unit,
-                                     prior), None
-    except FemupdateError as exc:
-        return model, prior, None, str(exc)
 
 
 @dataclass
@@ -412,6 +384,7 @@ def run_posterior(case: Case, out_dir: Path, *, seed: int | None = None,
     record, physical = posterior_record(problem, done.prior, done.outcomes, done.model.kind,
                                         seed, population, settings.ess or MIN_ESS)
     record.start_phi, record.recentred, record.start_warnings = phi, passes, start_words
+    record.error_model_notes = done.model.notes()
     if record.runs > settings.runs:
         record.message += (f"; runs added, {settings.runs} at a time, while a parameter was "
                            f"unsettled: {settings.runs} → {record.runs} ([posterior] "

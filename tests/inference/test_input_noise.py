@@ -1,20 +1,21 @@
-"""The errors-in-variables error model (kind "eiv", benchmarks/error_models/input_noise.py):
+"""The errors-in-variables error model (kind "eiv", femupdate.inference.eiv and input_noise):
 its pieces against closed forms, its linear maps against their transposes, its score covariance
-against simulated noise, and its refusals."""
+against simulated noise, its band and lines, and its refusals."""
 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
-from error_models import input_noise
-from error_models.kinds import error_model, problem_error_model, registry
 from scipy.signal import fftconvolve
 
 from femupdate.case import parse_case
 from femupdate.errors import ConfigError
+from femupdate.inference import input_noise
+from femupdate.inference.error_models import ERROR_MODELS, error_model, problem_error_model
 from femupdate.paper.problems import bridge
 from femupdate.problem.update import UpdateProblem
 from femupdate.trials.experiment import load_experiments
@@ -159,7 +160,7 @@ def test_the_score_covariance_is_that_of_simulated_noise(problem: UpdateProblem,
 
 
 def test_the_model_round_trips_as_plain_data(model) -> None:
-    again = registry().from_data(model.data())
+    again = ERROR_MODELS.from_data(model.data())
     rows = np.random.default_rng(6).standard_normal((3, model.size))
     assert np.array_equal(again.whiten(rows), model.whiten(rows))
     assert np.array_equal(again.loglike_rows(rows), model.loglike_rows(rows))
@@ -174,10 +175,10 @@ def test_eiv_needs_the_problem_and_its_point(problem: UpdateProblem,
         problem_error_model(problem, r, "eiv")
 
 
-def test_eiv_band_weighs_the_frequencies_up_to_the_low_pass_only(
-        tmp_path: Path, problem: UpdateProblem) -> None:
-    """The same records low-passed at 10 Hz: ``eiv`` still weighs frequencies above it (its
-    whitening divides the filter back out), ``eiv-band`` none."""
+def test_eiv_weighs_the_frequencies_up_to_the_low_pass_only(
+        tmp_path: Path, problem: UpdateProblem, model) -> None:
+    """The same records low-passed at 10 Hz: ``eiv`` weighs no frequency above it (its
+    whitening would divide the filter back out); unfiltered, it weighs them."""
     spec = two_storey_spec(tmp_path)
     spec["preprocess"]["lowpass_hz"] = 10.0
     case = parse_case(spec, source=tmp_path / "case.toml")
@@ -185,18 +186,42 @@ def test_eiv_band_weighs_the_frequencies_up_to_the_low_pass_only(
     low = UpdateProblem(case, load_experiments(case))
     x = low.case.to_search(TRUTH)
     r = low.residuals(x)
-    n = r.size // 2 - problem_error_model(low, r, "eiv", point=x).lag  # one trial, 2 channels
+    (trial,) = problem_error_model(low, r, "eiv", point=x).spectral
+    n = r.size // 2 - model.lag  # one trial, 2 channels
     dt = low.fitted[0].experiment.dt
+    assert 10.0 >= trial.bins.max() / (n * dt) > 9.0
+    assert model.spectral[0].bins.max() / (n * dt) > 10.0
 
-    def top_hz(kind: str) -> float:
-        (trial,) = problem_error_model(low, r, kind, point=x).spectral
-        return float(trial.bins.max() / (n * dt))
 
-    assert top_hz("eiv") > 10.0 >= top_hz("eiv-band") > 9.0
-    unfiltered = problem.case.to_search(TRUTH)
-    with pytest.raises(ConfigError, match="lowpass_hz"):
-        problem_error_model(problem, problem.residuals(unfiltered), "eiv-band",
-                            point=unfiltered)
+def test_a_line_the_fit_leaves_is_left_out_and_named(problem: UpdateProblem,
+                                                     truth_point: np.ndarray, model) -> None:
+    """A sinusoid of half the residual's rms in one channel: its frequency is left out and
+    named; at the truth none is."""
+    r = problem.residuals(truth_point)
+    samples = r.size // 2
+    n = samples - model.lag
+    dt = problem.fitted[0].experiment.dt
+    k = 200  # a bin of the n-point grid: 200/(n dt) Hz
+    hz = k / (n * dt)
+    t = np.arange(samples) * dt
+    lined = r.copy()
+    lined[:samples] += 0.5 * np.linalg.norm(r[:samples]) / np.sqrt(samples) * np.sin(
+        2 * np.pi * hz * t)
+    (trial,) = problem_error_model(problem, lined, "eiv", point=truth_point).spectral
+    assert model.spectral[0].lines_hz == ()
+    assert any(abs(f - hz) < 1.5 / (n * dt) for f in trial.lines_hz)
+    assert k not in trial.bins and k in model.spectral[0].bins
+    assert trial.to_dict()["lines_hz"] == list(trial.lines_hz)
+
+
+def test_given_the_jacobian_eiv_is_magnitude_adjusted(problem: UpdateProblem,
+                                                     truth_point: np.ndarray, model) -> None:
+    r = problem.residuals(truth_point)
+    jac = np.random.default_rng(8).standard_normal((r.size, truth_point.size))
+    adjusted = problem_error_model(problem, r, "eiv", jac, point=truth_point)
+    again = input_noise.magnitude_adjusted(problem, model, truth_point, r, jac, r)
+    assert np.array_equal(adjusted.counts, again.counts)
+    assert not np.array_equal(adjusted.counts, model.counts)
 
 
 def test_a_nonlinear_model_is_refused(tmp_path: Path) -> None:
@@ -232,3 +257,20 @@ def test_the_magnitude_adjustment_matches_the_score_variance_on_average(
                                                                       rel=1e-6)
 
 
+
+
+def test_the_lines_left_out_are_said_in_words(problem: UpdateProblem, truth_point: np.ndarray,
+                                              model) -> None:
+    from femupdate.inference.eiv import line_ranges
+
+    assert line_ranges([226.4, 225.9, 226.1, 310.0]) == "225.9–226.4 Hz, 310.0 Hz"
+    assert model.notes() == []
+    r = problem.residuals(truth_point).copy()
+    samples = r.size // 2
+    dt = problem.fitted[0].experiment.dt
+    r[:samples] += 0.5 * np.std(r[:samples]) * np.sin(2 * np.pi * 12.0 * np.arange(samples) * dt)
+    (words,) = problem_error_model(problem, r, "eiv", point=truth_point).notes()
+    low, high = (float(f) for f in re.search(r"left out ([\d.]+)–([\d.]+) Hz of fitted "
+                                             r"trial 1 \(\d+ of \d+ frequencies\)",
+                                             words).groups())
+    assert low < 12.0 < high

@@ -34,15 +34,25 @@ likelihood of the residual at the best fit (:func:`fit_noise_levels`). Then ever
 and the likelihood of a residual vector is that of its whitened coefficients
 w_k = W_k E_k, W_k = (I − β u uᴴ) D_k^{−1/2} (D_k the diagonal part, g = D_k^{−1/2} t_k,
 u = g/‖g‖, β = 1 − (1 + nσ_u²‖g‖²)^{−1/2}, so that W_kᴴ W_k = S_k⁻¹), real and imaginary parts
-each scaled by √2 to unit variance: a fixed linear map of r, like the AR filters, so the mode,
-the Laplace Gaussian and TMCMC treat it as they treat ``"arp"``
-(:mod:`error_models.mode`). Frequencies 0 and n/2 are left out (real coefficients), and
+each scaled by √2 to unit variance: a fixed linear map of r, so the Laplace Gaussian and
+TMCMC treat it as any error model. Frequencies 0 and n/2 are left out (real coefficients), and
 so are those where the processing's gain to a channel's own noise is below :data:`GAIN_RANGE`
 of its largest (they carry only rounding, which their whitening would amplify: on the bridge,
 the few next to the Nyquist frequency, where the trapezoidal integration's gain is 0), and
 those where the record's finite length moves the expected periodogram more than
 :data:`LEAKAGE_TOLERANCE` from S_k (:func:`expected_periodogram`: on the bridge, the lowest
 three, deep in the high-pass's stop band, where their neighbours' power leaks in).
+
+Within the band the case trusts (``trusted_band``, error model ``"eiv"``) two more are left
+out. The frequencies above the trial's ``[preprocess] lowpass_hz``: the whitening divides a
+low-pass back out, so without this the band a user trusts would not bound what the
+likelihood weighs. And the *lines* the best fit leaves (:func:`line_bins`): frequencies whose
+whitened power the fitted noise gives with a probability below :data:`LINE_FALSE_ALARM` over
+all those weighed. A line is a mode the fit misplaces, not noise (on the viscous bridge the
+abutments' mode at 226 Hz, which rings through the record: a fit one ripple of kp1's valley
+from the truth leaves there up to 10⁵ times the noise's power); weighed, it makes the
+likelihood a needle about 1e-5 of kp1's range wide at the truth, which no sampler finds from
+the fit.
 
 Two more things real records have. Accelerometers have offsets and drifts, which the high-pass
 turns into transients at the record's start; on the table's record they drive the model at its
@@ -52,11 +62,10 @@ unknown. And the resonances are narrow enough that neighbouring frequencies of a
 are correlated, which Whittle's likelihood ignores: its curvature then overstates what the
 record determines. The covariance of its score under the fitted noise model is computed
 exactly (:func:`score_covariance`, from the transpose of the whitening,
-:func:`whitening_adjoint`), and gives the Laplace record its sandwich covariance
-(:func:`eiv_sandwich_laplaces`) and TMCMC's likelihood its magnitude
+:func:`whitening_adjoint`), and gives the likelihood its magnitude
 (:func:`magnitude_adjusted`).
 
-Why this file is long (about 610 lines): it is one error model. Its whitening and the exact
+Why this file is long (about 680 lines): it is one error model. Its whitening and the exact
 variance of its score are built from the same noise paths (the impulse responses of the case's
 processing and model), and the score's variance needs the whitening's transpose line by line;
 split, each half would carry the other's conventions (bins, prewhitening, nuisance projection).
@@ -93,6 +102,46 @@ MAX_LENGTH_FACTOR = 64
 #: Decayed: the record's first and last tenths hold less than this share of the response's
 #: energy.
 DECAY_TOLERANCE = 1e-8
+#: The largest order of the AR prewhitening (the bridge's residuals choose 20–32).
+AR_MAX_ORDER = 32
+#: A frequency whose whitened power the fitted noise gives with a probability below this, over
+#: all the frequencies weighed (Bonferroni), is a line the best fit leaves (:func:`line_bins`).
+LINE_FALSE_ALARM = 1e-3
+#: Passes of :func:`line_bins` at most: each refits the noise levels without the lines found,
+#: which shows a strong line's sidelobes.
+MAX_LINE_PASSES = 20
+
+
+def ar_fit(r: np.ndarray, order: int) -> tuple[np.ndarray, float]:
+    """(a, BIC) of an AR(``order``) model r_t = Σ_k a_k r_{t−k} + e_t fitted by least squares
+    (the conditional maximum likelihood; unlike Yule–Walker, exact enough for the nearly
+    unit-root residuals of a displacement record, lag-1 autocorrelation 0.999);
+    BIC = n log(‖e‖²/n) + order · log n over the n = N − order innovations."""
+    r = np.asarray(r, dtype=float)
+    n = r.size - order
+    if order < 1 or n <= 2 * order:
+        raise ConfigError(f"error model 'arp': order {order} for a block of {r.size} samples "
+                          f"(allowed: 1 to {max((r.size - 1) // 3, 1)})")
+    lagged = np.column_stack([r[order - k - 1:r.size - k - 1] for k in range(order)])
+    a = np.linalg.lstsq(lagged, r[order:], rcond=None)[0]
+    e = r[order:] - lagged @ a
+    return a, float(n * math.log(max(float(e @ e), 1e-300) / n) + order * math.log(n))
+
+
+def ar_order(r: np.ndarray, max_order: int = AR_MAX_ORDER) -> int:
+    """The order of least BIC among 1 … ``max_order`` (fewer for a short block), every order
+    fitted on the same samples t ≥ ``max_order``: one QR factorisation of the lagged matrix
+    gives them all, since its first p columns are the regressors of order p."""
+    r = np.asarray(r, dtype=float)
+    top = max(1, min(max_order, (r.size - 1) // 3))
+    n = r.size - top
+    lagged = np.column_stack([r[top - k - 1:r.size - k - 1] for k in range(top)])
+    q, _ = np.linalg.qr(lagged)
+    z = q.T @ r[top:]
+    rss = float(r[top:] @ r[top:]) - np.cumsum(z ** 2)
+    orders = np.arange(1, top + 1)
+    bic = n * np.log(np.maximum(rss, 1e-300) / n) + orders * math.log(n)
+    return int(orders[np.argmin(bic)])
 
 
 @dataclass(frozen=True)
@@ -116,6 +165,8 @@ class TrialWhitening:
     nuisance : ndarray (size, q) or None
         Orthonormal basis of the whitened responses to each sensor's offset and drift
         (:func:`offset_regressors`), projected out of the whitened values.
+    lines_hz : tuple of float
+        The frequencies (Hz) left out as lines the best fit leaves (:func:`line_bins`).
     """
 
     blocks: tuple[int, ...]
@@ -125,6 +176,7 @@ class TrialWhitening:
     sigma_input: float
     input_share: float
     nuisance: np.ndarray | None = None
+    lines_hz: tuple[float, ...] = ()
 
     @property
     def size(self) -> int:
@@ -165,7 +217,8 @@ class TrialWhitening:
                 "matrices_imag": self.matrices.imag.tolist(),
                 "sigma_outputs": self.sigma_outputs.tolist(), "sigma_input": self.sigma_input,
                 "input_share": self.input_share,
-                "nuisance": None if self.nuisance is None else self.nuisance.tolist()}
+                "nuisance": None if self.nuisance is None else self.nuisance.tolist(),
+                "lines_hz": list(self.lines_hz)}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrialWhitening:
@@ -175,7 +228,8 @@ class TrialWhitening:
         return cls(tuple(int(b) for b in data["blocks"]), np.asarray(data["bins"], dtype=int),
                    matrices, np.asarray(data["sigma_outputs"], dtype=float),
                    float(data["sigma_input"]), float(data["input_share"]),
-                   None if nuisance is None else np.asarray(nuisance, dtype=float))
+                   None if nuisance is None else np.asarray(nuisance, dtype=float),
+                   tuple(float(f) for f in data.get("lines_hz", ())))
 
 
 def folded_transfer(response: np.ndarray, centre: int, n: int) -> np.ndarray:
@@ -388,16 +442,14 @@ def _prewhitened(blocks: np.ndarray, ar: np.ndarray) -> np.ndarray:
 
 
 def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
-                    residuals: np.ndarray, order: int, max_hz: float | None = None
+                    residuals: np.ndarray, order: int, trusted_band: bool = True
                     ) -> tuple[TrialWhitening, np.ndarray]:
     """The whitening of one trial (module docstring) from its residual blocks at the best
     fit, ``residuals`` (N, C), and the AR prewhitening filters (C, ``order``) it uses: those
     that flatten the processing of each channel's own noise (least squares on the impulse
     response of that path), so that they do not notch the resonances, where the table's noise
-    and the information are. With ``max_hz`` only the frequencies up to it are kept (a
-    low-pass does not leave them out: the whitening divides it back out)."""
-    from error_models.kinds import ar_fit
-
+    and the information are. With ``trusted_band`` only the frequencies up to the trial's
+    ``[preprocess] lowpass_hz`` are kept, less the best fit's lines (:func:`line_bins`)."""
     structure = trial.model.structure
     if structure is None:
         raise ConfigError(f"error model 'eiv': trial {trial.name!r} runs an external model, "
@@ -423,31 +475,67 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
     bins = np.arange(1, (n + 1) // 2)  # not 0 nor n/2: their coefficients are real
     relative_gain = output_gain[bins] / output_gain[bins].max(axis=0)
     bins = bins[np.all(relative_gain >= GAIN_RANGE, axis=1)]
-    if max_hz is not None:
-        bins = bins[bins / (n * trial.experiment.dt) <= max_hz]
-    # twice: fit the noise levels, then leave out the frequencies where, with those levels,
-    # leakage rules (the second pass refits without the first's)
-    for _ in range(2):
-        sigma_outputs, sigma_input = fit_noise_levels(
-            coefficients[bins], output_gain[bins], input_transfer[bins], n)
+    lowpass_hz = trial.case.preprocess.lowpass_hz if trusted_band else None
+    if lowpass_hz is not None:
+        bins = bins[bins / (n * trial.experiment.dt) <= lowpass_hz]
+
+    def leaked(bins: np.ndarray, sigma_outputs: np.ndarray, sigma_input: float
+               ) -> np.ndarray:
+        """Whether leakage rules each frequency of ``bins`` under those noise levels."""
         modelled = n * (sigma_outputs ** 2 * output_gain + sigma_input ** 2
                         * np.abs(input_transfer) ** 2)
         expected = np.column_stack([
             expected_periodogram(np.column_stack([output_paths[:, c], input_path[:, c]]),
                                  np.array([sigma_outputs[c] ** 2, sigma_input ** 2]), n)
             for c in range(n_channels)])
-        leaked = np.any(np.abs(expected[bins] / modelled[bins] - 1.0) > LEAKAGE_TOLERANCE,
-                        axis=1)
-        bins = bins[~leaked]
+        return np.any(np.abs(expected[bins] / modelled[bins] - 1.0) > LEAKAGE_TOLERANCE,
+                      axis=1)
+
+    def levels(bins: np.ndarray) -> tuple[np.ndarray, float]:
+        return fit_noise_levels(coefficients[bins], output_gain[bins], input_transfer[bins], n)
+
+    # the lines first, from levels fitted over every frequency: where leakage rules depends on
+    # the levels, and a line taken for table noise makes the levels far too high
+    lines = bins[:0]
+    for _ in range(MAX_LINE_PASSES if trusted_band else 0):
+        rest = np.setdiff1d(bins, lines)
+        found = line_bins(coefficients[rest], output_gain[rest], input_transfer[rest],
+                          *levels(rest), n)
+        if not found.any():
+            break
+        lines = np.union1d(lines, rest[found])
+    bins = np.setdiff1d(bins, lines)
+    # twice: fit the noise levels, then leave out the frequencies where, with those levels,
+    # leakage rules (the second pass refits without the first's)
+    for _ in range(2):
+        sigma_outputs, sigma_input = levels(bins)
+        bins = bins[~leaked(bins, sigma_outputs, sigma_input)]
+    if lines.size:  # a frequency leakage rules anyway is not called a line
+        lines = lines[~leaked(lines, sigma_outputs, sigma_input)]
     from_outputs = np.sum(sigma_outputs ** 2 * output_gain[bins])
     from_input = sigma_input ** 2 * np.sum(np.abs(input_transfer[bins]) ** 2)
     share = float(from_input / (from_input + from_outputs))
     matrices = whitening_matrices(output_gain[bins], input_transfer[bins], sigma_outputs,
                                   sigma_input, n)
     whitening = TrialWhitening(tuple(blocks), bins, matrices, sigma_outputs, sigma_input,
-                               share)
+                               share, lines_hz=tuple(
+                                   float(k / (n * trial.experiment.dt)) for k in lines))
     nuisance, _ = whitened_nuisance(whitening, regressors, ar)
     return dataclasses.replace(whitening, nuisance=nuisance), ar
+
+
+def line_bins(coefficients: np.ndarray, output_gain: np.ndarray, input_transfer: np.ndarray,
+              sigma_outputs: np.ndarray, sigma_input: float, n: int,
+              false_alarm: float = LINE_FALSE_ALARM) -> np.ndarray:
+    """Whether each frequency of the coefficients (F, C) is a line: its whitened power, χ²
+    of 2C degrees of freedom under the fitted noise, beyond the level that all F of them stay
+    below with probability 1 − ``false_alarm`` (Bonferroni)."""
+    from scipy.stats import chi2
+
+    matrices = whitening_matrices(output_gain, input_transfer, sigma_outputs, sigma_input, n)
+    power = 2.0 * np.sum(np.abs(np.einsum("fij,fj->fi", matrices, coefficients)) ** 2, axis=1)
+    dof = 2 * coefficients.shape[1]
+    return power > chi2.isf(false_alarm / max(coefficients.shape[0], 1), dof)
 
 
 def without_offsets(residuals: np.ndarray, regressors: np.ndarray, ar: np.ndarray
@@ -485,22 +573,32 @@ def whitened_nuisance(whitening: TrialWhitening, regressors: np.ndarray, ar: np.
     return basis[:, kept], singular[kept]
 
 
+def trial_groups(problem: Any) -> list[list[int]]:
+    """The blocks of an UpdateProblem's residual vector grouped by trial (its channels share
+    the table's record, hence its noise), in the order of
+    :func:`~femupdate.inference.likelihood.residual_blocks`."""
+    groups, start = [], 0
+    for trial in problem.fitted:
+        channels = trial.objective.target.shape[1]
+        groups.append(list(range(start, start + channels)))
+        start += channels
+    return groups
+
+
 def input_noise_whitening(problem: Any, point: np.ndarray, residuals: np.ndarray,
                           starts: np.ndarray, stops: np.ndarray, order: int,
-                          max_hz: float | None = None
+                          trusted_band: bool = True
                           ) -> tuple[tuple[TrialWhitening, ...], np.ndarray]:
     """The spectral whitening of every fitted trial of an UpdateProblem at search point
     ``point`` (the best fit) and its residual vector there ``residuals`` (blocks ``starts``
-    to ``stops``), and the blocks' AR prewhitening filters (c, ``order``); frequencies up to
-    ``max_hz`` only, when given."""
-    from error_models.gls_sandwich import trial_groups
-
+    to ``stops``), and the blocks' AR prewhitening filters (c, ``order``); with
+    ``trusted_band``, over the band each trial trusts (:func:`trial_whitening`)."""
     values = problem.values(np.asarray(point, dtype=float))
     r = np.asarray(residuals, dtype=float)
     whitenings, filters = [], np.zeros((len(starts), order))
     for trial, group in zip(problem.fitted, trial_groups(problem), strict=True):
         raw = np.column_stack([r[starts[b]:stops[b]] for b in group])
-        whitening, ar = trial_whitening(trial, values, group, raw, order, max_hz)
+        whitening, ar = trial_whitening(trial, values, group, raw, order, trusted_band)
         whitenings.append(whitening)
         filters[group] = ar
     return tuple(whitenings), filters
@@ -560,10 +658,8 @@ def score_covariance(problem: Any, model: Any, point: np.ndarray, residuals: np.
     spectrum has features as narrow as the record's resolution (a lightly damped mode) they are
     not, and its curvature overstates what the record determines. The score of the error model
     is Dᵀr with D = Mᵀ W M J (M its whitening, W its weights), so this gives the covariance of
-    the score, the meat of the sandwich (:func:`eiv_sandwich_laplaces`).
+    the score, the meat of the sandwich (:func:`magnitude_adjusted`).
     """
-    from error_models.gls_sandwich import trial_groups
-
     values = problem.values(np.asarray(point, dtype=float))
     r = np.asarray(residuals, dtype=float)
     directions = np.asarray(directions, dtype=float).T  # (n, m)
@@ -608,27 +704,6 @@ def score_meats(problem: Any, model: Any, point: np.ndarray, point_residuals: np
     n = precisions[0].shape[0]
     return [(precision, meat[i * n:(i + 1) * n, i * n:(i + 1) * n])
             for i, precision in enumerate(precisions)]
-
-
-def eiv_sandwich_laplaces(problem: Any, model: Any, point: np.ndarray,
-                          point_residuals: np.ndarray,
-                          at: Sequence[tuple[np.ndarray, np.ndarray]], mode_unit: np.ndarray,
-                          prior: Any) -> list[Any]:
-    """The Gaussian at the error model's mode ``mode_unit`` for each (residuals, Jacobian)
-    pair of ``at`` there, with the sandwich covariance B Var(score) B, B the inverse of the
-    Laplace precision (the likelihood's Gauss–Newton curvature less the prior's), Var(score)
-    by :func:`score_meats` (``model`` built at search ``point``, ``point_residuals`` its
-    residuals there)."""
-    from femupdate.inference.laplace import summarize_gaussian
-
-    mode_unit = np.asarray(mode_unit, dtype=float).reshape(-1)
-    _, prior_hess = prior.curvature_unit(mode_unit)
-    out = []
-    for precision, meat in score_meats(problem, model, point, point_residuals, at):
-        bread = np.linalg.pinv(precision - np.diag(prior_hess), hermitian=True)
-        cov = bread @ meat @ bread
-        out.append(summarize_gaussian(mode_unit, 0.5 * (cov + cov.T), prior))
-    return out
 
 
 def magnitude_adjusted(problem: Any, model: Any, point: np.ndarray,
