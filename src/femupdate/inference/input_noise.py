@@ -10,9 +10,9 @@ first order in the noise,
 G the processing of each output sensor's own noise n_y (its residual block only), T the
 model's response to the table's noise through the same processing: narrow-band at the
 resonances, where the parameters' sensitivities are, and one signal in every channel of the
-trial. A per-channel AR filter (kind ``"arp"``) whitens G n_y but not T n_u, which is why
-``"arp"`` is calibrated when the table's record is clean and too confident when it is not
-(docs/posterior.md, section 6).
+trial. A per-channel AR filter (the lab's kind ``"arp"``) whitens G n_y but not T n_u, which
+is why ``"arp"`` is calibrated when the table's record is clean and too confident when it is
+not (docs/history.md, "Posterior").
 
 This module gives the likelihood of that structure in the frequency domain (Whittle 1953).
 Each block is first prewhitened by a fixed AR filter A_c of ``"arp"``'s order, fitted to the
@@ -65,7 +65,7 @@ exactly (:func:`score_covariance`, from the transpose of the whitening,
 :func:`whitening_adjoint`), and gives the likelihood its magnitude
 (:func:`magnitude_adjusted`).
 
-Why this file is long (about 680 lines): it is one error model. Its whitening and the exact
+Why this file is long (about 720 lines): it is one error model. Its whitening and the exact
 variance of its score are built from the same noise paths (the impulse responses of the case's
 processing and model), and the score's variance needs the whitening's transpose line by line;
 split, each half would carry the other's conventions (bins, prewhitening, nuisance projection).
