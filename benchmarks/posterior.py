@@ -21,8 +21,8 @@ Sections (``--only`` takes a comma-separated list):
   multistart-lm ends at this noise level, at a tenth of its cost), then the **Laplace** 90 %
   interval of every parameter for each error model kind (``--kinds``, with ``sandwich``: the
   least-squares fit's sandwich covariance, ``gls-sandwich``: ``arp``'s mode with the GLS
-  sandwich, ``eiv-sandwich``: ``eiv``'s mode with the exact covariance of its score, as the
-  Laplace record gives it) and TMCMC's for ``--tmcmc-kinds``; the share of
+  sandwich, ``eiv-sandwich``: ``eiv-all``'s mode with the exact covariance of its score, as
+  the Laplace record gave it) and TMCMC's for ``--tmcmc-kinds``; the share of
   replicates whose interval holds the truth, with its binomial interval. ``--hits FILE``
   keeps each replicate as a JSON line: a run resumes there, several processes can share it.
   ``--case-search`` fits each replicate with the example's own ``[search]`` instead (as
@@ -49,7 +49,7 @@ Sections (``--only`` takes a comma-separated list):
   does the same); emcee's ensemble of 36 walkers is evaluated in one thread.
 - ``real`` (not in the default list): each of the six trials of the real 1-storey specimen
   fitted alone with the linear storey, and the Laplace record's intervals of k1 and c1 under
-  ``neff``, ``adjusted`` and ``eiv`` (skipped without the shared records).
+  ``neff`` (skipped without the shared records).
 - ``ripples`` (not in the default list): φ along kp1 around the truth on both bridges,
   without and with ``[preprocess] lowpass_hz`` (100 and 60 Hz): its local extrema.
 - ``friction``: friction bridge (13 parameters): best fit, Laplace, TMCMC: wall time.
@@ -126,7 +126,8 @@ GLS_SANDWICH = "gls-sandwich"
 #: eiv's Gaussian at its mode with the covariance of its score under its own noise model
 #: (``eiv-all``'s, benchmarks/error_models/sandwich.py, eiv_sandwich_laplaces)
 EIV_SANDWICH = "eiv-sandwich"
-#: The errors-in-variables kinds: over every frequency, and up to the case's low-pass
+#: The errors-in-variables kinds: the product's, over the band each trial trusts, and the
+#: lab's over every frequency
 EIV_KINDS = ("eiv", "eiv-all")
 #: The i.i.d. likelihood with the curvature adjustment (benchmarks/error_models/sandwich.py):
 #: sampled by TMCMC at ξ* + C (ξ − ξ*), its Laplace the sandwich Gaussian (by construction).
