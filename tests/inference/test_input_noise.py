@@ -107,7 +107,7 @@ def test_the_adjoints_are_the_transposes_of_the_whitening(model) -> None:
 
 
 def test_the_model_whitens_one_trial_across_channels_and_frequencies(model) -> None:
-    assert model.kind == "eiv" and len(model.spectral) == 1
+    assert model.kind == "eiv" and len(model.spectral) == 1 and model.whitens
     trial = model.spectral[0]
     assert trial.blocks == (0, 1)
     # two channels' real and imaginary parts at each kept frequency, less the projected

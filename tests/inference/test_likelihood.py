@@ -148,7 +148,7 @@ def test_weights_are_the_hessian_of_the_log_likelihood() -> None:
 def test_problem_error_model_and_bad_input(problem: UpdateProblem) -> None:
     r = problem.residuals(problem.case.to_search(TRUTH))
     model = problem_error_model(problem, r)
-    assert model.kind == "neff" and model.size == r.size
+    assert model.kind == "neff" and model.size == r.size and not model.whitens
     assert np.all(model.counts < (model.stops - model.starts))  # correlated residuals
     with pytest.raises(ConfigError, match=r"got 'tau' \(allowed: neff, eiv, known\)"):
         problem_error_model(problem, r, "tau")

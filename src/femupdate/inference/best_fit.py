@@ -92,7 +92,7 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
         r_jac, jac, why = None, None, str(exc)
     model = problem_error_model(problem, r, kind, jac, point=x)
     if counts_from is not None:
-        if type(model).whiten is not ErrorModel.whiten:
+        if model.whitens:
             raise ConfigError(f"{problem.case.label}: error model {model.kind!r} whitens the "
                               "residuals by each model class's own response, so the classes' "
                               "evidences would not be of one likelihood (allowed: "
@@ -176,7 +176,7 @@ def fit_gaussian(result: LaplaceResult, best_unit: np.ndarray, prior: Prior,
     there, but for an error model that whitens the residuals (``"eiv"``), whose own mode is
     not the least-squares fit (it weighs the frequencies by their noise): its Newton step
     toward that mode is kept."""
-    if type(model).whiten is not ErrorModel.whiten:
+    if model.whitens:
         return result
     return centred(result, best_unit, prior)
 

@@ -106,6 +106,12 @@ class ErrorModel:
         (apply it to a Jacobian's columns too: ``whiten(J.T).T``)."""
         return np.atleast_2d(np.asarray(rows, dtype=float))
 
+    @property
+    def whitens(self) -> bool:
+        """Whether :meth:`whiten` is a kind's own (the residuals weighed through a whitening,
+        so its mode is not the least-squares fit, and each model class's likelihood its own)."""
+        return type(self).whiten is not ErrorModel.whiten
+
     def _white_lengths(self) -> np.ndarray:
         """The lengths of the blocks of :meth:`whiten`'s output."""
         return self.stops - self.starts
