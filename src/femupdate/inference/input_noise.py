@@ -521,7 +521,10 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
                                share, lines_hz=tuple(
                                    float(k / (n * trial.experiment.dt)) for k in lines))
     nuisance, _ = whitened_nuisance(whitening, regressors, ar)
-    return dataclasses.replace(whitening, nuisance=nuisance), ar
+    # C order, as its plain data rebuilds it: the products' rounding follows the layout, and
+    # a resumed posterior must give the same values bit for bit
+    return dataclasses.replace(whitening, nuisance=None if nuisance is None
+                               else np.ascontiguousarray(nuisance)), ar
 
 
 def line_bins(coefficients: np.ndarray, output_gain: np.ndarray, input_transfer: np.ndarray,
