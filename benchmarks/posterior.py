@@ -566,7 +566,8 @@ def inside(marginals: dict[str, Any], names: tuple[str, ...], truth: np.ndarray
 def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_evals: int,
                       fit_runs: int, recentre: int, error_model: str | None = None,
                       truth: dict[str, float] | None = None, model: str = "viscous",
-                      lowpass_hz: float | None = None) -> dict[str, Any]:
+                      lowpass_hz: float | None = None, start: str | None = None
+                      ) -> dict[str, Any]:
     """One calibration replicate through ``femupdate posterior`` itself (``run_posterior``):
     the truth and noise of :func:`replicate`, the case's search (multistart-lm, ``fit_runs``
     runs of ``fit_evals`` evaluations, seeded from the replicate), the default
@@ -590,7 +591,8 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     else:  # the case's own search, as a user runs it on noisy records
         spec["search"] = own_search(spec["search"], search_seed)
     spec["posterior"] = {"seed": posterior_seed} | (
-        {} if error_model is None else {"error_model": error_model})
+        {} if error_model is None else {"error_model": error_model}) | (
+        {} if start is None else {"start": start})
     sampled = error_model or DEFAULT_KIND
     case = parse_case(spec, source=work / f"{model}.toml")
     out: dict[str, Any] = {"replicate": i, "laplace": {}, "tmcmc": {}, "tmcmc_evals": {},
@@ -610,6 +612,10 @@ def product_replicate(i: int, child: np.random.SeedSequence, root: Path, fit_eva
     verdict = got.summary.verdict
     out["search_converged"] = None if verdict is None else verdict.converged
     out["search_phi"], out["start_phi"] = got.summary.best.phi, got.record.start_phi
+    # what a miss looks like: the truth and each sampled 90 % interval, by name
+    out["truth"] = dict(zip(prior.names, truth_values.tolist(), strict=True))
+    out["intervals"] = {n: [got.record.params[n].q05, got.record.params[n].q95]
+                        for n in prior.names}
     return out
 
 
@@ -792,7 +798,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
                 fit_evals: int = FIT_EVALS, tmcmc_runs: int = 1, product: bool = False,
                 fit_runs: int = 1, recentre: int = 2,
                 truth: dict[str, float] | None = None, model: str = "viscous",
-                case_search: bool = False) -> dict[str, Any]:
+                case_search: bool = False, posterior_start: str | None = None
+                ) -> dict[str, Any]:
     """Replicates ``first`` … ``replicates − 1`` (a range of them can run in several
     processes: replicate i is the same wherever it runs). With ``hits_file`` (JSON lines)
     each replicate is appended as it ends, replicates already there are not run again
@@ -843,7 +850,8 @@ def calibration(replicates: int, root: Path, first: int = 0, *,
         if i < first or i in done:
             continue
         row = (product_replicate(i, child, root, fit_evals, fit_runs, recentre,
-                                 (tmcmc_kinds or [None])[0], truth, model, lowpass_hz) if product
+                                 (tmcmc_kinds or [None])[0], truth, model, lowpass_hz,
+                                 posterior_start) if product
                else replicate(i, child, root, kinds, tmcmc_kinds, tmcmc_population,
                               coarse_only, clean_input, ar_max_order, search_fit,
                               tmcmc_from_prior, lowpass_hz, fit_evals, tmcmc_runs,
@@ -1408,6 +1416,9 @@ def main() -> None:
     parser.add_argument("--tmcmc-from-prior", action="store_true",
                         help="calibration: TMCMC's first population from the prior, not from "
                         "the Laplace Gaussian")
+    parser.add_argument("--posterior-start", choices=("laplace", "prior"), default=None,
+                        help="calibration with --product: [posterior] start (the default: "
+                        "the case's, the Laplace Gaussian)")
     parser.add_argument("--lowpass-hz", type=float, default=None,
                         help="calibration: [preprocess] lowpass_hz of the bridge case (below "
                         "the abutment modes near 226 Hz: kp1's valley without its ripples)")
@@ -1463,6 +1474,7 @@ def main() -> None:
                 tmcmc_from_prior=args.tmcmc_from_prior, lowpass_hz=args.lowpass_hz,
                 fit_evals=args.fit_evals, tmcmc_runs=args.tmcmc_runs, product=args.product,
                 fit_runs=args.fit_runs, recentre=args.recentre,
+                posterior_start=args.posterior_start,
                 truth=None if args.truth is None else json.loads(args.truth.read_text()),
                 model=args.bridge_model, case_search=args.case_search)
         if "rayleigh" in sections:
