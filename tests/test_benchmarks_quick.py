@@ -71,6 +71,7 @@ QUICK = {
     "derived_fields.py": ("ms/point in a batch", lambda: None),
     "dask_runs.py": ("dask results identical to inline: True",
                      lambda: _module_missing("dask.distributed")),
+    "eiv_curvature.py": ("magnitude-adjusted sd over 1 records", lambda: None),
     "evaluation_cost.py": ("3-DOF shear building", lambda: None),
     "external_parallel.py": ("results identical across the three: True",
                              lambda: _module_missing("dask.distributed") or _opensees_missing()),

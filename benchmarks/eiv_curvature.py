@@ -1,0 +1,94 @@
+"""How far the magnitude adjustment alone is from the sandwich, per parameter, for `eiv`.
+
+Usage::
+
+    python benchmarks/eiv_curvature.py --replicates 18 --prior --lowpass-hz 100
+    python benchmarks/eiv_curvature.py --quick     # CI: one record
+
+The records, truths and search seeds of the product's calibration rows (benchmarks/posterior.py
+``--product``): each record fitted by the example's own ``[search]`` (``f_target`` removed),
+then, at the best fit, the unadjusted ``eiv`` and its Jacobian over 1 % steps (as
+``femupdate posterior`` takes them), H its Gauss–Newton precision and V the exact variance of
+its score (``score_meats``). The magnitude adjustment k = n / tr(H⁻¹V) gives each parameter
+the sd √(diag(H⁻¹)/k); the sandwich H⁻¹VH⁻¹, which ``curvature_adjusted`` gives the likelihood
+in every direction, gives √diag(H⁻¹VH⁻¹). Printed per record: their ratio per parameter, and k;
+then the range of each parameter's ratio over the records.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from posterior import (
+    SEED,
+    bridge_replicate,
+    case_fit,
+    own_search,
+    problem_error_model,
+    replicate_seeds,
+)
+
+from femupdate.case import parse_case
+from femupdate.inference.input_noise import score_meats
+from femupdate.inference.jacobian import residual_jacobian
+
+TRUTH = Path(__file__).resolve().parents[1] / "examples" / "bridge" / "truth-viscous.json"
+
+
+def sd_ratios(precision: np.ndarray, meat: np.ndarray) -> tuple[np.ndarray, float]:
+    """(the sandwich's sd over the magnitude adjustment's, per parameter; k)."""
+    inverse = np.linalg.inv(precision)
+    k = precision.shape[0] / float(np.trace(inverse @ meat))
+    sandwich = inverse @ meat @ inverse
+    return np.sqrt(np.diag(sandwich)) / np.sqrt(np.diag(inverse) / k), k
+
+
+def replicate(i: int, root: Path, prior_truths: bool, lowpass_hz: float | None
+              ) -> dict[str, Any]:
+    """One calibration record: its search's fit, then the ratios there."""
+    child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
+    work = root / f"replicate-{i}"
+    truth = None if prior_truths else json.loads(TRUTH.read_text())
+    spec, prior, _ = bridge_replicate("viscous", child, work, truth, lowpass_hz)
+    search_seed, _ = replicate_seeds(child)
+    case = parse_case(dict(spec, search=own_search(spec["search"], search_seed)),
+                      source=work / "viscous.toml")
+    problem, unit, r, _ = case_fit(case)
+    x = prior.to_search(unit)
+    r_jac, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
+    model = problem_error_model(problem, r, "eiv", None, point=x)
+    ((precision, meat),) = score_meats(problem, model, x, r, [(r_jac, jac)])
+    ratios, k = sd_ratios(precision, meat)
+    return {"replicate": i, "names": list(prior.names), "ratios": ratios, "k": k}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--replicates", type=int, default=18)
+    parser.add_argument("--prior", action="store_true", help="truths drawn from the prior")
+    parser.add_argument("--lowpass-hz", type=float, default=100.0)
+    parser.add_argument("--quick", action="store_true", help="one record")
+    args = parser.parse_args()
+    replicates = 1 if args.quick else args.replicates
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(replicates):
+            row = replicate(i, Path(tmp), args.prior, args.lowpass_hz)
+            rows.append(row)
+            print(f"replicate {i}: k {row['k']:.3f}; sandwich sd / magnitude-adjusted sd: "
+                  + " ".join(f"{n} {v:.2f}" for n, v in zip(row["names"], row["ratios"],
+                                                            strict=True)), flush=True)
+    ratios = np.array([row["ratios"] for row in rows])
+    print(f"\nsandwich sd / magnitude-adjusted sd over {len(rows)} records (least–most):")
+    print("  ".join(f"{n} {lo:.2f}–{hi:.2f}" for n, lo, hi
+                    in zip(rows[0]["names"], ratios.min(axis=0), ratios.max(axis=0),
+                           strict=True)))
+
+
+if __name__ == "__main__":
+    main()
