@@ -123,5 +123,6 @@ def test_a_killed_set_with_agree_resumes_to_the_same_decision(tmp_path: Path) ->
             np.testing.assert_array_equal(i1, np.arange(i2.size))
             np.testing.assert_array_equal(i1, i2)
             assert x1.tobytes() == x2.tobytes() and f1.tobytes() == f2.tobytes()
-        # run 3 never starts: with two workers only run 2 can be in flight when 0 and 1 agree
-        assert got.runs()[3].status == want.runs()[3].status == "pending"
+        # run 3 is not needed and never ends: with two workers it starts only if run 2 ends
+        # before run 1 (on a loaded machine), and is then in flight when 0 and 1 agree
+        assert {got.runs()[3].status, want.runs()[3].status} <= {"pending", "running"}
