@@ -9,10 +9,12 @@ The records, truths and search seeds of the product's calibration rows (benchmar
 ``--product``): each record fitted by the example's own ``[search]`` (``f_target`` removed),
 then, at the best fit, the unadjusted ``eiv`` and its Jacobian over 1 % steps (as
 ``femupdate posterior`` takes them), H its Gauss–Newton precision and V the exact variance of
-its score (``score_meats``). The magnitude adjustment k = n / tr(H⁻¹V) gives each parameter
-the sd √(diag(H⁻¹)/k); the sandwich H⁻¹VH⁻¹, which ``curvature_adjusted`` gives the likelihood
-in every direction, gives √diag(H⁻¹VH⁻¹). Printed per record: their ratio per parameter, and k;
-then the range of each parameter's ratio over the records.
+its score (``score_meats``). The magnitude adjustment k = n / tr(H⁻¹V), which ``eiv`` takes,
+gives each parameter the sd √(diag(H⁻¹)/k), the sandwich's on average over the parameters;
+the sandwich itself gives √diag(H⁻¹VH⁻¹). Printed per record: their ratio per parameter, and
+k; then the range of each parameter's ratio over the records. (A curvature adjustment that gave
+``eiv`` the sandwich in every direction was tried and dropped: docs/history.md, "The curvature
+adjustment of `eiv`".)
 """
 
 from __future__ import annotations
@@ -24,16 +26,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from posterior import (
-    SEED,
-    bridge_replicate,
-    case_fit,
-    own_search,
-    problem_error_model,
-    replicate_seeds,
-)
+from posterior import SEED, bridge_replicate, case_fit, own_search, replicate_seeds
 
 from femupdate.case import parse_case
+from femupdate.inference.error_models import problem_error_model
 from femupdate.inference.input_noise import score_meats
 from femupdate.inference.jacobian import residual_jacobian
 

@@ -81,7 +81,7 @@ def best_fit_gaussian(problem: UpdateProblem, x: np.ndarray, kind: str,
     """The error model fixed at the best fit ``x`` (or with the counts of ``counts_from``)
     and the Laplace Gaussian there, from the Jacobian over 1 % steps (None, with why, when
     it cannot be had: TMCMC then starts from the prior); the kinds that use the Jacobian
-    (``"eiv"``'s curvature adjustment) are given it."""
+    (``"eiv"``'s magnitude adjustment) are given it."""
     prior = case_priors(problem.case)
     x = np.asarray(x, dtype=float)
     r = np.asarray(problem.residuals_batch(x[None, :])[0], dtype=float)

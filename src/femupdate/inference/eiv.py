@@ -7,10 +7,9 @@ blocks together in the frequency domain by the spectrum of the outputs' own nois
 model's response to the table's noise (:mod:`femupdate.inference.input_noise`), over the band
 the case trusts: the frequencies up to each trial's ``[preprocess] lowpass_hz`` (every one
 its processing passes when it has none), less the lines the best fit leaves that its noise
-cannot explain. Given the Jacobian at the best fit, its curvature there is made the
-sandwich's in every direction of the parameters (the magnitude adjustment of Ribatet, Cooley &
-Davison 2012 and a fixed linear map within the span of the sensitivities, from the exact
-variance of its score), the likelihood ``femupdate posterior`` samples. Linear models of femupdate's own, one
+cannot explain. Given the Jacobian at the best fit, its likelihood is raised to the
+magnitude adjustment of Ribatet, Cooley & Davison (2012) with the exact variance of its
+score, the likelihood ``femupdate posterior`` samples. Linear models of femupdate's own, one
 table record per trial; anything else is refused in one line naming the error model.
 """
 
@@ -29,8 +28,8 @@ from femupdate.inference.input_noise import (
     AR_MAX_ORDER,
     TrialWhitening,
     ar_order,
-    curvature_adjusted,
     input_noise_whitening,
+    magnitude_adjusted,
 )
 from femupdate.inference.likelihood import ErrorModel, ErrorModelKind, FitResiduals
 
@@ -48,18 +47,10 @@ class WhitenedModel(ErrorModel):
     spectral : tuple of TrialWhitening or None
         ``"eiv"``: each fitted trial's whitening of its AR-prewhitened blocks
         (:mod:`femupdate.inference.input_noise`); ``counts`` then has one entry per trial.
-    curvature : (ndarray (w, n), ndarray (n, n)) or None
-        ``"eiv"`` given the Jacobian: (Q, B − I) of the map P = I + Q (B − I) Qᵀ applied to
-        the whitened values weighted by ``scale``, which gives the likelihood the sandwich's
-        curvature (:func:`~femupdate.inference.input_noise.curvature_adjusted`).
-    scale : ndarray (w,) or None
-        The square roots of the weights the map is taken in.
     """
 
     ar: np.ndarray | None = None
     spectral: tuple[Any, ...] | None = None
-    curvature: tuple[np.ndarray, np.ndarray] | None = None
-    scale: np.ndarray | None = None
 
     @property
     def lag(self) -> int:
@@ -77,13 +68,8 @@ class WhitenedModel(ErrorModel):
                   for s, b, a in zip(self.starts, self.stops, self.ar, strict=True)]
         if self.spectral is None:
             return np.concatenate(blocks, axis=1)
-        white = np.concatenate([trial.apply([blocks[b] for b in trial.blocks])
-                                for trial in self.spectral], axis=1)
-        if self.curvature is None or self.scale is None:
-            return white
-        basis, change = self.curvature
-        weighted = white * self.scale
-        return (weighted + ((weighted @ basis) @ change.T) @ basis.T) / self.scale
+        return np.concatenate([trial.apply([blocks[b] for b in trial.blocks])
+                               for trial in self.spectral], axis=1)
 
     def _white_lengths(self) -> np.ndarray:
         if self.spectral is not None:
@@ -116,23 +102,16 @@ class WhitenedModel(ErrorModel):
     def data(self) -> dict[str, Any]:
         return {**super().data(), "ar": None if self.ar is None else self.ar.tolist(),
                 "spectral": None if self.spectral is None else [t.to_dict()
-                                                                for t in self.spectral],
-                "curvature": None if self.curvature is None else [
-                    m.tolist() for m in self.curvature],
-                "scale": None if self.scale is None else self.scale.tolist()}
+                                                                for t in self.spectral]}
 
     @classmethod
     def from_data(cls, data: Mapping[str, Any]) -> WhitenedModel:
         base = ErrorModel.from_data(data)
         ar, spectral = data.get("ar"), data.get("spectral")
-        curvature, scale = data.get("curvature"), data.get("scale")
         return cls(**{f.name: getattr(base, f.name) for f in dataclasses.fields(ErrorModel)},
                    ar=None if ar is None else np.asarray(ar, float),
                    spectral=None if spectral is None else tuple(
-                       TrialWhitening.from_dict(t) for t in spectral),
-                   curvature=None if curvature is None else tuple(
-                       np.asarray(m, float) for m in curvature),
-                   scale=None if scale is None else np.asarray(scale, float))
+                       TrialWhitening.from_dict(t) for t in spectral))
 
 
 def line_ranges(frequencies: tuple[float, ...] | list[float], gap_hz: float = 1.0) -> str:
@@ -153,7 +132,7 @@ class EIV(ErrorModelKind):
     the blocks' largest BIC order (up to option ``ar_max_order``), then each trial's blocks
     whitened together (:func:`~femupdate.inference.input_noise.input_noise_whitening`); needs
     the problem and the best fit's search point, and takes the Jacobian there, when given,
-    for its curvature adjustment."""
+    for its magnitude adjustment."""
 
     name = "eiv"
     model = WhitenedModel
@@ -183,4 +162,4 @@ class EIV(ErrorModelKind):
                               spectral=spectral)
         if fit.jacobian is None:
             return model
-        return curvature_adjusted(fit.problem, model, fit.point, r, fit.jacobian, r)
+        return magnitude_adjusted(fit.problem, model, fit.point, r, fit.jacobian, r)

@@ -63,9 +63,9 @@ are correlated, which Whittle's likelihood ignores: its curvature then overstate
 record determines. The covariance of its score under the fitted noise model is computed
 exactly (:func:`score_covariance`, from the transpose of the whitening,
 :func:`whitening_adjoint`), and gives the likelihood its magnitude
-(:func:`magnitude_adjusted`) and its curvature in each direction (:func:`curvature_adjusted`).
+(:func:`magnitude_adjusted`).
 
-Why this file is long (about 760 lines): it is one error model. Its whitening and the exact
+Why this file is long (about 720 lines): it is one error model. Its whitening and the exact
 variance of its score are built from the same noise paths (the impulse responses of the case's
 processing and model), and the score's variance needs the whitening's transpose line by line;
 split, each half would carry the other's conventions (bins, prewhitening, nuisance projection).
@@ -725,37 +725,3 @@ def magnitude_adjusted(problem: Any, model: Any, point: np.ndarray,
         raise DataError("error model 'eiv': the variance of its score is not positive at the "
                         "mode: no magnitude adjustment")
     return dataclasses.replace(model, counts=model.counts * (precision.shape[0] / inflation))
-
-
-def curvature_adjusted(problem: Any, model: Any, point: np.ndarray,
-                       point_residuals: np.ndarray, jac: np.ndarray,
-                       residuals: np.ndarray) -> Any:
-    """``model`` :func:`magnitude_adjusted`, and its curvature at ``jac``, ``residuals`` made the
-    sandwich's in every direction of the parameters, not only on average: the Godambe
-    information G = H Var(score)⁻¹ H (Chandler & Bate 2007; Ribatet, Cooley & Davison 2012).
-
-    It is a fixed linear map P of the weighted whitened values ũ (``WhitenedModel.curvature``):
-    with s ⊙ J_w = Q R (s² the weights, Q orthonormal), P = I + Q (B − I) Qᵀ, B = R_G R⁻¹/√k,
-    R_Gᵀ R_G = G, so that (P s ⊙ J_w)ᵀ(P s ⊙ J_w) k = G. Outside the span of the
-    sensitivities P is the identity: there the magnitude adjustment k holds. Where G cannot
-    be had (a score without variance in some direction, or a parameter the residuals do not
-    see) the magnitude adjustment alone is returned.
-    """
-    ((precision, meat),) = score_meats(problem, model, point, point_residuals,
-                                       [(residuals, jac)])
-    adjusted = magnitude_adjusted(problem, model, point, point_residuals, jac, residuals)
-    k = float(adjusted.counts[0] / model.counts[0])
-    scale = np.sqrt(model.weights(residuals))
-    basis, triangle = np.linalg.qr(scale[:, None] * model.whiten(np.asarray(jac).T).T)
-    try:
-        godambe = precision @ np.linalg.solve(meat, precision)
-        target = np.linalg.cholesky(0.5 * (godambe + godambe.T)).T
-        stretch = np.linalg.solve(triangle.T, target.T).T / math.sqrt(k)
-    except np.linalg.LinAlgError:
-        return adjusted
-    if not np.all(np.isfinite(stretch)):
-        return adjusted
-    # C order, as its plain data rebuilds it (the rounding of the products follows it)
-    change = np.ascontiguousarray(stretch - np.eye(stretch.shape[0]))
-    return dataclasses.replace(adjusted, curvature=(np.ascontiguousarray(basis), change),
-                               scale=scale)
