@@ -38,17 +38,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from posterior import (
-    SEED,
-    bridge_replicate,
-    case_fit,
-    own_search,
-    problem_error_model,
-    replicate_seeds,
-)
+from posterior import problem_error_model, searched_record
 from scipy.stats import chi2
 
-from femupdate.case import parse_case
 from femupdate.inference.input_noise import (
     GAIN_RANGE,
     TrialWhitening,
@@ -62,7 +54,6 @@ from femupdate.inference.input_noise import (
     whitening_matrices,
     without_offsets,
 )
-from femupdate.paper.problems import bridge
 
 #: A frequency of the fit's whitened residual is a line when its power is beyond this tail of
 #: its χ² (2C degrees of freedom), Bonferroni over the frequencies
@@ -175,12 +166,7 @@ def replicate(i: int, root: Path, prior_truth: bool, lowpass_hz: float | None,
               needle: bool, band_hz: float | None = None) -> dict[str, Any]:
     """One record: the search's fit, then ℓ at it and at the truth under each way of fitting
     the noise levels."""
-    child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
-    work = root / f"replicate-{i}"
-    spec, prior, truth_values = bridge_replicate(
-        "viscous", child, work, None if prior_truth else bridge.truth("viscous"), lowpass_hz)
-    spec = dict(spec, search=own_search(spec["search"], replicate_seeds(child)[0]))
-    problem, unit, r, _ = case_fit(parse_case(spec, source=work / "viscous.toml"))
+    problem, prior, unit, r, truth_values = searched_record(i, root, prior_truth, lowpass_hz)
     fit_x, truth_x = prior.to_search(unit), prior.to_search(prior.from_physical(truth_values))
     trial = Trial(problem, fit_x, r, band_hz)
     every = np.ones(trial.bins.size, dtype=bool)

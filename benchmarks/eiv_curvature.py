@@ -20,20 +20,16 @@ adjustment of `eiv`".)
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from posterior import SEED, bridge_replicate, case_fit, own_search, replicate_seeds
+from posterior import searched_record
 
-from femupdate.case import parse_case
 from femupdate.inference.error_models import problem_error_model
 from femupdate.inference.input_noise import score_meats
 from femupdate.inference.jacobian import residual_jacobian
-
-TRUTH = Path(__file__).resolve().parents[1] / "examples" / "bridge" / "truth-viscous.json"
 
 
 def sd_ratios(precision: np.ndarray, meat: np.ndarray) -> tuple[np.ndarray, float]:
@@ -47,14 +43,7 @@ def sd_ratios(precision: np.ndarray, meat: np.ndarray) -> tuple[np.ndarray, floa
 def replicate(i: int, root: Path, prior_truths: bool, lowpass_hz: float | None
               ) -> dict[str, Any]:
     """One calibration record: its search's fit, then the ratios there."""
-    child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
-    work = root / f"replicate-{i}"
-    truth = None if prior_truths else json.loads(TRUTH.read_text())
-    spec, prior, _ = bridge_replicate("viscous", child, work, truth, lowpass_hz)
-    search_seed, _ = replicate_seeds(child)
-    case = parse_case(dict(spec, search=own_search(spec["search"], search_seed)),
-                      source=work / "viscous.toml")
-    problem, unit, r, _ = case_fit(case)
+    problem, prior, unit, r, _ = searched_record(i, root, prior_truths, lowpass_hz)
     x = prior.to_search(unit)
     r_jac, jac = residual_jacobian(problem.residuals_batch, problem.bounds, x)
     model = problem_error_model(problem, r, "eiv", None, point=x)

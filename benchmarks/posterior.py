@@ -398,6 +398,21 @@ def bridge_replicate(model: str, child: np.random.SeedSequence, work: Path,
     return spec, prior, truth_values
 
 
+def searched_record(i: int, root: Path, prior_truth: bool, lowpass_hz: float | None = None
+                    ) -> tuple[UpdateProblem, Prior, np.ndarray, np.ndarray, np.ndarray]:
+    """(problem, prior, best fit in the unit cube, its residuals, truth (physical)) of the
+    viscous bridge's calibration record ``i`` (the product's calibration rows' records, truths
+    and search seeds; its truth from the prior or the example's), fitted by the example's own
+    ``[search]`` as a user runs it (:func:`own_search`, :func:`case_fit`); in ``root``."""
+    child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
+    work = root / f"replicate-{i}"
+    spec, prior, truth_values = bridge_replicate(
+        "viscous", child, work, None if prior_truth else bridge.truth("viscous"), lowpass_hz)
+    spec = dict(spec, search=own_search(spec["search"], replicate_seeds(child)[0]))
+    problem, unit, r, _ = case_fit(parse_case(spec, source=work / "viscous.toml"))
+    return problem, prior, unit, r, truth_values
+
+
 def case_search_fit(spec: dict[str, Any], source: Path, seed: int
                     ) -> tuple[np.ndarray, np.ndarray, bool]:
     """(best fit in the unit cube, its residuals, the verdict's converged) of the case's own

@@ -44,23 +44,18 @@ from error_models.mode import log_posterior
 from error_models.sandwich import sandwich_covariance
 from posterior import (
     SEED,
-    bridge_replicate,
-    case_fit,
     local_fit,
-    own_search,
     problem_error_model,
-    replicate_seeds,
+    searched_record,
     secant_widening,
 )
 from scipy.special import logsumexp
 from scipy.stats import norm
 
-from femupdate.case import parse_case
 from femupdate.inference import Prior, jacobian_unit
 from femupdate.inference.jacobian import LOCAL_STEP, UNIT_STEP
 from femupdate.inference.laplace import gaussian_precision
 from femupdate.inference.likelihood import ErrorModel, residual_blocks
-from femupdate.paper.problems import bridge
 from femupdate.problem.update import UpdateProblem
 
 #: The profile's step and farthest reach along the rippled parameter (unit range)
@@ -187,12 +182,7 @@ def hop_bootstrap(problem: UpdateProblem, prior: Prior, unit: np.ndarray, r: np.
 def replicate(i: int, root: Path, prior_truth: bool, reach: float, draws: int
               ) -> dict[str, Any]:
     """One record: the truth's ripple, the profiles' and the bootstrap's intervals."""
-    child = np.random.SeedSequence(SEED).spawn(i + 1)[i]
-    work = root / f"replicate-{i}"
-    spec, prior, truth_values = bridge_replicate(
-        "viscous", child, work, None if prior_truth else bridge.truth("viscous"))
-    spec = dict(spec, search=own_search(spec["search"], replicate_seeds(child)[0]))
-    problem, unit, r, _ = case_fit(parse_case(spec, source=work / "viscous.toml"))
+    problem, prior, unit, r, truth_values = searched_record(i, root, prior_truth)
     truth = prior.from_physical(truth_values)
     _, r_truth, _ = local_fit(problem, truth)
     jac = jacobian_unit(problem.residuals_batch, unit, prior, step=UNIT_STEP)
