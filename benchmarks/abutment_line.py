@@ -137,7 +137,7 @@ class Trial:
         whitening = TrialWhitening(
             tuple(self.blocks), self.bins,
             whitening_matrices(gain, transfer, sigma_outputs, sigma_input, n),
-            sigma_outputs, sigma_input, 0.0)
+            sigma_outputs, sigma_input, 0.0, taper_fraction=0.0)  # its rfft is untapered
         d = n * sigma_outputs ** 2 * gain
         log_det = float(np.sum(np.log(d)) + np.sum(np.log1p(
             n * sigma_input ** 2 * np.sum(np.abs(transfer) ** 2 / d, axis=1))))

@@ -64,6 +64,31 @@ def test_expected_periodogram_of_a_moving_average_is_its_closed_form() -> None:
     assert np.allclose(expected, exact)
 
 
+def test_the_tapered_expected_periodogram_is_the_sum_over_the_covariance() -> None:
+    n, b, variance = 24, 0.7, 2.0
+    response = np.array([[1.0], [b]])  # x_t = e_t + b e_{t-1}
+    window = input_noise.taper(n)
+    lags = np.subtract.outer(np.arange(n), np.arange(n))
+    covariance = variance * np.select([lags == 0, np.abs(lags) == 1], [1 + b * b, b], 0.0)
+    phases = np.exp(-2j * np.pi * np.outer(np.arange(n // 2 + 1), np.arange(n)) / n)
+    weighted = phases * window  # row k: h_t e^{-iω_k t}
+    exact = np.einsum("ks,st,kt->k", weighted, covariance, np.conj(weighted)).real
+    got = input_noise.expected_periodogram(response, np.array([variance]), n, window)
+    assert np.allclose(got, exact)
+
+
+def test_the_taper_keeps_the_power_and_stops_a_line_leaking_far() -> None:
+    n = 4096
+    window = input_noise.taper(n)
+    assert np.mean(window ** 2) == pytest.approx(1.0)
+    assert np.all(input_noise.taper(n, 0.0) == 1.0)
+    line = np.cos(2 * np.pi * 1500.5 * np.arange(n) / n)  # between two frequencies
+    far = slice(1, 1000)  # at least 500 frequencies below the line
+    plain = np.abs(np.fft.rfft(line))[far]
+    tapered = np.abs(np.fft.rfft(line * window))[far]
+    assert tapered.max() < 1e-3 * plain.max()
+
+
 def test_whitening_matrices_invert_the_spectrum() -> None:
     rng = np.random.default_rng(1)
     bins, channels, n = 5, 3, 100
@@ -164,6 +189,10 @@ def test_the_model_round_trips_as_plain_data(model) -> None:
     rows = np.random.default_rng(6).standard_normal((3, model.size))
     assert np.array_equal(again.whiten(rows), model.whiten(rows))
     assert np.array_equal(again.loglike_rows(rows), model.loglike_rows(rows))
+    # a whitening stored before the taper rebuilds untapered, as it was sampled
+    trial = model.spectral[0].to_dict()
+    del trial["taper_fraction"]
+    assert input_noise.TrialWhitening.from_dict(trial).taper_fraction == 0.0
 
 
 def test_eiv_needs_the_problem_and_its_point(problem: UpdateProblem,

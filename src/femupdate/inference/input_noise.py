@@ -18,9 +18,11 @@ This module gives the likelihood of that structure in the frequency domain (Whit
 Each block is first prewhitened by a fixed AR filter A_c of ``"arp"``'s order, fitted to the
 impulse response of the channel's own noise path G_c (it flattens the steep spectrum of
 displacement noise, so that the transform of a finite record leaks little from one frequency
-to another, without notching the resonances as a filter fitted to the residual would);
-then, at each frequency ω_k = 2πk/n of the n prewhitened samples, the C channels'
-coefficients E_k = rfft(A r)(ω_k) are complex Gaussian with
+to another, without notching the resonances as a filter fitted to the residual would) and
+tapered by a split cosine bell h (:func:`taper`: a line above the band weighed, which the
+prewhitening amplifies, would otherwise leak into it through the rectangular window's slow
+sidelobes); then, at each frequency ω_k = 2πk/n of the n prewhitened samples, the C channels'
+coefficients E_k = rfft(h · A r)(ω_k) are complex Gaussian with
 
     S_k = n [ diag(σ_c² |A_c(ω_k) G_c(ω_k)|²) + σ_u² t_k t_kᴴ ],   t_k,c = A_c(ω_k) T_c(ω_k),
 
@@ -41,7 +43,8 @@ of its largest (they carry only rounding, which their whitening would amplify: o
 the few next to the Nyquist frequency, where the trapezoidal integration's gain is 0), and
 those where the record's finite length moves the expected periodogram more than
 :data:`LEAKAGE_TOLERANCE` from S_k (:func:`expected_periodogram`: on the bridge, the lowest
-three, deep in the high-pass's stop band, where their neighbours' power leaks in).
+six, deep in the high-pass's stop band, where their neighbours' power leaks in, and a few
+dozen at its sharpest resonances, narrower than the tapered record resolves).
 
 Within the band the case trusts (``trusted_band``, error model ``"eiv"``) two more are left
 out. The frequencies above the trial's ``[preprocess] lowpass_hz``: the whitening divides a
@@ -65,7 +68,7 @@ exactly (:func:`score_covariance`, from the transpose of the whitening,
 :func:`whitening_adjoint`), and gives the likelihood its magnitude
 (:func:`magnitude_adjusted`).
 
-Why this file is long (about 720 lines): it is one error model. Its whitening and the exact
+Why this file is long (about 770 lines): it is one error model. Its whitening and the exact
 variance of its score are built from the same noise paths (the impulse responses of the case's
 processing and model), and the score's variance needs the whitening's transpose line by line;
 split, each half would carry the other's conventions (bins, prewhitening, nuisance projection).
@@ -110,6 +113,25 @@ LINE_FALSE_ALARM = 1e-3
 #: Passes of :func:`line_bins` at most: each refits the noise levels without the lines found,
 #: which shows a strong line's sidelobes.
 MAX_LINE_PASSES = 20
+#: The share of the prewhitened record under the cosine halves of its split cosine bell taper
+#: (Tukey's; half at each end), applied before the transform (:func:`taper`).
+TAPER_FRACTION = 0.2
+
+
+def taper(n: int, fraction: float = TAPER_FRACTION) -> np.ndarray:
+    """The split cosine bell taper (n,) of ``fraction`` (0: none), scaled to a mean square of
+    1 so that the tapered transform's expected power is the spectrum's, n S(ω).
+
+    Without it, a line above the trusted band (on the bridge the abutments' mode, whose
+    frequency moves with kp1) leaks into every frequency weighed through the sidelobes of the
+    record's rectangular window, which fall only as 1/Δf; its phase over the record turns
+    with kp1, so the likelihood along kp1 swings by tens of units within 1e-4 of its range,
+    a comb of needles that no sampler weighs. The cosine ends make the sidelobes fall as
+    1/Δf³ (Percival & Walden 1993, ch. 6)."""
+    from scipy.signal import windows
+
+    window = windows.tukey(n, fraction, sym=False) if fraction > 0.0 else np.ones(n)
+    return window / math.sqrt(np.mean(window ** 2))
 
 
 def ar_fit(r: np.ndarray, order: int) -> tuple[np.ndarray, float]:
@@ -167,6 +189,9 @@ class TrialWhitening:
         (:func:`offset_regressors`), projected out of the whitened values.
     lines_hz : tuple of float
         The frequencies (Hz) left out as lines the best fit leaves (:func:`line_bins`).
+    taper_fraction : float
+        The taper applied to the prewhitened blocks before their transform (:func:`taper`;
+        0 in the plain data of a whitening built before it).
     """
 
     blocks: tuple[int, ...]
@@ -177,6 +202,7 @@ class TrialWhitening:
     input_share: float
     nuisance: np.ndarray | None = None
     lines_hz: tuple[float, ...] = ()
+    taper_fraction: float = TAPER_FRACTION
 
     @property
     def size(self) -> int:
@@ -186,7 +212,9 @@ class TrialWhitening:
     def apply(self, blocks: list[np.ndarray]) -> np.ndarray:
         """The whitened rows (k, :attr:`size`) of the trial's prewhitened blocks, each
         (k, n)."""
-        coefficients = np.fft.rfft(np.stack(blocks, axis=1), axis=2)[:, :, self.bins]
+        stacked = np.stack(blocks, axis=1)
+        coefficients = np.fft.rfft(stacked * taper(stacked.shape[2], self.taper_fraction),
+                                   axis=2)[:, :, self.bins]
         white = np.einsum("fij,kjf->kif", self.matrices, coefficients)
         rows = white.shape[0]
         out = math.sqrt(2.0) * np.concatenate(
@@ -208,7 +236,7 @@ class TrialWhitening:
         spectrum[:, :, self.bins] = math.sqrt(2.0) * np.einsum(
             "fij,kif->kjf", np.conj(self.matrices), z)
         # Re Σ_f q_f e^{iω_f t} over bins 0 < f < n/2 is n/2 · irfft
-        return 0.5 * n * np.fft.irfft(spectrum, n, axis=2)
+        return 0.5 * n * np.fft.irfft(spectrum, n, axis=2) * taper(n, self.taper_fraction)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data (:meth:`from_dict` rebuilds it bit for bit)."""
@@ -218,7 +246,7 @@ class TrialWhitening:
                 "sigma_outputs": self.sigma_outputs.tolist(), "sigma_input": self.sigma_input,
                 "input_share": self.input_share,
                 "nuisance": None if self.nuisance is None else self.nuisance.tolist(),
-                "lines_hz": list(self.lines_hz)}
+                "lines_hz": list(self.lines_hz), "taper_fraction": self.taper_fraction}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrialWhitening:
@@ -229,7 +257,8 @@ class TrialWhitening:
                    matrices, np.asarray(data["sigma_outputs"], dtype=float),
                    float(data["sigma_input"]), float(data["input_share"]),
                    None if nuisance is None else np.asarray(nuisance, dtype=float),
-                   tuple(float(f) for f in data.get("lines_hz", ())))
+                   tuple(float(f) for f in data.get("lines_hz", ())),
+                   float(data.get("taper_fraction", 0.0)))
 
 
 def folded_transfer(response: np.ndarray, centre: int, n: int) -> np.ndarray:
@@ -252,17 +281,25 @@ def _filtered(responses: np.ndarray, ar: np.ndarray) -> np.ndarray:
                             for column, a in zip(responses.T, ar, strict=True)])
 
 
-def expected_periodogram(responses: np.ndarray, variances: np.ndarray, n: int) -> np.ndarray:
-    """E|rfft(x)_k|² (n//2 + 1,) of n consecutive samples of the stationary sum x of
-    independent white noises of ``variances`` (m,) through the filters ``responses`` (L, m):
-    Σ_{|τ|<n} (n − |τ|) γ(τ) e^{−iω_k τ}, γ the autocovariance of x, the spectrum smoothed by
-    the record's finite length (Fejér's kernel), which the spectrum at ω_k alone ignores."""
+def expected_periodogram(responses: np.ndarray, variances: np.ndarray, n: int,
+                         window: np.ndarray | None = None) -> np.ndarray:
+    """E|rfft(h x)_k|² (n//2 + 1,) of n consecutive samples of the stationary sum x of
+    independent white noises of ``variances`` (m,) through the filters ``responses`` (L, m),
+    tapered by ``window`` h (n,) (None: none): Σ_{|τ|<n} w(τ) γ(τ) e^{−iω_k τ}, γ the
+    autocovariance of x and w(τ) = Σ_t h_t h_{t+|τ|} (n − |τ| untapered), the spectrum smoothed
+    by the record's finite length (Fejér's kernel untapered), which the spectrum at ω_k alone
+    ignores."""
     length = responses.shape[0]
     size = 1 << math.ceil(math.log2(length + n))
     power = np.abs(np.fft.rfft(responses, size, axis=0)) ** 2 @ variances
     autocovariance = np.fft.irfft(power, size)
     lags = np.arange(-(n - 1), n)
-    weighted = (n - np.abs(lags)) * autocovariance[lags % size]
+    if window is None:
+        overlap = n - np.abs(lags)
+    else:
+        spectrum = np.fft.rfft(window, 2 * n)
+        overlap = np.fft.irfft(np.abs(spectrum) ** 2, 2 * n)[np.abs(lags)]
+    weighted = overlap * autocovariance[lags % size]
     folded = np.zeros(n)
     np.add.at(folded, lags % n, weighted)
     return np.fft.rfft(folded).real
@@ -471,7 +508,8 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
     n = prewhitened.shape[0]
     input_path, output_paths, input_transfer, output_gain = noise_transfers(
         input_path, output_paths, centre, scales, ar, n)
-    coefficients = np.fft.rfft(prewhitened, axis=0)
+    window = taper(n)
+    coefficients = np.fft.rfft(prewhitened * window[:, None], axis=0)
     bins = np.arange(1, (n + 1) // 2)  # not 0 nor n/2: their coefficients are real
     relative_gain = output_gain[bins] / output_gain[bins].max(axis=0)
     bins = bins[np.all(relative_gain >= GAIN_RANGE, axis=1)]
@@ -486,7 +524,8 @@ def trial_whitening(trial: Any, values: dict[str, float], blocks: list[int],
                         * np.abs(input_transfer) ** 2)
         expected = np.column_stack([
             expected_periodogram(np.column_stack([output_paths[:, c], input_path[:, c]]),
-                                 np.array([sigma_outputs[c] ** 2, sigma_input ** 2]), n)
+                                 np.array([sigma_outputs[c] ** 2, sigma_input ** 2]), n,
+                                 window)
             for c in range(n_channels)])
         return np.any(np.abs(expected[bins] / modelled[bins] - 1.0) > LEAKAGE_TOLERANCE,
                       axis=1)
