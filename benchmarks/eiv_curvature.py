@@ -19,13 +19,11 @@ adjustment of `eiv`".)
 
 from __future__ import annotations
 
-import argparse
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from posterior import searched_record
+from posterior import searched_record, searched_records
 
 from femupdate.inference.error_models import problem_error_model
 from femupdate.inference.input_noise import score_meats
@@ -53,21 +51,10 @@ def replicate(i: int, root: Path, prior_truths: bool, lowpass_hz: float | None
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--replicates", type=int, default=18)
-    parser.add_argument("--prior", action="store_true", help="truths drawn from the prior")
-    parser.add_argument("--lowpass-hz", type=float, default=100.0)
-    parser.add_argument("--quick", action="store_true", help="one record")
-    args = parser.parse_args()
-    replicates = 1 if args.quick else args.replicates
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for i in range(replicates):
-            row = replicate(i, Path(tmp), args.prior, args.lowpass_hz)
-            rows.append(row)
-            print(f"replicate {i}: k {row['k']:.3f}; sandwich sd / magnitude-adjusted sd: "
-                  + " ".join(f"{n} {v:.2f}" for n, v in zip(row["names"], row["ratios"],
-                                                            strict=True)), flush=True)
+    rows = searched_records(
+        __doc__.split("\n\n")[0], 18, replicate,
+        lambda row: f"k {row['k']:.3f}; sandwich sd / magnitude-adjusted sd: " + " ".join(
+            f"{n} {v:.2f}" for n, v in zip(row["names"], row["ratios"], strict=True)))
     ratios = np.array([row["ratios"] for row in rows])
     print(f"\nsandwich sd / magnitude-adjusted sd over {len(rows)} records (least–most):")
     print("  ".join(f"{n} {lo:.2f}–{hi:.2f}" for n, lo, hi

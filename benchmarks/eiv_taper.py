@@ -25,14 +25,12 @@ its transform of the prewhitened blocks tapered (src/femupdate/inference/input_n
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from posterior import searched_record
+from posterior import searched_record, searched_records
 from scipy.optimize import least_squares
 from scipy.stats import chi2
 
@@ -96,25 +94,18 @@ def replicate(i: int, root: Path, prior_truths: bool, lowpass_hz: float) -> dict
     return row
 
 
+def describe(row: dict[str, Any]) -> str:
+    """One record's line: the scans, then the statistic."""
+    scans = ", ".join(
+        f"{step:g}: untapered {row[f'untapered {step:g}'][0]} "
+        f"({row[f'untapered {step:g}'][1]:.1f}), tapered {row[f'tapered {step:g}'][0]} "
+        f"({row[f'tapered {step:g}'][1]:.1f})" for step in STEPS)
+    return (f"local maxima of ℓ along kp1 (range of ℓ) at steps of {scans}; "
+            f"2(ℓ(mode) − ℓ(truth)) {row['statistic']:.2f}")
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--replicates", type=int, default=12)
-    parser.add_argument("--prior", action="store_true", help="truths drawn from the prior")
-    parser.add_argument("--lowpass-hz", type=float, default=100.0)
-    parser.add_argument("--quick", action="store_true", help="one record")
-    args = parser.parse_args()
-    replicates = 1 if args.quick else args.replicates
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for i in range(replicates):
-            row = replicate(i, Path(tmp), args.prior, args.lowpass_hz)
-            rows.append(row)
-            print(f"replicate {i}: local maxima of ℓ along kp1 (range of ℓ) at steps of "
-                  + ", ".join(f"{step:g}: untapered {row[f'untapered {step:g}'][0]} "
-                              f"({row[f'untapered {step:g}'][1]:.1f}), tapered "
-                              f"{row[f'tapered {step:g}'][0]} ({row[f'tapered {step:g}'][1]:.1f})"
-                              for step in STEPS)
-                  + f"; 2(ℓ(mode) − ℓ(truth)) {row['statistic']:.2f}", flush=True)
+    rows = searched_records(__doc__.split("\n\n")[0], 12, replicate, describe)
     dim = rows[0]["dim"]
     statistic = np.array([row["statistic"] for row in rows])
     for name in ("untapered", "tapered"):

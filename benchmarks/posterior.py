@@ -80,6 +80,7 @@ import json
 import tempfile
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -411,6 +412,27 @@ def searched_record(i: int, root: Path, prior_truth: bool, lowpass_hz: float | N
     spec = dict(spec, search=own_search(spec["search"], replicate_seeds(child)[0]))
     problem, unit, r, _ = case_fit(parse_case(spec, source=work / "viscous.toml"))
     return problem, prior, unit, r, truth_values
+
+
+def searched_records(description: str, replicates: int,
+                     replicate: Callable[[int, Path, bool, float], dict[str, Any]],
+                     describe: Callable[[dict[str, Any]], str]) -> list[dict[str, Any]]:
+    """The command line of the scripts that study :func:`searched_record`'s records one by one
+    (``--replicates``, ``--prior``, ``--lowpass-hz``, ``--quick`` for one record): each
+    record's row from ``replicate(i, root, prior_truths, lowpass_hz)``, printed by
+    ``describe`` as it comes."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--replicates", type=int, default=replicates)
+    parser.add_argument("--prior", action="store_true", help="truths drawn from the prior")
+    parser.add_argument("--lowpass-hz", type=float, default=100.0)
+    parser.add_argument("--quick", action="store_true", help="one record")
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(1 if args.quick else args.replicates):
+            rows.append(replicate(i, Path(tmp), args.prior, args.lowpass_hz))
+            print(f"replicate {i}: {describe(rows[-1])}", flush=True)
+    return rows
 
 
 def case_search_fit(spec: dict[str, Any], source: Path, seed: int
