@@ -125,7 +125,7 @@ def taper(n: int, fraction: float = TAPER_FRACTION) -> np.ndarray:
     Without it, a line above the trusted band (on the bridge the abutments' mode, whose
     frequency moves with kp1) leaks into every frequency weighed through the sidelobes of the
     record's rectangular window, which fall only as 1/Δf; its phase over the record turns
-    with kp1, so the likelihood along kp1 swings by tens of units within 1e-4 of its range,
+    with kp1, so the likelihood along kp1 swings by tens of units within 1e-3 of its range,
     a comb of needles that no sampler weighs. The cosine ends make the sidelobes fall as
     1/Δf³ (Percival & Walden 1993, ch. 6)."""
     from scipy.signal import windows
