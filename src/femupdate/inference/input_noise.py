@@ -77,6 +77,7 @@ split, each half would carry the other's conventions (bins, prewhitening, nuisan
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -118,9 +119,11 @@ MAX_LINE_PASSES = 20
 TAPER_FRACTION = 0.2
 
 
+@functools.lru_cache(maxsize=16)
 def taper(n: int, fraction: float = TAPER_FRACTION) -> np.ndarray:
     """The split cosine bell taper (n,) of ``fraction`` (0: none), scaled to a mean square of
-    1 so that the tapered transform's expected power is the spectrum's, n S(ω).
+    1 so that the tapered transform's expected power is the spectrum's, n S(ω). Read-only and
+    kept per (n, fraction): every sampler batch's whitening applies the same one.
 
     Without it, a line above the trusted band (on the bridge the abutments' mode, whose
     frequency moves with kp1) leaks into every frequency weighed through the sidelobes of the
@@ -131,7 +134,9 @@ def taper(n: int, fraction: float = TAPER_FRACTION) -> np.ndarray:
     from scipy.signal import windows
 
     window = windows.tukey(n, fraction, sym=False) if fraction > 0.0 else np.ones(n)
-    return window / math.sqrt(np.mean(window ** 2))
+    window = window / math.sqrt(np.mean(window ** 2))
+    window.flags.writeable = False
+    return window
 
 
 def ar_fit(r: np.ndarray, order: int) -> tuple[np.ndarray, float]:
