@@ -418,18 +418,20 @@ def searched_records(description: str, replicates: int,
                      replicate: Callable[[int, Path, bool, float], dict[str, Any]],
                      describe: Callable[[dict[str, Any]], str]) -> list[dict[str, Any]]:
     """The command line of the scripts that study :func:`searched_record`'s records one by one
-    (``--replicates``, ``--prior``, ``--lowpass-hz``, ``--quick`` for one record): each
-    record's row from ``replicate(i, root, prior_truths, lowpass_hz)``, printed by
-    ``describe`` as it comes."""
+    (``--replicates``, ``--prior``, ``--lowpass-hz``, ``--first-replicate``, ``--quick`` for
+    one record): each record's row from ``replicate(i, root, prior_truths, lowpass_hz)``,
+    printed by ``describe`` as it comes."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--replicates", type=int, default=replicates)
     parser.add_argument("--prior", action="store_true", help="truths drawn from the prior")
     parser.add_argument("--lowpass-hz", type=float, default=100.0)
     parser.add_argument("--quick", action="store_true", help="one record")
+    parser.add_argument("--first-replicate", type=int, default=0,
+                        help="start at this record (runs it to --replicates − 1)")
     args = parser.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for i in range(1 if args.quick else args.replicates):
+        for i in range(args.first_replicate, 1 if args.quick else args.replicates):
             rows.append(replicate(i, Path(tmp), args.prior, args.lowpass_hz))
             print(f"replicate {i}: {describe(rows[-1])}", flush=True)
     return rows
@@ -1175,7 +1177,7 @@ def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
               max_evals: int) -> dict[str, Any]:
     """emcee on the same log-posterior (unit cube, batches), from the Laplace Gaussian,
     until its effective sample size (ArviZ, second half of the chains) reaches
-    ``target_ess`` or ``max_evals``."""
+    ``target_ess`` or ``max_evals``; its cost, and the second half's samples."""
     import arviz
     import emcee
 
@@ -1212,8 +1214,10 @@ def emcee_run(problem: UpdateProblem, model: Any, prior: Prior, lap: Any,
         if ess >= target_ess:
             break
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    chain = sampler.get_chain()
     return {"evals": calls["evals"], "seconds": seconds, "cpu_seconds": cpu, "ess": ess,
-            "steps": int(sampler.get_chain().shape[0])}
+            "steps": int(chain.shape[0]),
+            "samples": chain[chain.shape[0] // 2:].reshape(-1, prior.dim)}
 
 
 class ThreadedBatches:
@@ -1277,7 +1281,8 @@ def speed(population: int, steps: int, root: Path, emcee_max: int,
     return {"tmcmc": {"evals": post.evaluations, "seconds": tm_s, "cpu_seconds": tm_cpu,
                       "ess": post.ess, "population": population,
                       "stages": len(post.stages), "log_z": post.log_evidence},
-            "emcee": em, "ratio": ratio, "fit_evals": fit_evals,
+            "emcee": {k: v for k, v in em.items() if k != "samples"}, "ratio": ratio,
+            "fit_evals": fit_evals,
             "sentences": lap.sentences}
 
 

@@ -73,6 +73,8 @@ QUICK = {
                      lambda: _module_missing("dask.distributed")),
     "eiv_curvature.py": ("magnitude-adjusted sd over 1 records", lambda: None),
     "eiv_taper.py": ("χ²(9)'s 90 % quantile in", lambda: None),
+    "eiv_valley.py": ("largest gap between the product's and emcee's interval ends",
+                      lambda: _module_missing("emcee", "arviz")),
     "evaluation_cost.py": ("3-DOF shear building", lambda: None),
     "external_parallel.py": ("results identical across the three: True",
                              lambda: _module_missing("dask.distributed") or _opensees_missing()),
