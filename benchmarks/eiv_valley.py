@@ -38,6 +38,7 @@ from posterior import (
     searched_record,
     searched_records,
 )
+from scipy.stats import norm
 
 from femupdate.inference.error_models import problem_error_model
 from femupdate.inference.jacobian import LOCAL_STEP, residual_jacobian
@@ -49,7 +50,8 @@ WALKERS = 40
 EMCEE_EVALS = 4_000 if "--quick" in sys.argv else 100_000
 #: emcee stops early once its least effective sample size (ArviZ, second half) is this
 EMCEE_ESS = 400
-Z90 = 1.6448536269514722
+#: The half-width of a 90 % interval of a Gaussian, in sds
+Z90 = float(norm.ppf(0.95))
 
 
 def replicate(i: int, root: Path, prior_truths: bool, lowpass_hz: float) -> dict[str, Any]:
